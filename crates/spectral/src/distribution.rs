@@ -1,0 +1,254 @@
+//! Tabulated 1D and 2D distributions for importance sampling.
+//!
+//! [`Distribution1D`] follows the recipe of seed 000 ("Sampling of a discrete pdf (tabulation)"): the cdf is the
+//! running sum cdf(xᵢ) = pdf(xᵢ)·Δx + cdf(xᵢ₋₁) with cdf(x₀) = 0, a uniform ξ ∈ [0, 1) is located by binary search
+//! (cdf(x_{j−1}) ≤ ξ < cdf(x_j)), the sample is linearly interpolated inside that bin,
+//! x = x_min + Δx·(j − (cdf(x_j) − ξ)/(cdf(x_j) − cdf(x_{j−1}))), and its pdf is returned with it. The seed's pdf
+//! value cdf(x_j) − cdf(x_{j−1}) is the probability of the bin; divided by Δx it is the density, which is what
+//! [`Distribution1D::sample`] returns, so Monte Carlo estimators can divide by it directly.
+
+use crate::{check_finite, SpectrumError};
+
+/// A piecewise-constant density over `[min, max]` with `n` equal bins.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Distribution1D {
+    func: Vec<f64>,
+    cdf: Vec<f64>,
+    integral: f64,
+    min: f64,
+    max: f64,
+}
+
+/// One draw from a [`Distribution1D`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample1D {
+    /// The sampled value in `[min, max)`.
+    pub x: f64,
+    /// Its probability density.
+    pub pdf: f64,
+    /// The bin it fell in.
+    pub bin: usize,
+}
+
+impl Distribution1D {
+    /// Builds the distribution of bin values `func` (finite, non-negative) over `[min, max]`.
+    ///
+    /// If every value is zero the distribution is uniform (so sampling never fails), as pbrt-v4 does.
+    pub fn new(func: &[f64], min: f64, max: f64) -> Result<Self, SpectrumError> {
+        check_finite("distribution minimum", min)?;
+        check_finite("distribution maximum", max)?;
+        if func.is_empty() {
+            return Err(SpectrumError::BadTable("distribution needs at least one bin".into()));
+        }
+        if max <= min {
+            return Err(SpectrumError::OutOfRange {
+                name: "distribution maximum",
+                value: max,
+                expected: "greater than the minimum",
+            });
+        }
+        for &v in func {
+            check_finite("distribution value", v)?;
+            if v < 0.0 {
+                return Err(SpectrumError::OutOfRange {
+                    name: "distribution value",
+                    value: v,
+                    expected: "non-negative",
+                });
+            }
+        }
+        let n = func.len();
+        let dx = (max - min) / n as f64;
+        let mut cdf = Vec::with_capacity(n + 1);
+        cdf.push(0.0);
+        for (i, &f) in func.iter().enumerate() {
+            cdf.push(cdf[i] + f * dx); // the seed's running sum
+        }
+        let integral = cdf[n];
+        let func = if integral > 0.0 {
+            for c in cdf.iter_mut() {
+                *c /= integral;
+            }
+            func.to_vec()
+        } else {
+            for (i, c) in cdf.iter_mut().enumerate() {
+                *c = i as f64 / n as f64;
+            }
+            vec![1.0; n]
+        };
+        let integral = if integral > 0.0 { integral } else { max - min };
+        cdf[n] = 1.0;
+        Ok(Self { func, cdf, integral, min, max })
+    }
+
+    /// Number of bins.
+    pub fn len(&self) -> usize {
+        self.func.len()
+    }
+
+    /// True if there are no bins (never, by construction).
+    pub fn is_empty(&self) -> bool {
+        self.func.is_empty()
+    }
+
+    /// ∫ f(x) dx of the (unnormalised) bin values.
+    pub fn integral(&self) -> f64 {
+        self.integral
+    }
+
+    /// The domain `[min, max]`.
+    pub fn domain(&self) -> (f64, f64) {
+        (self.min, self.max)
+    }
+
+    /// The normalised cdf at the bin edges (`len() + 1` values from 0 to 1).
+    pub fn cdf_table(&self) -> &[f64] {
+        &self.cdf
+    }
+
+    fn bin_width(&self) -> f64 {
+        (self.max - self.min) / self.len() as f64
+    }
+
+    /// Draws x from the density with `u ∈ [0, 1)`; see the module docs for the recipe.
+    pub fn sample(&self, u: f64) -> Sample1D {
+        let n = self.len();
+        let u = u.clamp(0.0, 1.0);
+        // Binary search: the last edge j with cdf[j] <= u, restricted to a real bin.
+        let j = (self.cdf.partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1);
+        let width = self.cdf[j + 1] - self.cdf[j];
+        let t = if width > 0.0 { ((u - self.cdf[j]) / width).clamp(0.0, 1.0) } else { 0.0 };
+        let dx = self.bin_width();
+        let x = (self.min + (j as f64 + t) * dx).min(self.max);
+        Sample1D { x, pdf: self.func[j] / self.integral, bin: j }
+    }
+
+    /// Density at `x` (0 outside the domain).
+    pub fn pdf(&self, x: f64) -> f64 {
+        if !(x >= self.min && x <= self.max) {
+            return 0.0;
+        }
+        let j = (((x - self.min) / self.bin_width()) as usize).min(self.len() - 1);
+        self.func[j] / self.integral
+    }
+
+    /// Probability of bin `j` (the seed's cdf(x_j) − cdf(x_{j−1})).
+    pub fn bin_probability(&self, j: usize) -> f64 {
+        self.cdf[j + 1] - self.cdf[j]
+    }
+
+    /// The cdf at `x`: the inverse of [`Distribution1D::sample`], so that `sample(cdf(x)).x == x`.
+    pub fn cdf(&self, x: f64) -> f64 {
+        if x <= self.min {
+            return 0.0;
+        }
+        if x >= self.max {
+            return 1.0;
+        }
+        let s = (x - self.min) / self.bin_width();
+        let j = (s as usize).min(self.len() - 1);
+        let t = s - j as f64;
+        self.cdf[j] + t * (self.cdf[j + 1] - self.cdf[j])
+    }
+
+    /// Draws a bin index with probability proportional to its value; returns the index, its probability and `u`
+    /// remapped to [0, 1) within the bin (for reuse as a fresh uniform number).
+    pub fn sample_discrete(&self, u: f64) -> (usize, f64, f64) {
+        let s = self.sample(u);
+        let p = self.bin_probability(s.bin);
+        let remapped = if p > 0.0 { ((u - self.cdf[s.bin]) / p).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.0 };
+        (s.bin, p, remapped)
+    }
+}
+
+/// A piecewise-constant density over a rectangle, sampled as a marginal over rows and a conditional within the row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Distribution2D {
+    conditional: Vec<Distribution1D>,
+    marginal: Distribution1D,
+}
+
+/// One draw from a [`Distribution2D`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample2D {
+    /// The sampled point (x along a row, y across rows).
+    pub point: [f64; 2],
+    /// Its probability density with respect to area in the domain.
+    pub pdf: f64,
+}
+
+impl Distribution2D {
+    /// Builds the distribution of `values` (row-major, `height` rows of `width` columns; finite, non-negative) over
+    /// `[x0, x1] × [y0, y1]`.
+    pub fn new(
+        values: &[f64],
+        width: usize,
+        height: usize,
+        x: (f64, f64),
+        y: (f64, f64),
+    ) -> Result<Self, SpectrumError> {
+        if width == 0 || height == 0 || values.len() != width * height {
+            return Err(SpectrumError::BadTable(format!(
+                "2D distribution of {width}×{height} needs {} values, got {}",
+                width * height,
+                values.len()
+            )));
+        }
+        let conditional =
+            values.chunks(width).map(|row| Distribution1D::new(row, x.0, x.1)).collect::<Result<Vec<_>, _>>()?;
+        let row_integrals: Vec<f64> =
+            values.chunks(width).map(|r| r.iter().sum::<f64>() * (x.1 - x.0) / width as f64).collect();
+        let marginal = Distribution1D::new(&row_integrals, y.0, y.1)?;
+        Ok(Self { conditional, marginal })
+    }
+
+    /// Draws a point with `u ∈ [0, 1)²`: the row from the marginal with `u[1]`, the column within it with `u[0]`.
+    pub fn sample(&self, u: [f64; 2]) -> Sample2D {
+        let row = self.marginal.sample(u[1]);
+        let col = self.conditional[row.bin].sample(u[0]);
+        Sample2D { point: [col.x, row.x], pdf: row.pdf * col.pdf }
+    }
+
+    /// Density at `point`.
+    pub fn pdf(&self, point: [f64; 2]) -> f64 {
+        let (y0, y1) = self.marginal.domain();
+        if !(point[1] >= y0 && point[1] <= y1) {
+            return 0.0;
+        }
+        let n = self.marginal.len();
+        let row = (((point[1] - y0) / (y1 - y0) * n as f64) as usize).min(n - 1);
+        self.marginal.pdf(point[1]) * self.conditional[row].pdf(point[0])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seed_recipe_on_a_small_table() {
+        // Bins [0,1), [1,2), [2,3), [3,4) with weights 1, 0, 3, 4: cdf = 0, 1/8, 1/8, 4/8, 1.
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0, 4.0], 0.0, 4.0).unwrap();
+        assert_eq!(d.cdf_table(), &[0.0, 0.125, 0.125, 0.5, 1.0]);
+        let s = d.sample(0.3125); // halfway through bin 2
+        assert_eq!(s.bin, 2);
+        assert!((s.x - 2.5).abs() < 1e-12);
+        assert!((s.pdf - 3.0 / 8.0).abs() < 1e-12);
+        // The empty bin is never chosen, even at its cdf value.
+        assert_eq!(d.sample(0.125).bin, 2);
+        assert!((d.cdf(2.5) - 0.3125).abs() < 1e-12);
+        assert_eq!(d.sample(0.0).x, 0.0);
+        assert!(d.sample(0.999_999_9).x < 4.0);
+    }
+
+    #[test]
+    fn all_zero_is_uniform_and_bad_values_are_rejected() {
+        let d = Distribution1D::new(&[0.0, 0.0], 10.0, 20.0).unwrap();
+        assert!((d.pdf(12.0) - 0.1).abs() < 1e-12);
+        assert!(Distribution1D::new(&[1.0, -1.0], 0.0, 1.0).is_err());
+        assert!(Distribution1D::new(&[1.0, f64::NAN], 0.0, 1.0).is_err());
+        assert!(Distribution1D::new(&[], 0.0, 1.0).is_err());
+        assert!(Distribution1D::new(&[1.0], 1.0, 1.0).is_err());
+        assert!(Distribution2D::new(&[1.0; 5], 2, 3, (0.0, 1.0), (0.0, 1.0)).is_err());
+    }
+}

@@ -1,0 +1,246 @@
+//! Wavelength strategies: how a path chooses the wavelengths it carries, and how its radiance becomes colour.
+//!
+//! Every strategy gives the integrator a [`SampledWavelengths`] whose effective densities make
+//! `Σᵢ L(λᵢ)·w(λᵢ)/pdfᵢ` an unbiased estimate of `∫ L(λ)·w(λ) dλ` for the film's colour matching functions `w`,
+//! and keeps it unbiased when a dispersive surface forces a single wavelength
+//! ([`SampledWavelengths::terminate_secondary`]).
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::cmf::{stiles_burch, stiles_burch_to_xyz, Observer};
+use crate::color::{mul_mat_vec, Mat3, Xyz};
+use crate::distribution::Distribution1D;
+use crate::sampled::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+use crate::{LAMBDA_MAX, LAMBDA_MIN};
+
+/// The three ways a path can carry wavelengths.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum WavelengthStrategy {
+    /// Seed 000's simple solution: three bands (blue 360–490, green 490–590, red 590–830 nm), one wavelength drawn
+    /// in each; at a dispersive event one band survives with probability 1/3 and is weighted by 3.
+    Rgb,
+    /// Seed 000's better solution: one wavelength per path from the discrete pdf made of the element-wise mean of
+    /// the normalised Stiles & Burch r̄, ḡ, b̄; radiance weighted by (r̄, ḡ, b̄)(λ)/pdf(λ), then converted to XYZ.
+    Cmf,
+    /// Hero wavelength sampling (Wilkie et al. 2014): four wavelengths from a visible-importance pdf, rotated in
+    /// primary sample space, carried together until a dispersive event keeps one (seed 001's proposal).
+    #[default]
+    Hero,
+}
+
+impl WavelengthStrategy {
+    /// All strategies.
+    pub const ALL: [WavelengthStrategy; 3] =
+        [WavelengthStrategy::Rgb, WavelengthStrategy::Cmf, WavelengthStrategy::Hero];
+
+    /// Name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            WavelengthStrategy::Rgb => "rgb",
+            WavelengthStrategy::Cmf => "cmf",
+            WavelengthStrategy::Hero => "hero",
+        }
+    }
+}
+
+impl fmt::Display for WavelengthStrategy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for WavelengthStrategy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|w| w.name().eq_ignore_ascii_case(s))
+            .ok_or_else(|| format!("unknown wavelength strategy '{s}': expected one of rgb, cmf, hero"))
+    }
+}
+
+/// Edges of the `rgb` strategy's bands, nm: blue, green, red (near where b̄/ḡ and ḡ/r̄ of Stiles & Burch cross).
+pub const RGB_BAND_EDGES: [f64; 4] = [LAMBDA_MIN, 490.0, 590.0, LAMBDA_MAX];
+
+/// Draws wavelengths for one strategy and turns sampled radiance into XYZ for one observer.
+#[derive(Clone, Debug)]
+pub struct WavelengthSampler {
+    strategy: WavelengthStrategy,
+    observer: Observer,
+    /// Density ∝ x̄ + ȳ + z̄ over 360–830 nm in 1 nm bins: positive everywhere the observer sees, so XYZ weights
+    /// divided by it stay bounded (`hero` and, band by band, `rgb`).
+    visible: Distribution1D,
+    /// The visible cdf at [`RGB_BAND_EDGES`].
+    band_cdf: [f64; 4],
+    /// Seed 000's Stiles & Burch pdf over 390–830 nm in 5 nm bins (`cmf`).
+    cmf: Distribution1D,
+    /// Stiles & Burch RGB → normalised XYZ of `observer`.
+    sb_to_xyz: Mat3,
+    y_integral: f64,
+}
+
+impl WavelengthSampler {
+    /// Builds the tables for `strategy` with colours measured by `observer`.
+    pub fn new(strategy: WavelengthStrategy, observer: Observer) -> Self {
+        let t = observer.table();
+        let g: Vec<f64> = t.values.iter().map(|v| v[0] + v[1] + v[2]).collect();
+        // One bin between consecutive 1 nm table points, valued at their mean.
+        let bins: Vec<f64> = g.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
+        let visible = Distribution1D::new(&bins, t.lambda_min, t.lambda_max())
+            .expect("observer tables are finite and non-negative");
+        let band_cdf = RGB_BAND_EDGES.map(|l| visible.cdf(l));
+        Self {
+            strategy,
+            observer,
+            visible,
+            band_cdf,
+            cmf: stiles_burch_pdf(),
+            sb_to_xyz: stiles_burch_to_xyz(observer),
+            y_integral: observer.y_integral(),
+        }
+    }
+
+    /// The strategy.
+    pub fn strategy(&self) -> WavelengthStrategy {
+        self.strategy
+    }
+
+    /// The observer colours are measured with.
+    pub fn observer(&self) -> Observer {
+        self.observer
+    }
+
+    /// The visible-importance density (∝ x̄ + ȳ + z̄) that `hero` and `rgb` draw from.
+    pub fn visible_distribution(&self) -> &Distribution1D {
+        &self.visible
+    }
+
+    /// Draws the wavelengths of one path from a single uniform number `u ∈ [0, 1)`.
+    pub fn sample(&self, u: f64) -> SampledWavelengths {
+        let mut lambda = [0.0f32; N_WAVELENGTHS];
+        let mut pdf = [0.0f32; N_WAVELENGTHS];
+        match self.strategy {
+            WavelengthStrategy::Hero => {
+                // Rotation by i/N in primary sample space keeps every λᵢ's marginal density equal to p(λ);
+                // the estimate averages the N of them, hence the effective density N·p(λᵢ).
+                for i in 0..N_WAVELENGTHS {
+                    let ui = (u + i as f64 / N_WAVELENGTHS as f64).fract();
+                    let s = self.visible.sample(ui);
+                    lambda[i] = s.x as f32;
+                    pdf[i] = (N_WAVELENGTHS as f64 * s.pdf) as f32;
+                }
+            }
+            WavelengthStrategy::Rgb => {
+                // One stratum per band: λ_k ~ p restricted to band k, density p(λ)/P(band k); the strata sum.
+                for k in 0..3 {
+                    let (c0, c1) = (self.band_cdf[k], self.band_cdf[k + 1]);
+                    let s = self.visible.sample(c0 + u * (c1 - c0));
+                    lambda[k] = s.x as f32;
+                    pdf[k] = (s.pdf / (c1 - c0)) as f32;
+                }
+                lambda[3] = lambda[0];
+            }
+            WavelengthStrategy::Cmf => {
+                let s = self.cmf.sample(u);
+                lambda = [s.x as f32; N_WAVELENGTHS];
+                pdf[0] = s.pdf as f32;
+            }
+        }
+        SampledWavelengths::new(lambda, pdf)
+    }
+
+    /// The path's contribution to the image in XYZ (Y = 1 for a constant-1 spectrum seen by the observer).
+    pub fn to_xyz(&self, radiance: &SampledSpectrum, wl: &SampledWavelengths) -> Xyz {
+        let w = radiance.safe_div(wl.pdf());
+        let mut acc = [0.0f64; 3];
+        match self.strategy {
+            WavelengthStrategy::Cmf => {
+                // Seed 000: (Φr, Φg, Φb) = Φλ·(r̄, ḡ, b̄)(λ)/pdf(λ), then to XYZ by the fitted matrix.
+                for i in 0..N_WAVELENGTHS {
+                    if wl.is_active(i) {
+                        let rgb = stiles_burch().eval(wl.lambda(i) as f64);
+                        for c in 0..3 {
+                            acc[c] += w[i] as f64 * rgb[c];
+                        }
+                    }
+                }
+                Xyz::from_array(mul_mat_vec(&self.sb_to_xyz, acc))
+            }
+            _ => {
+                for i in 0..N_WAVELENGTHS {
+                    if wl.is_active(i) {
+                        let cmf = self.observer.xyz_bar(wl.lambda(i) as f64);
+                        for c in 0..3 {
+                            acc[c] += w[i] as f64 * cmf[c];
+                        }
+                    }
+                }
+                Xyz::from_array(acc.map(|v| v / self.y_integral))
+            }
+        }
+    }
+
+    /// The value `to_xyz` converges to for a spectrum: direct integration of the strategy's colour matching
+    /// functions (the observer's x̄ȳz̄; for `cmf`, Stiles & Burch r̄ḡb̄ through the fitted matrix).
+    pub fn reference_xyz(&self, s: &crate::Spectrum) -> Xyz {
+        match self.strategy {
+            WavelengthStrategy::Cmf => {
+                let sb = stiles_burch();
+                let mut acc = [0.0; 3];
+                // Trapezoid rule on a 0.25 nm grid over the S&B range (the product is piecewise smooth).
+                let (a, b) = (sb.lambda_min, sb.lambda_max());
+                let n = ((b - a) / 0.25) as usize;
+                for i in 0..=n {
+                    let l = a + (b - a) * i as f64 / n as f64;
+                    let wgt = if i == 0 || i == n { 0.5 } else { 1.0 } * (b - a) / n as f64;
+                    let v = s.eval(l);
+                    let rgb = sb.eval(l);
+                    for c in 0..3 {
+                        acc[c] += wgt * v * rgb[c];
+                    }
+                }
+                Xyz::from_array(mul_mat_vec(&self.sb_to_xyz, acc))
+            }
+            _ => self.observer.spectrum_to_xyz(s),
+        }
+    }
+}
+
+/// Seed 000's discrete pdf for `cmf`: the element-wise mean of r̄, ḡ, b̄, each normalised to unit area.
+///
+/// Negative lobes: a pdf cannot be negative, so each function enters by its absolute value, |c̄|/∫|c̄|. The pdf is
+/// then positive wherever any of r̄, ḡ, b̄ is non-zero, and weighting by the signed (r̄, ḡ, b̄)(λ)/pdf(λ) keeps the
+/// estimate of ∫ L·c̄ unbiased, negative lobes included. Bins are the 5 nm intervals of the table, valued at the
+/// mean of their end points.
+pub fn stiles_burch_pdf() -> Distribution1D {
+    let sb = stiles_burch();
+    let area: [f64; 3] = std::array::from_fn(|c| sb.values.iter().map(|v| v[c].abs()).sum::<f64>() * sb.step);
+    let g: Vec<f64> = sb.values.iter().map(|v| (0..3).map(|c| v[c].abs() / area[c]).sum::<f64>() / 3.0).collect();
+    let bins: Vec<f64> = g.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
+    Distribution1D::new(&bins, sb.lambda_min, sb.lambda_max()).expect("Stiles & Burch table is finite")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strategies_parse_by_name() {
+        assert_eq!("HERO".parse::<WavelengthStrategy>().unwrap(), WavelengthStrategy::Hero);
+        assert_eq!("rgb".parse::<WavelengthStrategy>().unwrap(), WavelengthStrategy::Rgb);
+        assert!("spectral".parse::<WavelengthStrategy>().unwrap_err().contains("rgb, cmf, hero"));
+    }
+
+    #[test]
+    fn slot_layout_per_strategy() {
+        let hero = WavelengthSampler::new(WavelengthStrategy::Hero, Observer::Cie1931).sample(0.3);
+        assert_eq!(hero.active_count(), 4);
+        let rgb = WavelengthSampler::new(WavelengthStrategy::Rgb, Observer::Cie1931).sample(0.3);
+        assert_eq!(rgb.active_count(), 3);
+        assert!(rgb.lambda(0) < 490.0 && (490.0..590.0).contains(&rgb.lambda(1)) && rgb.lambda(2) >= 590.0);
+        let cmf = WavelengthSampler::new(WavelengthStrategy::Cmf, Observer::Cie1931).sample(0.3);
+        assert_eq!(cmf.active_count(), 1);
+        assert!((390.0..=830.0).contains(&cmf.lambda(0)));
+    }
+}
