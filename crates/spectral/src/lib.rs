@@ -10,6 +10,7 @@ pub mod blackbody;
 pub mod cmf;
 pub mod color;
 pub mod distribution;
+pub mod lab;
 pub mod named;
 pub mod sampled;
 pub mod spectrum;
