@@ -12,6 +12,7 @@ pub mod color;
 pub mod distribution;
 pub mod lab;
 pub mod named;
+pub mod rgb_uplift;
 pub mod sampled;
 pub mod spectrum;
 mod tables;

@@ -3,6 +3,7 @@
 use std::sync::Arc;
 
 use crate::blackbody::Blackbody;
+use crate::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum};
 use crate::sampled::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
 use crate::{check_finite, SpectrumError};
 
@@ -92,6 +93,12 @@ pub enum Spectrum {
     PiecewiseLinear(Arc<PiecewiseLinear>),
     /// Planck's law, scaled.
     Blackbody(Blackbody),
+    /// A reflectance given as a linear sRGB colour in [0, 1]³ (Jakob & Hanika 2019 sigmoid polynomial).
+    RgbAlbedo(RgbAlbedoSpectrum),
+    /// Any non-negative linear sRGB colour: a scale times a sigmoid polynomial.
+    RgbUnbounded(RgbUnboundedSpectrum),
+    /// Emission given as a non-negative linear sRGB colour: an unbounded RGB spectrum times normalised D65.
+    RgbIlluminant(RgbIlluminantSpectrum),
 }
 
 impl Spectrum {
@@ -119,6 +126,9 @@ impl Spectrum {
             Spectrum::Constant(c) => *c,
             Spectrum::PiecewiseLinear(t) => t.eval(lambda_nm),
             Spectrum::Blackbody(b) => b.eval(lambda_nm),
+            Spectrum::RgbAlbedo(r) => r.eval(lambda_nm),
+            Spectrum::RgbUnbounded(r) => r.eval(lambda_nm),
+            Spectrum::RgbIlluminant(r) => r.eval(lambda_nm),
         }
     }
 
@@ -137,6 +147,10 @@ impl Spectrum {
             Spectrum::Constant(c) => Spectrum::Constant(c * s),
             Spectrum::PiecewiseLinear(t) => Spectrum::PiecewiseLinear(Arc::new(t.scaled(s))),
             Spectrum::Blackbody(b) => Spectrum::Blackbody(Blackbody { scale: b.scale * s, ..*b }),
+            // A scaled albedo may leave [0, 1], so it becomes an unbounded RGB spectrum.
+            Spectrum::RgbAlbedo(r) => Spectrum::RgbUnbounded(r.scaled(s)),
+            Spectrum::RgbUnbounded(r) => Spectrum::RgbUnbounded(r.scaled(s)),
+            Spectrum::RgbIlluminant(r) => Spectrum::RgbIlluminant(r.scaled(s)),
         }
     }
 
@@ -145,6 +159,9 @@ impl Spectrum {
         match self {
             Spectrum::Constant(c) => *c,
             Spectrum::PiecewiseLinear(t) => t.max_value(),
+            Spectrum::RgbAlbedo(r) => r.max_value(),
+            Spectrum::RgbUnbounded(r) => r.max_value(),
+            Spectrum::RgbIlluminant(r) => r.max_value(),
             _ => (360..=830).map(|l| self.eval(l as f64)).fold(f64::NEG_INFINITY, f64::max),
         }
     }

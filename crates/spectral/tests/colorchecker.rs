@@ -70,8 +70,8 @@ fn colorchecker_under_d65_matches_colour_science() {
         assert!(de < 0.5, "{}: ΔE00 = {de:.3} (ours {rgb:?}, colour-science {:?})", p.name, p.srgb_linear);
         // Encoded values agree to well under one 8-bit step for in-gamut patches.
         if p.srgb_linear.iter().all(|&c| (0.0..=1.0).contains(&c)) {
-            for c in 0..3 {
-                assert!((srgb_encode(rgb[c]) - p.srgb_encoded[c]).abs() < 2.0 / 255.0, "{} channel {c}", p.name);
+            for (c, (ours, theirs)) in rgb.iter().zip(p.srgb_encoded).enumerate() {
+                assert!((srgb_encode(*ours) - theirs).abs() < 2.0 / 255.0, "{} channel {c}", p.name);
             }
         }
         if de > worst.0 {

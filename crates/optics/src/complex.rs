@@ -1,0 +1,136 @@
+//! A minimal complex number, just enough for the complex index of refraction and conductor Fresnel.
+
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// A complex number `re + i·im` in `f64`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Complex {
+    /// Real part.
+    pub re: f64,
+    /// Imaginary part.
+    pub im: f64,
+}
+
+impl Complex {
+    /// `re + i·im`.
+    pub const fn new(re: f64, im: f64) -> Self {
+        Self { re, im }
+    }
+
+    /// The real number `re + 0i`.
+    pub const fn from_real(re: f64) -> Self {
+        Self { re, im: 0.0 }
+    }
+
+    /// Squared modulus `re² + im²`.
+    pub fn norm_sqr(self) -> f64 {
+        self.re * self.re + self.im * self.im
+    }
+
+    /// Modulus `|z|`, computed without overflow (`hypot`).
+    pub fn abs(self) -> f64 {
+        self.re.hypot(self.im)
+    }
+
+    /// Complex conjugate `re − i·im`.
+    pub fn conj(self) -> Self {
+        Self::new(self.re, -self.im)
+    }
+
+    /// Principal square root, by the closed form of seed 000 (Frisvad, "Dispersion and Spectral Rendering"):
+    /// √(a+ib) = √((|z|+a)/2) + i·sgn(b)·√((|z|−a)/2).
+    ///
+    /// `sgn(b)` is taken from the sign bit of `b` with `+0` counting as positive, so √(−4 + 0i) = 2i (the principal
+    /// branch, real part ≥ 0); the seed's formula with sgn(0) = 0 would lose the imaginary part of negative reals.
+    pub fn sqrt(self) -> Self {
+        let m = self.abs();
+        // max(0, …) guards against |z| − a being a rounding error below zero.
+        let re = ((m + self.re) * 0.5).max(0.0).sqrt();
+        let im = ((m - self.re) * 0.5).max(0.0).sqrt();
+        Self::new(re, im.copysign(self.im))
+    }
+}
+
+impl From<f64> for Complex {
+    fn from(re: f64) -> Self {
+        Self::from_real(re)
+    }
+}
+
+impl Add for Complex {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Self::new(self.re + o.re, self.im + o.im)
+    }
+}
+
+impl Sub for Complex {
+    type Output = Self;
+    fn sub(self, o: Self) -> Self {
+        Self::new(self.re - o.re, self.im - o.im)
+    }
+}
+
+impl Mul for Complex {
+    type Output = Self;
+    fn mul(self, o: Self) -> Self {
+        Self::new(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
+    }
+}
+
+impl Mul<f64> for Complex {
+    type Output = Self;
+    fn mul(self, s: f64) -> Self {
+        Self::new(self.re * s, self.im * s)
+    }
+}
+
+impl Div for Complex {
+    type Output = Self;
+    fn div(self, o: Self) -> Self {
+        // z/w = z·conj(w)/|w|².
+        let d = o.norm_sqr();
+        let n = self * o.conj();
+        Self::new(n.re / d, n.im / d)
+    }
+}
+
+impl Neg for Complex {
+    type Output = Self;
+    fn neg(self) -> Self {
+        Self::new(-self.re, -self.im)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn sqrt_squares_back_and_takes_principal_branch() {
+        for &(a, b) in &[(3.0, 4.0), (-3.0, 4.0), (-3.0, -4.0), (2.0, -0.5), (0.0, 1.0), (1e-3, 7.0)] {
+            let z = Complex::new(a, b);
+            let r = z.sqrt();
+            let back = r * r;
+            assert_relative_eq!(back.re, a, epsilon = 1e-12);
+            assert_relative_eq!(back.im, b, epsilon = 1e-12);
+            assert!(r.re >= 0.0);
+        }
+        assert_eq!(Complex::new(3.0, 4.0).sqrt(), Complex::new(2.0, 1.0));
+        assert_eq!(Complex::new(-4.0, 0.0).sqrt(), Complex::new(0.0, 2.0));
+        assert_eq!(Complex::new(4.0, 0.0).sqrt(), Complex::new(2.0, 0.0));
+    }
+
+    #[test]
+    fn arithmetic() {
+        let z = Complex::new(1.0, 2.0);
+        let w = Complex::new(-0.5, 3.0);
+        let q = (z * w) / w;
+        assert_relative_eq!(q.re, 1.0, epsilon = 1e-14);
+        assert_relative_eq!(q.im, 2.0, epsilon = 1e-14);
+        assert_eq!(z + w - w, z);
+        assert_eq!(-z, Complex::new(-1.0, -2.0));
+        assert_eq!(z.norm_sqr(), 5.0);
+    }
+}

@@ -1,0 +1,33 @@
+//! Optics for Prismatic: how light meets matter at a smooth interface, wavelength by wavelength.
+//!
+//! - [`ior`]: index-of-refraction models, all functions of the wavelength in nm — constant, Sellmeier, Cauchy, the
+//!   two-term Cauchy fit to an Abbe number, tabulated real and complex (metal) indices, and the complex index of a
+//!   material given by ε, μ and σ (seed 000, Frisvad "Dispersion and Spectral Rendering").
+//! - [`catalogue`]: the built-in glasses, liquids, crystals and metals (embedded CSV data, `data/SOURCES.md`),
+//!   looked up by name, plus pbrt-v4's named `glass-*` and `metal-*` spectra and the water absorption table.
+//! - [`fresnel`]: exact Fresnel reflectance for dielectrics and conductors, Snell refraction of direction vectors and
+//!   the critical and Brewster angles.
+//! - [`complex`]: the small complex-number type the above need.
+//!
+//! Everything is `f64`; wavelengths are in nanometres in vacuo throughout the public API.
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod catalogue;
+pub mod complex;
+mod error;
+pub mod fresnel;
+pub mod ior;
+
+pub use catalogue::{lookup, named_spectrum, CatalogueEntry, Category, DispersionData};
+pub use complex::Complex;
+pub use error::OpticsError;
+pub use fresnel::{
+    brewster_angle, critical_angle, fresnel_complex, fresnel_complex_sp, fresnel_conductor, fresnel_dielectric,
+    fresnel_dielectric_p, fresnel_dielectric_s, fresnel_dielectric_transmittance, reflect, refract, snell_sin_t,
+};
+pub use ior::{
+    Cauchy, ConstantIor, Ior, MaterialConstants, Sellmeier, TabulatedComplexIor, TabulatedIor, LAMBDA_C_NM,
+    LAMBDA_D_NM, LAMBDA_F_NM,
+};

@@ -1,0 +1,144 @@
+//! `prismatic ior`: indices of refraction from the catalogue.
+
+use std::fmt::Write;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use optics::catalogue::{self, CatalogueEntry};
+use optics::{LAMBDA_C_NM, LAMBDA_D_NM, LAMBDA_F_NM};
+
+/// Arguments of `prismatic ior`.
+#[derive(Args, Debug)]
+#[command(after_help = "Examples:\n  prismatic ior N-SF11 --nm 486.13 587.56 656.27\n  prismatic ior glass-BK7\n  \
+                        prismatic ior Au --nm 450 550 650\n  prismatic ior --list")]
+pub struct IorArgs {
+    /// Material: a catalogue name (N-BK7, SF11, diamond, water, sapphire e, Au, …) or a pbrt-v4 spectrum name
+    /// (glass-BK7, metal-Au-eta, …). Case-insensitive; spaces may be written as '-' or '_'.
+    #[arg(required_unless_present = "list")]
+    pub material: Option<String>,
+
+    /// Wavelengths in nanometres (default: the F, d and C lines, 486.13, 587.56 and 656.27 nm).
+    #[arg(long, num_args = 1.., value_name = "NM", allow_negative_numbers = true)]
+    pub nm: Vec<f64>,
+
+    /// List every catalogue material and pbrt-v4 name instead.
+    #[arg(long, conflicts_with_all = ["material", "nm"])]
+    pub list: bool,
+}
+
+/// Runs the subcommand and returns what to print.
+pub fn run(args: &IorArgs) -> Result<String> {
+    if args.list {
+        return Ok(list());
+    }
+    let name = args.material.as_deref().unwrap_or_default();
+    let entry = resolve(name)?;
+    let wavelengths = if args.nm.is_empty() { vec![LAMBDA_F_NM, LAMBDA_D_NM, LAMBDA_C_NM] } else { args.nm.clone() };
+    for &l in &wavelengths {
+        if !l.is_finite() || l <= 0.0 {
+            bail!("--nm: wavelength {l} is not a positive number of nanometres");
+        }
+    }
+    let mut out = String::new();
+    let _ = writeln!(out, "{} ({})", entry.name, entry.category);
+    let _ = writeln!(out, "  source: {}", entry.source);
+    let (lo, hi) = entry.valid_range_nm;
+    let metal = entry.ior.is_complex();
+    let _ = writeln!(
+        out,
+        "  {:>10}  {:>10}{}",
+        "λ (nm)",
+        "n",
+        if metal { format!("  {:>10}", "k") } else { String::new() }
+    );
+    for &l in &wavelengths {
+        let (n, k) = entry.ior.complex(l);
+        let mut line = format!("  {l:>10.2}  {n:>10.6}");
+        if metal {
+            let _ = write!(line, "  {k:>10.6}");
+        }
+        if l < lo || l > hi {
+            let _ = write!(line, "   (outside the data's range {lo:.0}–{hi:.0} nm: extrapolated)");
+        }
+        let _ = writeln!(out, "{line}");
+    }
+    if let Some(d) = &entry.dispersion {
+        let _ = write!(out, "  n_d = {:.6}  V_d = {:.2}", d.nd, d.vd);
+        match (d.nd_catalog, d.vd_catalog) {
+            (Some(nd), Some(vd)) => {
+                let _ = writeln!(out, "   (catalogue: n_d = {nd}, V_d = {vd})");
+            }
+            _ => out.push('\n'),
+        }
+    }
+    Ok(out)
+}
+
+/// A catalogue entry by catalogue name, or by pbrt-v4 spectrum name (`glass-BK7`, `metal-Au-eta`).
+fn resolve(name: &str) -> Result<CatalogueEntry> {
+    if let Ok(e) = catalogue::lookup(name) {
+        return Ok(e);
+    }
+    if let Some((_, target)) = catalogue::PBRT_GLASSES.iter().find(|(p, _)| p.eq_ignore_ascii_case(name)) {
+        return Ok(catalogue::lookup(target)?);
+    }
+    let lower = name.to_ascii_lowercase();
+    if let Some(metal) = lower.strip_prefix("metal-").and_then(|m| m.strip_suffix("-eta").or(m.strip_suffix("-k"))) {
+        return catalogue::lookup(metal).with_context(|| format!("'{name}' names metal '{metal}'"));
+    }
+    Ok(catalogue::lookup(name)?)
+}
+
+fn list() -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "{:<18} {:<22} {:>9} {:>7}  range (nm)", "name", "category", "n_d", "V_d");
+    for e in catalogue::entries() {
+        let (nd, vd) = match &e.dispersion {
+            Some(d) => (format!("{:.5}", d.nd), format!("{:.2}", d.vd)),
+            None => ("-".into(), "-".into()),
+        };
+        let (lo, hi) = e.valid_range_nm;
+        let _ = writeln!(out, "{:<18} {:<22} {:>9} {:>7}  {lo:.0}–{hi:.0}", e.name, e.category.label(), nd, vd);
+    }
+    let _ = writeln!(out, "\npbrt-v4 spectrum names:");
+    for (pbrt, ours) in catalogue::PBRT_GLASSES {
+        let _ = writeln!(out, "  {pbrt:<16} = {ours}");
+    }
+    let _ = writeln!(
+        out,
+        "  {}",
+        catalogue::named_spectrum_names().into_iter().filter(|n| n.starts_with("metal-")).collect::<Vec<_>>().join(" ")
+    );
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(material: &str, nm: &[f64]) -> IorArgs {
+        IorArgs { material: Some(material.into()), nm: nm.to_vec(), list: false }
+    }
+
+    #[test]
+    fn prints_n_then_nd_and_vd() {
+        let out = run(&args("N-SF11", &[486.13, 587.56, 656.27])).unwrap();
+        assert!(out.contains("587.56    1.784720"), "{out}"); // n at the d line
+        assert!(out.contains("n_d = 1.784720  V_d = 25.68"), "{out}");
+    }
+
+    #[test]
+    fn pbrt_names_and_metals_resolve() {
+        assert!(run(&args("glass-BK7", &[587.56])).unwrap().starts_with("N-BK7"));
+        let au = run(&args("metal-Au-eta", &[650.0])).unwrap();
+        assert!(au.lines().nth(2).unwrap().contains('k'), "{au}");
+    }
+
+    #[test]
+    fn bad_input_is_an_error_not_a_panic() {
+        assert!(run(&args("unobtainium", &[])).is_err());
+        assert!(run(&args("N-BK7", &[f64::NAN])).is_err());
+        assert!(run(&args("N-BK7", &[-5.0])).is_err());
+        assert!(list().contains("N-SF11"));
+    }
+}

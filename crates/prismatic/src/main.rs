@@ -1,0 +1,45 @@
+//! `prismatic`: the command-line front end of the Prismatic spectral renderer.
+//!
+//! A thin layer: it parses arguments, calls the library crates and prints. Errors are reported as one message and a
+//! non-zero exit status, never a panic.
+
+mod ior_cmd;
+mod spectrum_cmd;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Prismatic: a physically based spectral renderer for light that depends on wavelength.
+#[derive(Parser, Debug)]
+#[command(name = "prismatic", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Print the index of refraction n(λ) (and k for metals) of a catalogue material, then n_d and V_d.
+    Ior(ior_cmd::IorArgs),
+    /// Print the colour of a spectrum: CIE XYZ, chromaticity xy and linear RGB.
+    Spectrum(spectrum_cmd::SpectrumArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Ior(args) => ior_cmd::run(&args),
+        Command::Spectrum(args) => spectrum_cmd::run(&args),
+    };
+    match result {
+        Ok(text) => {
+            print!("{text}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("prismatic: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
