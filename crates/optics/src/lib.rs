@@ -10,6 +10,17 @@
 //! - [`complex`]: the small complex-number type the above need.
 //!
 //! Everything is `f64`; wavelengths are in nanometres in vacuo throughout the public API.
+//!
+//! ```
+//! use optics::{catalogue, fresnel_dielectric, LAMBDA_D_NM};
+//!
+//! // Dense flint N-SF11 at the helium d line, and its reflectance at normal incidence from air.
+//! let sf11 = catalogue::lookup("N-SF11").unwrap();
+//! let n = sf11.ior.n(LAMBDA_D_NM);
+//! assert!((n - 1.78472).abs() < 1e-5);
+//! let r = fresnel_dielectric(1.0, n);
+//! assert!((r - ((n - 1.0) / (n + 1.0)).powi(2)).abs() < 1e-12);
+//! ```
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

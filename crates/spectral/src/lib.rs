@@ -5,6 +5,18 @@
 //! from the project's data set, see `data/SOURCES.md`), the spectrum kinds a scene can name, sampled spectra as the
 //! integrator carries them, tabulated 1D and 2D distributions (the recipe of seed 000), the three wavelength
 //! strategies (`rgb`, `cmf`, `hero`) and the conversions from spectra through CIE XYZ to output colour spaces.
+//!
+//! ```
+//! use spectral::{named, Observer, RgbColorSpace};
+//!
+//! // The chromaticity of CIE illuminant D65 under the 1931 observer, and its colour in linear sRGB.
+//! let d65 = named::illuminant("stdillum-D65").unwrap();
+//! let xyz = Observer::Cie1931.spectrum_to_xyz(&d65);
+//! let xy = xyz.chromaticity();
+//! assert_eq!(format!("{:.4} {:.4}", xy[0], xy[1]), "0.3127 0.3290");
+//! let rgb = RgbColorSpace::srgb().to_rgb(xyz);
+//! assert!(rgb.iter().all(|c| (c - 1.0).abs() < 1e-3));
+//! ```
 
 pub mod blackbody;
 pub mod cmf;
