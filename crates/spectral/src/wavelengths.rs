@@ -233,6 +233,26 @@ mod tests {
     }
 
     #[test]
+    fn cmf_pdf_handles_negative_lobes_by_absolute_value() {
+        // Where r̄ is negative (its lobe near 495 nm) the pdf must still be the mean of |r̄|, |ḡ|, |b̄| over their
+        // areas — positive wherever any function is non-zero — so signed weights keep the estimate unbiased.
+        let d = stiles_burch_pdf();
+        let sb = stiles_burch();
+        let area: [f64; 3] = std::array::from_fn(|c| sb.values.iter().map(|v| v[c].abs()).sum::<f64>() * sb.step);
+        let g = |l: f64| (0..3).map(|c| sb.eval(l)[c].abs() / area[c]).sum::<f64>() / 3.0;
+        assert!(sb.eval(495.0)[0] < -0.4);
+        let expected = 0.5 * (g(495.0) + g(500.0));
+        // (1e-3: the distribution renormalises the trapezoid bins, the areas here are 5 nm Riemann sums.)
+        assert!((d.pdf(497.5) - expected).abs() < 1e-3 * expected, "{} vs {expected}", d.pdf(497.5));
+        for i in 0..88 {
+            let l = 390.0 + 5.0 * i as f64 + 2.5;
+            assert!(d.pdf(l) > 0.0, "pdf vanishes at {l} nm");
+        }
+        // Clamping the lobe to zero instead would lose the r̄ < 0 part: the signed estimate of ∫ r̄ needs it.
+        assert!(sb.values.iter().any(|v| v[0] < 0.0 && v[1].abs() + v[2].abs() > 0.0));
+    }
+
+    #[test]
     fn slot_layout_per_strategy() {
         let hero = WavelengthSampler::new(WavelengthStrategy::Hero, Observer::Cie1931).sample(0.3);
         assert_eq!(hero.active_count(), 4);
