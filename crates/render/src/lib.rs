@@ -1,0 +1,8 @@
+//! Rendering for Prismatic: samplers, BSDFs, lights, cameras and integrators over a render-ready scene.
+//!
+//! Knows nothing of file formats: it consumes the plain scene description and writes into a film.
+
+pub mod bxdf;
+pub mod microfacet;
+pub mod sampler;
+pub mod sampling;
