@@ -7,6 +7,7 @@ use glam::{Vec2, Vec3};
 use spectral::{SampledSpectrum, N_WAVELENGTHS};
 use std::f32::consts::FRAC_1_PI;
 
+use crate::layered::CoatedDiffuse;
 use crate::microfacet::TrowbridgeReitz;
 use crate::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 
@@ -35,6 +36,20 @@ pub struct BsdfSample {
     pub transmission: bool,
     /// Relative index of refraction across a transmission (1 for reflection), for Russian roulette.
     pub eta: f32,
+    /// True when `pdf` is only proportional to the density (stochastic layered BxDFs): `f/pdf` is still the
+    /// right path weight, but MIS must ask [`Bxdf::pdf`] for the density.
+    pub pdf_is_proportional: bool,
+}
+
+/// Which lobes a restricted sampling call may choose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lobes {
+    /// Reflection and transmission.
+    All,
+    /// Reflection only.
+    Reflection,
+    /// Transmission only.
+    Transmission,
 }
 
 fn same_hemisphere(a: Vec3, b: Vec3) -> bool {
@@ -103,6 +118,8 @@ pub enum Bxdf {
         /// Microfacet roughness.
         distrib: TrowbridgeReitz,
     },
+    /// A diffuse base under a dielectric coating, evaluated by a stochastic random walk between the layers.
+    CoatedDiffuse(Box<CoatedDiffuse>),
     /// A thin slab: reflection plus straight-through transmission with inter-reflection summed; the Fresnel
     /// term is evaluated per wavelength because directions do not depend on η.
     ThinDielectric {
@@ -118,6 +135,7 @@ impl Bxdf {
             Bxdf::Diffuse { .. } => false,
             Bxdf::Conductor { distrib, .. } | Bxdf::Dielectric { distrib, .. } => distrib.effectively_smooth(),
             Bxdf::ThinDielectric { .. } => true,
+            Bxdf::CoatedDiffuse(_) => false,
         }
     }
 
@@ -150,11 +168,21 @@ impl Bxdf {
                 SampledSpectrum::splat(rough_dielectric_f(*eta, distrib, wo, wi, mode))
             }
             Bxdf::ThinDielectric { .. } => SampledSpectrum::zero(),
+            Bxdf::CoatedDiffuse(c) => c.f(wo, wi, mode),
         }
     }
 
     /// Density of sampling `wi` given `wo` with [`Bxdf::sample_f`] (zero for delta components).
     pub fn pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
+        self.pdf_lobes(wo, wi, mode, Lobes::All)
+    }
+
+    /// Density of [`Bxdf::sample_f_lobes`] restricted to `lobes`.
+    pub fn pdf_lobes(&self, wo: Vec3, wi: Vec3, mode: TransportMode, lobes: Lobes) -> f32 {
+        let reflection = same_hemisphere(wo, wi);
+        if (reflection && lobes == Lobes::Transmission) || (!reflection && lobes == Lobes::Reflection) {
+            return 0.0;
+        }
         match self {
             Bxdf::Diffuse { .. } => {
                 if same_hemisphere(wo, wi) {
@@ -175,15 +203,22 @@ impl Bxdf {
                 if *eta == 1.0 || distrib.effectively_smooth() {
                     return 0.0;
                 }
-                rough_dielectric_pdf(*eta, distrib, wo, wi, mode)
+                rough_dielectric_pdf(*eta, distrib, wo, wi, lobes)
             }
             Bxdf::ThinDielectric { .. } => 0.0,
+            Bxdf::CoatedDiffuse(c) => c.pdf(wo, wi, mode),
         }
     }
 
     /// Samples an incident direction for `wo` with the 1D sample `uc` (component choice) and 2D sample `u`.
     pub fn sample_f(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        self.sample_f_lobes(wo, uc, u, mode, Lobes::All)
+    }
+
+    /// [`Bxdf::sample_f`] restricted to reflection or transmission (used inside layered BxDFs).
+    pub fn sample_f_lobes(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode, lobes: Lobes) -> Option<BsdfSample> {
         match self {
+            Bxdf::Diffuse { .. } | Bxdf::Conductor { .. } if lobes == Lobes::Transmission => None,
             Bxdf::Diffuse { r } => {
                 let mut wi = sample_cosine_hemisphere(u);
                 if wo.z < 0.0 {
@@ -197,6 +232,7 @@ impl Bxdf {
                     specular: false,
                     transmission: false,
                     eta: 1.0,
+                    pdf_is_proportional: false,
                 })
             }
             Bxdf::Conductor { eta, k, distrib } => {
@@ -207,7 +243,15 @@ impl Bxdf {
                         return None;
                     }
                     let f = fresnel_conductor(c, eta, k) * (1.0 / c);
-                    return Some(BsdfSample { f, wi, pdf: 1.0, specular: true, transmission: false, eta: 1.0 });
+                    return Some(BsdfSample {
+                        f,
+                        wi,
+                        pdf: 1.0,
+                        specular: true,
+                        transmission: false,
+                        eta: 1.0,
+                        pdf_is_proportional: false,
+                    });
                 }
                 if wo.z == 0.0 {
                     return None;
@@ -224,9 +268,18 @@ impl Bxdf {
                 }
                 let fr = fresnel_conductor(wo.dot(wm).abs(), eta, k);
                 let f = fr * (distrib.d(wm) * distrib.g(wo, wi) / (4.0 * cos_i * cos_o));
-                Some(BsdfSample { f, wi, pdf, specular: false, transmission: false, eta: 1.0 })
+                Some(BsdfSample {
+                    f,
+                    wi,
+                    pdf,
+                    specular: false,
+                    transmission: false,
+                    eta: 1.0,
+                    pdf_is_proportional: false,
+                })
             }
-            Bxdf::Dielectric { eta, distrib } => sample_dielectric(*eta, distrib, wo, uc, u, mode),
+            Bxdf::Dielectric { eta, distrib } => sample_dielectric(*eta, distrib, wo, uc, u, mode, lobes),
+            Bxdf::CoatedDiffuse(c) => c.sample_f(wo, uc, u, mode),
             Bxdf::ThinDielectric { eta } => {
                 let mut r = SampledSpectrum::zero();
                 for i in 0..N_WAVELENGTHS {
@@ -235,7 +288,7 @@ impl Bxdf {
                     r[i] = if r0 < 1.0 { r0 + (1.0 - r0) * (1.0 - r0) * r0 / (1.0 - r0 * r0) } else { 1.0 };
                 }
                 let t = SampledSpectrum::splat(1.0) - r;
-                let (pr, pt) = (r.average(), t.average());
+                let (pr, pt) = lobe_weights(r.average(), t.average(), lobes);
                 if pr + pt <= 0.0 {
                     return None;
                 }
@@ -252,6 +305,7 @@ impl Bxdf {
                         specular: true,
                         transmission: false,
                         eta: 1.0,
+                        pdf_is_proportional: false,
                     })
                 } else {
                     Some(BsdfSample {
@@ -261,10 +315,19 @@ impl Bxdf {
                         specular: true,
                         transmission: true,
                         eta: 1.0,
+                        pdf_is_proportional: false,
                     })
                 }
             }
         }
+    }
+}
+
+fn lobe_weights(r: f32, t: f32, lobes: Lobes) -> (f32, f32) {
+    match lobes {
+        Lobes::All => (r, t),
+        Lobes::Reflection => (r, 0.0),
+        Lobes::Transmission => (0.0, t),
     }
 }
 
@@ -275,24 +338,33 @@ fn sample_dielectric(
     uc: f32,
     u: Vec2,
     mode: TransportMode,
+    lobes: Lobes,
 ) -> Option<BsdfSample> {
     if eta == 1.0 || distrib.effectively_smooth() {
         // Smooth interface: choose reflection or transmission in proportion to R and T.
-        let r = fresnel_dielectric(wo.z, eta);
-        let t = 1.0 - r;
+        let r0 = fresnel_dielectric(wo.z, eta);
+        let (r, t) = lobe_weights(r0, 1.0 - r0, lobes);
         if r + t <= 0.0 || wo.z == 0.0 {
             return None;
         }
         if uc < r / (r + t) {
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-            let f = SampledSpectrum::splat(r / wi.z.abs());
-            Some(BsdfSample { f, wi, pdf: r / (r + t), specular: true, transmission: false, eta: 1.0 })
+            let f = SampledSpectrum::splat(r0 / wi.z.abs());
+            Some(BsdfSample {
+                f,
+                wi,
+                pdf: r / (r + t),
+                specular: true,
+                transmission: false,
+                eta: 1.0,
+                pdf_is_proportional: false,
+            })
         } else {
             let (wi, etap) = refract(wo, Vec3::Z, eta)?;
             if wi.z == 0.0 {
                 return None;
             }
-            let mut ft = t / wi.z.abs();
+            let mut ft = (1.0 - r0) / wi.z.abs();
             if mode == TransportMode::Radiance {
                 ft /= etap * etap;
             }
@@ -303,20 +375,24 @@ fn sample_dielectric(
                 specular: true,
                 transmission: true,
                 eta: etap,
+                pdf_is_proportional: false,
             })
         }
     } else {
         // Rough interface (Walter et al. 2007): sample a visible microfacet normal, then reflect or refract.
         let wm = distrib.sample_wm(wo, u);
-        let r = fresnel_dielectric(wo.dot(wm), eta);
-        let t = 1.0 - r;
+        let r0 = fresnel_dielectric(wo.dot(wm), eta);
+        let (r, t) = lobe_weights(r0, 1.0 - r0, lobes);
+        if r + t <= 0.0 {
+            return None;
+        }
         if uc < r / (r + t) {
             let wi = reflect(wo, wm);
             if !same_hemisphere(wo, wi) {
                 return None;
             }
             let pdf = distrib.pdf(wo, wm) / (4.0 * wo.dot(wm).abs()) * r / (r + t);
-            let f = distrib.d(wm) * distrib.g(wo, wi) * r / (4.0 * wi.z * wo.z).abs();
+            let f = distrib.d(wm) * distrib.g(wo, wi) * r0 / (4.0 * wi.z * wo.z).abs();
             (pdf > 0.0).then(|| BsdfSample {
                 f: SampledSpectrum::splat(f),
                 wi,
@@ -324,6 +400,7 @@ fn sample_dielectric(
                 specular: false,
                 transmission: false,
                 eta: 1.0,
+                pdf_is_proportional: false,
             })
         } else {
             let (wi, etap) = refract(wo, wm, eta)?;
@@ -345,6 +422,7 @@ fn sample_dielectric(
                 specular: false,
                 transmission: true,
                 eta: etap,
+                pdf_is_proportional: false,
             })
         }
     }
@@ -388,10 +466,13 @@ fn rough_dielectric_f(eta: f32, distrib: &TrowbridgeReitz, wo: Vec3, wi: Vec3, m
     }
 }
 
-fn rough_dielectric_pdf(eta: f32, distrib: &TrowbridgeReitz, wo: Vec3, wi: Vec3, _mode: TransportMode) -> f32 {
+fn rough_dielectric_pdf(eta: f32, distrib: &TrowbridgeReitz, wo: Vec3, wi: Vec3, lobes: Lobes) -> f32 {
     let Some((wm, etap, reflect)) = dielectric_half_vector(eta, wo, wi) else { return 0.0 };
-    let r = fresnel_dielectric(wo.dot(wm), eta);
-    let t = 1.0 - r;
+    let r0 = fresnel_dielectric(wo.dot(wm), eta);
+    let (r, t) = lobe_weights(r0, 1.0 - r0, lobes);
+    if r + t <= 0.0 {
+        return 0.0;
+    }
     if reflect {
         distrib.pdf(wo, wm) / (4.0 * wo.dot(wm).abs()) * r / (r + t)
     } else {
