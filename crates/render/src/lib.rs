@@ -3,6 +3,7 @@
 //! Knows nothing of file formats: it consumes the plain scene description and writes into a film.
 
 pub mod bxdf;
+pub mod camera;
 pub mod layered;
 pub mod microfacet;
 pub mod sampler;
