@@ -5,6 +5,9 @@
 pub mod bxdf;
 pub mod camera;
 pub mod layered;
+pub mod light;
+pub mod material;
 pub mod microfacet;
 pub mod sampler;
 pub mod sampling;
+pub mod texture;

@@ -1,0 +1,514 @@
+//! Light sources: point, spot, distant, uniform and image infinite lights, and diffuse area lights.
+//!
+//! Emission spectra arrive already scaled to pbrt-v4's photometric convention (see `scene_build`): a light
+//! spectrum is divided by its luminance before `scale` applies, so `"rgb L" [1 1 1]` is one nit.
+
+use glam::{Vec2, Vec3};
+use spectral::{Distribution2D, SampledSpectrum, SampledWavelengths, Spectrum};
+use std::f32::consts::PI;
+
+use crate::sampling::{sample_uniform_cone, sample_uniform_sphere, Frame};
+
+/// Where light arrives: a point and (for surfaces) its normal.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSampleContext {
+    /// The receiving point.
+    pub p: Vec3,
+    /// Its geometric normal (zero in a medium).
+    pub n: Vec3,
+}
+
+/// A sampled incident direction from a light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightLiSample {
+    /// Incident radiance (or intensity / d² for point lights).
+    pub l: SampledSpectrum,
+    /// Unit direction from the receiver towards the light.
+    pub wi: Vec3,
+    /// Density with respect to solid angle (1 for delta lights).
+    pub pdf: f32,
+    /// Distance to the sampled point (infinity for lights at infinity).
+    pub dist: f32,
+    /// True for delta distributions (point, spot, distant), which BSDF sampling can never hit.
+    pub delta: bool,
+}
+
+/// The surface an area light covers, in world space.
+#[derive(Clone, Debug)]
+pub enum EmitterShape {
+    /// A triangle with its (oriented) unit normal.
+    Triangle {
+        /// Vertices.
+        p: [Vec3; 3],
+        /// Emitting-side normal.
+        n: Vec3,
+    },
+    /// A sphere (uniform scale only).
+    Sphere {
+        /// Centre.
+        center: Vec3,
+        /// Radius.
+        radius: f32,
+        /// True if the normals point inwards (ReverseOrientation).
+        inward: bool,
+    },
+    /// A flat disk or annulus.
+    Disk {
+        /// Centre.
+        center: Vec3,
+        /// Emitting-side normal.
+        n: Vec3,
+        /// Outer radius.
+        radius: f32,
+        /// Inner radius.
+        inner: f32,
+    },
+}
+
+impl EmitterShape {
+    /// Surface area.
+    pub fn area(&self) -> f32 {
+        match self {
+            EmitterShape::Triangle { p, .. } => 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length(),
+            EmitterShape::Sphere { radius, .. } => 4.0 * PI * radius * radius,
+            EmitterShape::Disk { radius, inner, .. } => PI * (radius * radius - inner * inner),
+        }
+    }
+
+    /// A point on the shape seen from `from`: (point, normal, solid-angle density).
+    fn sample(&self, from: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+        match self {
+            EmitterShape::Sphere { center, radius, inward } => {
+                let dc2 = (from - *center).length_squared();
+                if dc2 <= radius * radius * 1.0001 || *inward {
+                    // Inside (or inward-facing): area sampling converted to solid angle.
+                    let n = sample_uniform_sphere(u);
+                    let p = *center + *radius * n;
+                    let n = if *inward { -n } else { n };
+                    return area_to_solid_angle(from, p, n, 1.0 / self.area());
+                }
+                // Outside: sample the cone of directions that sees the sphere (pbrt-v4 §6.2.4).
+                let dc = dc2.sqrt();
+                let sin2_max = radius * radius / dc2;
+                let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
+                let frame = Frame::from_z((*center - from) / dc);
+                let w = frame.from_local(sample_uniform_cone(u, cos_max));
+                // Intersect the ray with the sphere for the point (nearest root).
+                let oc = from - *center;
+                let b = oc.dot(w);
+                let disc = (b * b - (oc.length_squared() - radius * radius)).max(0.0);
+                let t = -b - disc.sqrt();
+                let p = from + w * t.max(0.0);
+                let n = (p - *center).normalize();
+                Some((p, n, 1.0 / (2.0 * PI * (1.0 - cos_max))))
+            }
+            EmitterShape::Triangle { p, n } => {
+                // Uniform barycentrics (Heitz 2019 low-distortion map, sqrt form).
+                let su = u.x.sqrt();
+                let (b0, b1) = (1.0 - su, u.y * su);
+                let q = p[0] * b0 + p[1] * b1 + p[2] * (1.0 - b0 - b1);
+                area_to_solid_angle(from, q, *n, 1.0 / self.area())
+            }
+            EmitterShape::Disk { center, n, radius, inner } => {
+                let r = (inner * inner + u.x * (radius * radius - inner * inner)).sqrt();
+                let phi = 2.0 * PI * u.y;
+                let f = Frame::from_z(*n);
+                let q = *center + f.from_local(Vec3::new(r * phi.cos(), r * phi.sin(), 0.0));
+                area_to_solid_angle(from, q, *n, 1.0 / self.area())
+            }
+        }
+    }
+
+    /// Solid-angle density of [`EmitterShape::sample`] for the point `p` with normal `n` seen from `from`.
+    fn pdf(&self, from: Vec3, p: Vec3, n: Vec3) -> f32 {
+        match self {
+            EmitterShape::Sphere { center, radius, inward } => {
+                let dc2 = (from - *center).length_squared();
+                if dc2 <= radius * radius * 1.0001 || *inward {
+                    return area_pdf_to_solid_angle(from, p, n, 1.0 / self.area());
+                }
+                let cos_max = (1.0 - radius * radius / dc2).max(0.0).sqrt();
+                1.0 / (2.0 * PI * (1.0 - cos_max))
+            }
+            _ => area_pdf_to_solid_angle(from, p, n, 1.0 / self.area()),
+        }
+    }
+}
+
+fn area_pdf_to_solid_angle(from: Vec3, p: Vec3, n: Vec3, pdf_area: f32) -> f32 {
+    let d = p - from;
+    let d2 = d.length_squared();
+    let cos = n.dot(-d.normalize_or_zero()).abs();
+    if cos == 0.0 || d2 == 0.0 {
+        0.0
+    } else {
+        pdf_area * d2 / cos
+    }
+}
+
+fn area_to_solid_angle(from: Vec3, p: Vec3, n: Vec3, pdf_area: f32) -> Option<(Vec3, Vec3, f32)> {
+    let pdf = area_pdf_to_solid_angle(from, p, n, pdf_area);
+    (pdf > 0.0 && pdf.is_finite()).then_some((p, n, pdf))
+}
+
+/// An environment image in equal-area octahedral (pbrt-v4's native) or latitude–longitude layout.
+#[derive(Clone, Debug)]
+pub struct EnvironmentMap {
+    /// Width in texels.
+    pub width: usize,
+    /// Height in texels.
+    pub height: usize,
+    /// Linear RGB texels (already uplifted to spectra per texel at lookup).
+    pub texels: Vec<spectral::rgb_uplift::RgbIlluminantSpectrum>,
+    /// True for the equal-area octahedral layout (square images), false for lat-long.
+    pub equal_area: bool,
+    /// Mean luminance of the texels (for the light's power).
+    pub mean_luminance: f32,
+    /// Importance distribution over the image (proportional to texel luminance, times sin θ for lat-long).
+    pub distribution: Distribution2D,
+    /// Light-from-world rotation frame: (x, y, z) axes of the light in world space.
+    pub frame: Frame,
+}
+
+/// A light.
+#[derive(Clone, Debug)]
+pub enum Light {
+    /// An isotropic point light: intensity `i·scale` (W/sr, relative).
+    Point {
+        /// Position.
+        p: Vec3,
+        /// Intensity spectrum (scaled).
+        i: Spectrum,
+    },
+    /// A spot light with smooth falloff between the two cone angles (pbrt-v4 smoothstep).
+    Spot {
+        /// Position.
+        p: Vec3,
+        /// Frame whose z is the spot axis.
+        frame: Frame,
+        /// Intensity spectrum (scaled).
+        i: Spectrum,
+        /// cos of the angle where falloff starts.
+        cos_falloff_start: f32,
+        /// cos of the total cone angle.
+        cos_falloff_end: f32,
+    },
+    /// A directional light arriving from direction `w` (unit, pointing towards the light).
+    Distant {
+        /// Direction towards the light.
+        w: Vec3,
+        /// Radiance spectrum (scaled).
+        l: Spectrum,
+        /// Radius of the scene's bounding sphere (for power).
+        scene_radius: f32,
+    },
+    /// Constant radiance from every direction.
+    UniformInfinite {
+        /// Radiance (scaled).
+        l: Spectrum,
+        /// Scene bounding sphere radius (for power).
+        scene_radius: f32,
+    },
+    /// Radiance from an environment image, importance-sampled.
+    ImageInfinite {
+        /// The image.
+        map: Box<EnvironmentMap>,
+        /// Scale (photometric normalisation and `scale`).
+        scale: f32,
+        /// Scene bounding sphere radius (for power).
+        scene_radius: f32,
+    },
+    /// Lambertian emission from one side (or both) of a shape.
+    DiffuseArea {
+        /// The emitting shape.
+        shape: EmitterShape,
+        /// Emitted radiance (scaled).
+        l: Spectrum,
+        /// Emit from both sides.
+        two_sided: bool,
+    },
+}
+
+impl Light {
+    /// True for lights at infinity that a ray escaping the scene sees.
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::UniformInfinite { .. } | Light::ImageInfinite { .. })
+    }
+
+    /// Samples incident light at `ctx` with `u`.
+    pub fn sample_li(&self, ctx: &LightSampleContext, u: Vec2, wl: &SampledWavelengths) -> Option<LightLiSample> {
+        match self {
+            Light::Point { p, i } => {
+                let d = *p - ctx.p;
+                let d2 = d.length_squared();
+                (d2 > 0.0).then(|| LightLiSample {
+                    l: i.sample(wl) * (1.0 / d2),
+                    wi: d / d2.sqrt(),
+                    pdf: 1.0,
+                    dist: d2.sqrt(),
+                    delta: true,
+                })
+            }
+            Light::Spot { p, frame, i, cos_falloff_start, cos_falloff_end } => {
+                let d = *p - ctx.p;
+                let d2 = d.length_squared();
+                if d2 == 0.0 {
+                    return None;
+                }
+                let wi = d / d2.sqrt();
+                let cos = frame.z.dot(-wi);
+                let falloff = smoothstep(*cos_falloff_end, *cos_falloff_start, cos);
+                (falloff > 0.0).then(|| LightLiSample {
+                    l: i.sample(wl) * (falloff / d2),
+                    wi,
+                    pdf: 1.0,
+                    dist: d2.sqrt(),
+                    delta: true,
+                })
+            }
+            Light::Distant { w, l, .. } => {
+                Some(LightLiSample { l: l.sample(wl), wi: *w, pdf: 1.0, dist: f32::INFINITY, delta: true })
+            }
+            Light::UniformInfinite { l, .. } => {
+                let wi = sample_uniform_sphere(u);
+                Some(LightLiSample { l: l.sample(wl), wi, pdf: 1.0 / (4.0 * PI), dist: f32::INFINITY, delta: false })
+            }
+            Light::ImageInfinite { map, scale, .. } => {
+                let s = map.distribution.sample([u.x as f64, u.y as f64]);
+                let uv = Vec2::new(s.point[0] as f32, s.point[1] as f32);
+                let (w_local, jac) = map.direction(uv)?;
+                let pdf = s.pdf as f32 / jac;
+                let wi = map.frame.from_local(w_local);
+                (pdf > 0.0).then(|| LightLiSample {
+                    l: map.lookup(uv, wl) * *scale,
+                    wi,
+                    pdf,
+                    dist: f32::INFINITY,
+                    delta: false,
+                })
+            }
+            Light::DiffuseArea { shape, l, two_sided } => {
+                let (p, n, pdf) = shape.sample(ctx.p, u)?;
+                let d = p - ctx.p;
+                let dist = d.length();
+                if dist == 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                let facing = n.dot(-wi) > 0.0;
+                if !facing && !two_sided {
+                    return None;
+                }
+                Some(LightLiSample { l: l.sample(wl), wi, pdf, dist, delta: false })
+            }
+        }
+    }
+
+    /// Solid-angle density that [`Light::sample_li`] would give for the surface point `p` (normal `n`) of an area
+    /// light seen from `from`.
+    pub fn pdf_li_area(&self, from: Vec3, p: Vec3, n: Vec3) -> f32 {
+        match self {
+            Light::DiffuseArea { shape, .. } => shape.pdf(from, p, n),
+            _ => 0.0,
+        }
+    }
+
+    /// Solid-angle density of [`Light::sample_li`] for an escaping direction `w` (infinite lights).
+    pub fn pdf_li_infinite(&self, w: Vec3) -> f32 {
+        match self {
+            Light::UniformInfinite { .. } => 1.0 / (4.0 * PI),
+            Light::ImageInfinite { map, .. } => {
+                let local = map.frame.to_local(w);
+                let (uv, jac) = map.uv(local);
+                map.distribution.pdf([uv.x as f64, uv.y as f64]) as f32 / jac
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Radiance emitted from an area light's surface point with normal `n` towards `w`.
+    pub fn l_area(&self, n: Vec3, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Light::DiffuseArea { l, two_sided, .. } => {
+                if *two_sided || n.dot(w) > 0.0 {
+                    l.sample(wl)
+                } else {
+                    SampledSpectrum::zero()
+                }
+            }
+            _ => SampledSpectrum::zero(),
+        }
+    }
+
+    /// Radiance arriving along an escaping ray with direction `w` (infinite lights).
+    pub fn le(&self, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Light::UniformInfinite { l, .. } => l.sample(wl),
+            Light::ImageInfinite { map, scale, .. } => {
+                let (uv, _) = map.uv(map.frame.to_local(w));
+                map.lookup(uv, wl) * *scale
+            }
+            _ => SampledSpectrum::zero(),
+        }
+    }
+
+    /// Emitted power, reduced to a luminance-weighted scalar for the power-based light sampler.
+    pub fn power(&self) -> f32 {
+        let y = |s: &Spectrum| spectral::Observer::Cie1931.spectrum_to_xyz(s).y as f32;
+        match self {
+            Light::Point { i, .. } => 4.0 * PI * y(i),
+            Light::Spot { i, cos_falloff_start, cos_falloff_end, .. } => {
+                2.0 * PI * y(i) * (1.0 - 0.5 * (cos_falloff_start + cos_falloff_end))
+            }
+            Light::Distant { l, scene_radius, .. } => PI * scene_radius * scene_radius * y(l),
+            Light::UniformInfinite { l, scene_radius } => 4.0 * PI * PI * scene_radius * scene_radius * y(l),
+            Light::ImageInfinite { map, scale, scene_radius } => {
+                4.0 * PI * PI * scene_radius * scene_radius * scale * map.average_luminance()
+            }
+            Light::DiffuseArea { shape, l, two_sided } => PI * shape.area() * y(l) * if *two_sided { 2.0 } else { 1.0 },
+        }
+    }
+}
+
+fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
+    if a == b {
+        return if x < a { 0.0 } else { 1.0 };
+    }
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+impl EnvironmentMap {
+    /// Unit direction (light space) for image coordinates `uv ∈ [0,1]²`, and the Jacobian |dω/d(uv)| (so a density
+    /// over uv divided by it is a density over solid angle).
+    pub fn direction(&self, uv: Vec2) -> Option<(Vec3, f32)> {
+        if self.equal_area {
+            Some((equal_area_square_to_sphere(uv), 4.0 * PI))
+        } else {
+            // Lat-long: u → φ ∈ [0, 2π), v → θ ∈ [0, π] from +z.
+            let theta = uv.y * PI;
+            let phi = uv.x * 2.0 * PI;
+            let st = theta.sin();
+            if st <= 0.0 {
+                return None;
+            }
+            Some((Vec3::new(st * phi.cos(), st * phi.sin(), theta.cos()), 2.0 * PI * PI * st))
+        }
+    }
+
+    /// Image coordinates of a light-space direction, and the Jacobian as in [`EnvironmentMap::direction`].
+    pub fn uv(&self, w: Vec3) -> (Vec2, f32) {
+        if self.equal_area {
+            (equal_area_sphere_to_square(w), 4.0 * PI)
+        } else {
+            let theta = w.z.clamp(-1.0, 1.0).acos();
+            let mut phi = w.y.atan2(w.x);
+            if phi < 0.0 {
+                phi += 2.0 * PI;
+            }
+            (Vec2::new(phi / (2.0 * PI), theta / PI), 2.0 * PI * PI * theta.sin().max(1e-8))
+        }
+    }
+
+    /// Radiance at `uv` (nearest texel).
+    pub fn lookup(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
+        let x = ((uv.x * self.width as f32) as usize).min(self.width - 1);
+        let y = ((uv.y * self.height as f32) as usize).min(self.height - 1);
+        let t = &self.texels[y * self.width + x];
+        let mut s = SampledSpectrum::zero();
+        for i in 0..spectral::N_WAVELENGTHS {
+            s[i] = t.eval(wl.lambda(i) as f64) as f32;
+        }
+        s
+    }
+
+    /// Mean luminance over the image.
+    pub fn average_luminance(&self) -> f32 {
+        self.mean_luminance
+    }
+}
+
+/// Clarberg's equal-area mapping from the square to the sphere (pbrt-v4's environment map layout).
+pub fn equal_area_square_to_sphere(p: Vec2) -> Vec3 {
+    let u = 2.0 * p.x - 1.0;
+    let v = 2.0 * p.y - 1.0;
+    let (up, vp) = (u.abs(), v.abs());
+    let signed_distance = 1.0 - (up + vp);
+    let d = signed_distance.abs();
+    let r = 1.0 - d;
+    let phi = if r == 0.0 { 1.0 } else { (vp - up) / r + 1.0 } * PI / 4.0;
+    let z = (1.0 - r * r).copysign(signed_distance);
+    let cos_phi = phi.cos().copysign(u);
+    let sin_phi = phi.sin().copysign(v);
+    let s = r * (2.0 - r * r).max(0.0).sqrt();
+    Vec3::new(cos_phi * s, sin_phi * s, z)
+}
+
+/// Inverse of [`equal_area_square_to_sphere`].
+pub fn equal_area_sphere_to_square(d: Vec3) -> Vec2 {
+    let (x, y, z) = (d.x.abs(), d.y.abs(), d.z.abs());
+    let r = (1.0 - z).max(0.0).sqrt();
+    let a = x.max(y);
+    let b = x.min(y);
+    let b = if a == 0.0 { 0.0 } else { b / a };
+    let mut phi = b.atan() * 2.0 / PI;
+    if x < y {
+        phi = 1.0 - phi;
+    }
+    let mut v = phi * r;
+    let mut u = r - v;
+    if d.z < 0.0 {
+        std::mem::swap(&mut u, &mut v);
+        u = 1.0 - u;
+        v = 1.0 - v;
+    }
+    u = u.copysign(d.x);
+    v = v.copysign(d.y);
+    Vec2::new(0.5 * (u + 1.0), 0.5 * (v + 1.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equal_area_mapping_round_trips() {
+        for i in 0..20 {
+            for j in 0..20 {
+                let p = Vec2::new((i as f32 + 0.5) / 20.0, (j as f32 + 0.5) / 20.0);
+                let w = equal_area_square_to_sphere(p);
+                assert!((w.length() - 1.0).abs() < 1e-5);
+                let q = equal_area_sphere_to_square(w);
+                assert!((p - q).length() < 1e-4, "{p} → {w} → {q}");
+            }
+        }
+    }
+
+    #[test]
+    fn sphere_light_cone_pdf_matches_its_samples() {
+        let shape = EmitterShape::Sphere { center: Vec3::new(0.0, 0.0, 10.0), radius: 2.0, inward: false };
+        let from = Vec3::ZERO;
+        for k in 0..50 {
+            let u = Vec2::new((k as f32 + 0.5) / 50.0, ((k * 7) % 50) as f32 / 50.0);
+            let (p, n, pdf) = shape.sample(from, u).unwrap();
+            assert!(((p - Vec3::new(0.0, 0.0, 10.0)).length() - 2.0).abs() < 1e-3);
+            assert!(n.dot(-p.normalize()) > -1e-3, "visible side");
+            assert!((pdf - shape.pdf(from, p, n)).abs() < 1e-6 * pdf);
+        }
+        // Cone pdf = 1/(2π(1 − cos θmax)) with sin θmax = 0.2.
+        let expected = 1.0 / (2.0 * PI * (1.0 - (1.0f32 - 0.04).sqrt()));
+        assert!((shape.pdf(from, Vec3::new(0.0, 0.0, 8.0), -Vec3::Z) - expected).abs() < 1e-3 * expected);
+    }
+
+    #[test]
+    fn triangle_light_pdf_is_area_converted() {
+        let shape = EmitterShape::Triangle {
+            p: [Vec3::new(-1.0, -1.0, 5.0), Vec3::new(1.0, -1.0, 5.0), Vec3::new(0.0, 1.0, 5.0)],
+            n: -Vec3::Z,
+        };
+        let (p, n, pdf) = shape.sample(Vec3::ZERO, Vec2::new(0.3, 0.6)).unwrap();
+        let d2 = p.length_squared();
+        let cos = n.dot(-p.normalize()).abs();
+        assert!((pdf - d2 / (cos * 2.0)).abs() < 1e-4 * pdf);
+    }
+}

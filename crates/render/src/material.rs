@@ -1,0 +1,213 @@
+//! Materials: what a surface is made of, turned into a BxDF at the path's wavelengths.
+
+use optics::Ior;
+use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
+
+use crate::bxdf::Bxdf;
+use crate::layered::CoatedDiffuse;
+use crate::microfacet::TrowbridgeReitz;
+use crate::texture::{FloatTexture, SpectrumTexture, TextureEvalContext};
+
+/// The index of refraction of a dielectric.
+#[derive(Clone, Debug)]
+pub enum DielectricIor {
+    /// A model from the optics crate (constant, Sellmeier, Cauchy, Abbe, tabulated, …).
+    Model(Ior),
+    /// A spectrum of n(λ) given in the scene (pbrt's `"spectrum eta"`).
+    Spectrum(Spectrum),
+}
+
+impl DielectricIor {
+    /// n at `lambda_nm`.
+    pub fn n(&self, lambda_nm: f32) -> f32 {
+        match self {
+            DielectricIor::Model(m) => m.n(lambda_nm as f64) as f32,
+            DielectricIor::Spectrum(s) => s.eval(lambda_nm as f64) as f32,
+        }
+    }
+
+    /// True if n depends on the wavelength, so refraction must keep a single wavelength.
+    pub fn is_dispersive(&self) -> bool {
+        match self {
+            DielectricIor::Model(m) => m.is_dispersive(),
+            DielectricIor::Spectrum(s) => !matches!(s, Spectrum::Constant(_)),
+        }
+    }
+}
+
+/// Roughness parameters shared by the microfacet materials.
+#[derive(Clone, Debug)]
+pub struct Roughness {
+    /// Roughness along u.
+    pub u: FloatTexture,
+    /// Roughness along v.
+    pub v: FloatTexture,
+    /// Map perceptual roughness to α = √roughness (pbrt's `remaproughness`, default true).
+    pub remap: bool,
+}
+
+impl Roughness {
+    /// A smooth surface.
+    pub fn smooth() -> Self {
+        Self { u: FloatTexture::Constant(0.0), v: FloatTexture::Constant(0.0), remap: true }
+    }
+
+    fn distribution(&self, ctx: &TextureEvalContext) -> TrowbridgeReitz {
+        let (mut u, mut v) = (self.u.eval(ctx).max(0.0), self.v.eval(ctx).max(0.0));
+        if self.remap {
+            u = TrowbridgeReitz::roughness_to_alpha(u);
+            v = TrowbridgeReitz::roughness_to_alpha(v);
+        }
+        TrowbridgeReitz::new(u, v)
+    }
+}
+
+/// How a conductor's optical constants are given.
+#[derive(Clone, Debug)]
+pub enum ConductorSpec {
+    /// Complex index η + ik.
+    EtaK {
+        /// η.
+        eta: SpectrumTexture,
+        /// k.
+        k: SpectrumTexture,
+    },
+    /// A reflectance at normal incidence, converted to η = 1 and k = 2√r/√(1 − r) (pbrt-v4).
+    Reflectance(SpectrumTexture),
+}
+
+/// A material.
+#[derive(Clone, Debug)]
+pub enum Material {
+    /// Lambertian.
+    Diffuse {
+        /// Albedo.
+        reflectance: SpectrumTexture,
+    },
+    /// Metal.
+    Conductor {
+        /// Optical constants.
+        spec: ConductorSpec,
+        /// Roughness.
+        roughness: Roughness,
+    },
+    /// Glass, water, gems: refracts with n(λ).
+    Dielectric {
+        /// n(λ).
+        ior: DielectricIor,
+        /// Roughness.
+        roughness: Roughness,
+    },
+    /// A thin sheet of glass (no refraction offset).
+    ThinDielectric {
+        /// n(λ).
+        ior: DielectricIor,
+    },
+    /// Diffuse under a dielectric coat.
+    CoatedDiffuse {
+        /// Base albedo.
+        reflectance: SpectrumTexture,
+        /// Coat roughness.
+        roughness: Roughness,
+        /// Thickness of the absorbing layer.
+        thickness: f32,
+        /// Coat index.
+        ior: DielectricIor,
+        /// Maximum random-walk depth.
+        max_depth: u32,
+        /// Walks per evaluation.
+        n_samples: u32,
+    },
+    /// Chooses one of two materials per shading point with probability `amount` for the second.
+    Mix {
+        /// The two materials (indices into the scene's material list).
+        materials: [u32; 2],
+        /// Probability of the second.
+        amount: FloatTexture,
+    },
+    /// No surface: marks a boundary between media.
+    Interface,
+}
+
+impl Material {
+    /// The BxDF at a shading point. Dispersive dielectrics first reduce the path to one wavelength with `u`
+    /// (seed 001: a refractive surface forces a choice); `None` for interfaces.
+    pub fn bxdf(&self, ctx: &TextureEvalContext, wl: &mut SampledWavelengths, u: f32) -> Option<Bxdf> {
+        match self {
+            Material::Diffuse { reflectance } => Some(Bxdf::Diffuse { r: clamp01(reflectance.eval(ctx, wl)) }),
+            Material::Conductor { spec, roughness } => {
+                let (eta, k) = match spec {
+                    ConductorSpec::EtaK { eta, k } => (eta.eval(ctx, wl), k.eval(ctx, wl)),
+                    ConductorSpec::Reflectance(r) => {
+                        let r = clamp01(r.eval(ctx, wl)).map(|v| v.min(0.9999));
+                        (SampledSpectrum::splat(1.0), r.map(|v| 2.0 * v.sqrt() / (1.0 - v).sqrt()))
+                    }
+                };
+                Some(Bxdf::Conductor { eta, k, distrib: roughness.distribution(ctx) })
+            }
+            Material::Dielectric { ior, roughness } => {
+                let eta = single_eta(ior, wl, u);
+                Some(Bxdf::Dielectric { eta, distrib: roughness.distribution(ctx) })
+            }
+            Material::ThinDielectric { ior } => {
+                let mut eta = SampledSpectrum::zero();
+                for i in 0..N_WAVELENGTHS {
+                    eta[i] = ior.n(wl.lambda(i));
+                }
+                Some(Bxdf::ThinDielectric { eta })
+            }
+            Material::CoatedDiffuse { reflectance, roughness, thickness, ior, max_depth, n_samples } => {
+                let eta = single_eta(ior, wl, u);
+                Some(Bxdf::CoatedDiffuse(Box::new(CoatedDiffuse::new(
+                    clamp01(reflectance.eval(ctx, wl)),
+                    eta,
+                    roughness.distribution(ctx),
+                    *thickness,
+                    *max_depth,
+                    *n_samples,
+                ))))
+            }
+            Material::Mix { .. } | Material::Interface => None,
+        }
+    }
+}
+
+/// The relative index for a dielectric at the path's wavelengths, terminating secondary wavelengths first if the
+/// index is dispersive (the kept slot's λ decides the direction of refraction).
+fn single_eta(ior: &DielectricIor, wl: &mut SampledWavelengths, u: f32) -> f32 {
+    if ior.is_dispersive() {
+        let keep = wl.terminate_secondary(u);
+        ior.n(wl.lambda(keep))
+    } else {
+        ior.n(wl.lambda(0))
+    }
+}
+
+fn clamp01(s: SampledSpectrum) -> SampledSpectrum {
+    s.map(|v| v.clamp(0.0, 1.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Vec2, Vec3};
+
+    #[test]
+    fn dispersive_glass_keeps_one_wavelength_and_uses_its_index() {
+        let sf11 = optics::catalogue::lookup("N-SF11").unwrap().ior;
+        let m = Material::Dielectric { ior: DielectricIor::Model(sf11.clone()), roughness: Roughness::smooth() };
+        let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
+        let ctx = TextureEvalContext { uv: Vec2::ZERO, p: Vec3::ZERO };
+        let Some(Bxdf::Dielectric { eta, .. }) = m.bxdf(&ctx, &mut wl, 0.6) else { panic!() };
+        assert!(wl.is_single());
+        assert!((eta as f64 - sf11.n(650.0)).abs() < 1e-6, "kept slot 2 (650 nm)");
+        // A constant index keeps all four wavelengths.
+        let m = Material::Dielectric {
+            ior: DielectricIor::Model(optics::Ior::constant(1.5).unwrap()),
+            roughness: Roughness::smooth(),
+        };
+        let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
+        m.bxdf(&ctx, &mut wl, 0.6);
+        assert_eq!(wl.active_count(), 4);
+    }
+}
