@@ -4,10 +4,13 @@
 
 pub mod bxdf;
 pub mod camera;
+pub mod integrator;
 pub mod layered;
 pub mod light;
 pub mod material;
 pub mod microfacet;
+pub mod render;
 pub mod sampler;
 pub mod sampling;
+pub mod scene;
 pub mod texture;

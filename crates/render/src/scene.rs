@@ -1,0 +1,132 @@
+//! The render-ready scene: geometry behind a small trait, materials, lights with a power-based light sampler,
+//! media and the camera.
+
+use glam::{Vec2, Vec3};
+use spectral::{Distribution1D, SampledSpectrum, SampledWavelengths, Spectrum};
+
+use crate::camera::Camera;
+use crate::light::Light;
+use crate::material::Material;
+
+/// Material index meaning "no surface" (a boundary between media only).
+pub const NO_MATERIAL: u32 = u32::MAX;
+
+/// Which media lie on each side of a surface (indices into [`RenderScene::media`]; `None` is vacuum).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MediumInterface {
+    /// Medium on the side the geometric normal points away from.
+    pub inside: Option<u32>,
+    /// Medium on the side the geometric normal points to.
+    pub outside: Option<u32>,
+}
+
+/// What a ray hit.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    /// Ray parameter.
+    pub t: f32,
+    /// Point.
+    pub p: Vec3,
+    /// Geometric normal (unit; for emitters, the emitting side).
+    pub n: Vec3,
+    /// Shading normal (unit, on the same side as `n`).
+    pub ns: Vec3,
+    /// Surface (u, v).
+    pub uv: Vec2,
+    /// Tangent for the shading frame.
+    pub dpdu: Vec3,
+    /// Distance along ±n that a spawned ray origin must move to clear the surface (floating-point error bound).
+    pub offset: f32,
+    /// Material index, or [`NO_MATERIAL`].
+    pub material: u32,
+    /// Index of the area light on this surface, if it emits.
+    pub area_light: Option<u32>,
+    /// Media on either side, if the surface separates media.
+    pub media: Option<MediumInterface>,
+}
+
+impl SurfaceHit {
+    /// Origin for a ray leaving the surface in direction `d` (offset to the side `d` points to).
+    pub fn spawn_origin(&self, d: Vec3) -> Vec3 {
+        let off = self.n * self.offset;
+        if d.dot(self.n) >= 0.0 {
+            self.p + off
+        } else {
+            self.p - off
+        }
+    }
+}
+
+/// Ray queries against the scene's geometry.
+pub trait Geometry: Send + Sync {
+    /// Closest hit along `o + t·d` with `0 < t < t_max`.
+    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit>;
+    /// True if anything lies along `o + t·d` with `0 < t < t_max`.
+    fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool;
+}
+
+/// A homogeneous medium that only absorbs (Beer–Lambert): coloured glass interiors.
+#[derive(Clone, Debug)]
+pub struct AbsorbingMedium {
+    /// Absorption coefficient per unit scene length.
+    pub sigma_a: Spectrum,
+}
+
+impl AbsorbingMedium {
+    /// Transmittance over distance `d`: exp(−σa(λ)·d).
+    pub fn transmittance(&self, d: f32, wl: &SampledWavelengths) -> SampledSpectrum {
+        (self.sigma_a.sample(wl) * -d).exp()
+    }
+}
+
+/// Everything the integrators need.
+pub struct RenderScene {
+    /// Ray queries.
+    pub geometry: Box<dyn Geometry>,
+    /// Materials, indexed by [`SurfaceHit::material`].
+    pub materials: Vec<Material>,
+    /// Lights.
+    pub lights: Vec<Light>,
+    /// Light selection by power (None when there are no lights).
+    pub light_distribution: Option<Distribution1D>,
+    /// Indices of the infinite lights.
+    pub infinite_lights: Vec<u32>,
+    /// Media.
+    pub media: Vec<AbsorbingMedium>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
+    /// The camera.
+    pub camera: Camera,
+}
+
+impl RenderScene {
+    /// Builds the light sampler and the list of infinite lights from `lights` (selection ∝ power; a scene whose
+    /// lights all report zero power falls back to uniform selection).
+    pub fn new(
+        geometry: Box<dyn Geometry>,
+        materials: Vec<Material>,
+        lights: Vec<Light>,
+        media: Vec<AbsorbingMedium>,
+        camera_medium: Option<u32>,
+        camera: Camera,
+    ) -> Self {
+        let power: Vec<f64> = lights.iter().map(|l| l.power().max(0.0) as f64).collect();
+        let light_distribution = (!lights.is_empty())
+            .then(|| Distribution1D::new(&power, 0.0, 1.0).expect("light powers are finite and non-negative"));
+        let infinite_lights =
+            lights.iter().enumerate().filter(|(_, l)| l.is_infinite()).map(|(i, _)| i as u32).collect();
+        Self { geometry, materials, lights, light_distribution, infinite_lights, media, camera_medium, camera }
+    }
+
+    /// Probability that the light sampler picks light `i`.
+    pub fn light_probability(&self, i: u32) -> f32 {
+        self.light_distribution.as_ref().map_or(0.0, |d| d.bin_probability(i as usize) as f32)
+    }
+
+    /// Picks a light with `u`: (index, probability).
+    pub fn sample_light(&self, u: f32) -> Option<(u32, f32)> {
+        let d = self.light_distribution.as_ref()?;
+        let (i, p, _) = d.sample_discrete(u as f64);
+        (p > 0.0).then_some((i as u32, p as f32))
+    }
+}

@@ -1,0 +1,125 @@
+//! Furnace tests: closed-form answers for objects inside a uniform environment.
+//!
+//! A convex object inside a uniform environment of radiance L: a diffuse sphere of albedo ρ looks exactly ρ·L
+//! (every point sees only the environment), and a non-absorbing smooth glass sphere looks exactly L (it neither
+//! absorbs nor emits; every path eventually leaves). Renders use a pinhole camera at a few hundred samples.
+
+use geometry::Transform;
+use glam::{DVec3, Vec2, Vec3};
+use render::camera::{Camera, Projection, ScreenWindow};
+use render::integrator::{PathIntegrator, RayCounts};
+use render::light::Light;
+use render::material::{DielectricIor, Material, Roughness};
+use render::render::render_pixel;
+use render::scene::{Geometry, RenderScene, SurfaceHit};
+use render::texture::SpectrumTexture;
+use spectral::{Observer, Spectrum, WavelengthSampler, WavelengthStrategy};
+
+/// One sphere at the origin.
+struct OneSphere {
+    radius: f32,
+}
+
+impl OneSphere {
+    fn hit_t(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
+        let b = o.dot(d);
+        let c = o.length_squared() - self.radius * self.radius;
+        let disc = b * b - c;
+        if disc < 0.0 {
+            return None;
+        }
+        let s = disc.sqrt();
+        [-b - s, -b + s].into_iter().find(|&t| t > 1e-4 && t < t_max)
+    }
+}
+
+impl Geometry for OneSphere {
+    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit> {
+        let t = self.hit_t(o, d, t_max)?;
+        let p = o + d * t;
+        let n = p.normalize();
+        Some(SurfaceHit {
+            t,
+            p,
+            n,
+            ns: n,
+            uv: Vec2::ZERO,
+            dpdu: n.cross(Vec3::Z).try_normalize().unwrap_or(Vec3::X),
+            offset: 1e-4,
+            material: 0,
+            area_light: None,
+            media: None,
+        })
+    }
+    fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
+        self.hit_t(o, d, t_max).is_some()
+    }
+}
+
+fn scene(material: Material) -> RenderScene {
+    let cam = Transform::look_at(DVec3::new(0.0, 0.0, -5.0), DVec3::ZERO, DVec3::Y).unwrap();
+    let camera = Camera::new(
+        Projection::Perspective { tan_half_fov: (10f32.to_radians()).tan() },
+        &cam,
+        (8, 8),
+        ScreenWindow::for_aspect(1.0),
+        0.0,
+        1.0,
+    );
+    RenderScene::new(
+        Box::new(OneSphere { radius: 1.0 }),
+        vec![material],
+        vec![Light::UniformInfinite { l: Spectrum::Constant(1.0), scene_radius: 1.0 }],
+        vec![],
+        None,
+        camera,
+    )
+}
+
+/// Mean Y over the central 4×4 pixels (all on the sphere) and its standard error across pixels.
+fn mean_y(scene: &RenderScene, strategy: WavelengthStrategy, spp: u32, max_depth: u32) -> (f64, f64) {
+    let ws = WavelengthSampler::new(strategy, Observer::Cie1931);
+    let integrator = PathIntegrator { max_depth };
+    let filter = |_: [f32; 2]| (Vec2::ZERO, 1.0f32);
+    let mut values = vec![];
+    let mut counts = RayCounts::default();
+    for y in 2..6 {
+        for x in 2..6 {
+            let mut sum = 0.0;
+            render_pixel(scene, &integrator, &ws, &filter, x, y, 0..spp, 1, &mut counts, |c| sum += c.xyz.y);
+            values.push(sum / spp as f64);
+        }
+    }
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+#[test]
+fn diffuse_sphere_in_a_furnace_reflects_albedo_times_l() {
+    for rho in [0.25, 0.8] {
+        let s = scene(Material::Diffuse { reflectance: SpectrumTexture::Constant(Spectrum::Constant(rho)) });
+        for strategy in WavelengthStrategy::ALL {
+            let (y, se) = mean_y(&s, strategy, 256, 5);
+            // Exact answer ρ·L with L = 1; tolerance: 4 standard errors plus 0.5% for the cmf route's 1931 fit.
+            let tol = 4.0 * se + 0.005;
+            assert!((y - rho).abs() < tol, "{strategy}: ρ = {rho}: Y = {y} ± {se}");
+        }
+    }
+}
+
+#[test]
+fn glass_spheres_in_a_furnace_are_invisible() {
+    let glasses = [
+        DielectricIor::Model(optics::Ior::constant(1.5).unwrap()),
+        DielectricIor::Model(optics::catalogue::lookup("N-SF11").unwrap().ior),
+    ];
+    for ior in glasses {
+        let s = scene(Material::Dielectric { ior, roughness: Roughness::smooth() });
+        for strategy in WavelengthStrategy::ALL {
+            let (y, se) = mean_y(&s, strategy, 256, 64);
+            assert!((y - 1.0).abs() < 4.0 * se + 0.01, "{strategy}: Y = {y} ± {se}");
+        }
+    }
+}
