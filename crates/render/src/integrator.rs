@@ -151,7 +151,7 @@ impl PathIntegrator {
                 if u[6] < q {
                     break;
                 }
-                beta = beta * (1.0 / (1.0 - q));
+                beta *= 1.0 / (1.0 - q);
             }
             if !beta.0.iter().all(|v| v.is_finite()) {
                 break;
