@@ -1,0 +1,628 @@
+//! The film: per-pixel accumulators of filtered camera samples.
+//!
+//! Every pixel keeps, in `f64`, the weighted sum of the CIE XYZ of its samples and the sum of their filter weights
+//! (the pixel's colour is the ratio), and, for a spectral film, `nbuckets` weighted sums of spectral radiance over
+//! equal wavelength buckets between `lambda_min` and `lambda_max`. A path sample carries a handful of wavelengths
+//! λᵢ with estimates Lᵢ/pdfᵢ (the renderer divides by the *effective* density of each wavelength, whatever the
+//! strategy: `rgb`, `cmf` or `hero`); each goes whole into the bucket containing λᵢ, divided by the bucket's width.
+//! The expectation of a bucket is then the mean spectral radiance over the bucket (per nm), for any wavelength
+//! strategy — unlike pbrt-v4's spectral film, which averages Lᵢ without the pdf and so is right only for uniform
+//! wavelength sampling.
+//!
+//! Rendering threads write disjoint rows ([`Film::par_rows_mut`]) without locks; since the filter is importance
+//! sampled ([`crate::FilterSampler`]) each camera sample lands in its own pixel, so the result does not depend on the
+//! thread count. Films rendered separately (other processes, other sample ranges) add up with [`Film::merge`].
+
+use crate::{FilmError, Filter};
+use rayon::prelude::*;
+use spectral::{RgbColorSpace, SampledSpectrum, SampledWavelengths, Xyz, N_WAVELENGTHS};
+use std::path::PathBuf;
+
+/// What a film records besides colour.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FilmKind {
+    /// pbrt-v4's `rgb` film: colour only.
+    Rgb,
+    /// pbrt-v4's `spectral` film: colour plus `nbuckets` equal buckets of spectral radiance over
+    /// `[lambda_min, lambda_max)` nm, written in the spectral EXR layout of Fichet et al. 2021.
+    Spectral {
+        /// Number of buckets (pbrt-v4 default 16).
+        nbuckets: usize,
+        /// Lower end of the first bucket in nm (pbrt-v4 default 360).
+        lambda_min: f64,
+        /// Upper end of the last bucket in nm (pbrt-v4 default 830).
+        lambda_max: f64,
+    },
+}
+
+impl FilmKind {
+    /// pbrt-v4's default bucket count for the spectral film.
+    pub const DEFAULT_NBUCKETS: usize = 16;
+    /// pbrt-v4's default `lambdamin` (nm).
+    pub const DEFAULT_LAMBDA_MIN: f64 = 360.0;
+    /// pbrt-v4's default `lambdamax` (nm).
+    pub const DEFAULT_LAMBDA_MAX: f64 = 830.0;
+
+    /// The spectral film with pbrt-v4's defaults: 16 buckets over 360–830 nm.
+    pub fn spectral_default() -> Self {
+        FilmKind::Spectral {
+            nbuckets: Self::DEFAULT_NBUCKETS,
+            lambda_min: Self::DEFAULT_LAMBDA_MIN,
+            lambda_max: Self::DEFAULT_LAMBDA_MAX,
+        }
+    }
+
+    /// Checks the spectral parameters, naming the first bad one (`nbuckets`, `lambdamin`, `lambdamax`).
+    pub fn validate(&self) -> Result<(), FilmError> {
+        if let FilmKind::Spectral { nbuckets, lambda_min, lambda_max } = *self {
+            if nbuckets < 1 {
+                return Err(FilmError::InvalidParameter {
+                    name: "nbuckets",
+                    value: nbuckets as f64,
+                    expected: "at least 1",
+                });
+            }
+            if !(spectral::LAMBDA_MIN..spectral::LAMBDA_MAX).contains(&lambda_min) {
+                return Err(FilmError::InvalidParameter {
+                    name: "lambdamin",
+                    value: lambda_min,
+                    expected: "a wavelength in [360, 830) nm",
+                });
+            }
+            if !(lambda_max > lambda_min && lambda_max <= spectral::LAMBDA_MAX) {
+                return Err(FilmError::InvalidParameter {
+                    name: "lambdamax",
+                    value: lambda_max,
+                    expected: "a wavelength greater than lambdamin and at most 830 nm",
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of spectral buckets (0 for an RGB film).
+    pub fn nbuckets(&self) -> usize {
+        match *self {
+            FilmKind::Rgb => 0,
+            FilmKind::Spectral { nbuckets, .. } => nbuckets,
+        }
+    }
+
+    /// Width of one bucket in nm (0 for an RGB film).
+    pub fn bucket_width(&self) -> f64 {
+        match *self {
+            FilmKind::Rgb => 0.0,
+            FilmKind::Spectral { nbuckets, lambda_min, lambda_max } => (lambda_max - lambda_min) / nbuckets as f64,
+        }
+    }
+
+    /// The buckets' central wavelengths in nm, ascending (empty for an RGB film).
+    pub fn bucket_centres(&self) -> Vec<f64> {
+        match *self {
+            FilmKind::Rgb => Vec::new(),
+            FilmKind::Spectral { nbuckets, lambda_min, .. } => {
+                let w = self.bucket_width();
+                (0..nbuckets).map(|b| lambda_min + (b as f64 + 0.5) * w).collect()
+            }
+        }
+    }
+
+    /// The bucket holding wavelength `lambda` (nm): `None` outside `[lambda_min, lambda_max)`, for NaN, and for an
+    /// RGB film.
+    pub fn bucket_of(&self, lambda: f64) -> Option<usize> {
+        match *self {
+            FilmKind::Rgb => None,
+            FilmKind::Spectral { nbuckets, lambda_min, lambda_max } => {
+                if !(lambda >= lambda_min && lambda < lambda_max) {
+                    return None;
+                }
+                let b = ((lambda - lambda_min) / (lambda_max - lambda_min) * nbuckets as f64) as usize;
+                Some(b.min(nbuckets - 1))
+            }
+        }
+    }
+}
+
+/// Everything that defines a film: pbrt-v4's `Film` directive plus the pixel filter.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FilmSpec {
+    /// Width in pixels (`xresolution`, pbrt-v4 default 1280).
+    pub width: u32,
+    /// Height in pixels (`yresolution`, pbrt-v4 default 720).
+    pub height: u32,
+    /// Where the image goes; the extension chooses the format (see [`crate::write_image`]).
+    pub filename: PathBuf,
+    /// RGB or spectral.
+    pub kind: FilmKind,
+    /// The colour space of the RGB output (pbrt-v4 default sRGB).
+    pub color_space: RgbColorSpace,
+    /// The pixel reconstruction filter (pbrt-v4 default: gaussian, radius 1.5, σ 0.5).
+    pub filter: Filter,
+    /// Whether to accumulate the albedo and normal AOVs (written as EXR layers `albedo` and `N`). Off by default.
+    pub aovs: bool,
+}
+
+impl Default for FilmSpec {
+    /// pbrt-v4's defaults: 1280×720, `pbrt.exr`, RGB in sRGB, gaussian filter, no AOVs.
+    fn default() -> Self {
+        Self::new(1280, 720, "pbrt.exr")
+    }
+}
+
+impl FilmSpec {
+    /// An RGB film of the given size and file name, in sRGB, with the default gaussian filter and no AOVs.
+    pub fn new(width: u32, height: u32, filename: impl Into<PathBuf>) -> Self {
+        Self {
+            width,
+            height,
+            filename: filename.into(),
+            kind: FilmKind::Rgb,
+            color_space: RgbColorSpace::srgb(),
+            filter: Filter::default(),
+            aovs: false,
+        }
+    }
+
+    /// Checks the resolution (`xresolution`, `yresolution` ≥ 1), the spectral parameters and the filter.
+    pub fn validate(&self) -> Result<(), FilmError> {
+        for (name, value) in [("xresolution", self.width), ("yresolution", self.height)] {
+            if value < 1 {
+                return Err(FilmError::InvalidParameter { name, value: value as f64, expected: "at least 1" });
+            }
+        }
+        self.kind.validate()?;
+        self.filter.validate()
+    }
+}
+
+/// The film: per-pixel `f64` accumulators. See the module documentation.
+#[derive(Clone, Debug)]
+pub struct Film {
+    spec: FilmSpec,
+    nbuckets: usize,
+    /// Weighted XYZ sums, one per pixel, row-major from the top row.
+    xyz: Vec<[f64; 3]>,
+    /// Filter-weight sums, one per pixel.
+    weight: Vec<f64>,
+    /// Weighted bucket sums, `nbuckets` per pixel, pixel-major.
+    buckets: Vec<f64>,
+    /// Albedo sums (empty without AOVs).
+    albedo: Vec<[f64; 3]>,
+    /// Normal sums (empty without AOVs).
+    normal: Vec<[f64; 3]>,
+    /// Number of AOV records per pixel (empty without AOVs).
+    aov_count: Vec<f64>,
+    /// Samples dropped for non-finite values or out-of-range coordinates, per row.
+    rejected: Vec<u64>,
+}
+
+fn zeroed<T: Clone>(n: usize, value: T) -> Option<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).ok()?;
+    v.resize(n, value);
+    Some(v)
+}
+
+impl Film {
+    /// Validates the spec and allocates zeroed accumulators; an allocation too large for memory is an error, not
+    /// an abort.
+    pub fn new(spec: FilmSpec) -> Result<Self, FilmError> {
+        spec.validate()?;
+        let nbuckets = spec.kind.nbuckets();
+        let too_large = || FilmError::TooLarge {
+            width: spec.width,
+            height: spec.height,
+            channels: 4 + nbuckets + if spec.aovs { 7 } else { 0 },
+        };
+        let npix = (spec.width as usize).checked_mul(spec.height as usize).ok_or_else(too_large)?;
+        let nb = npix.checked_mul(nbuckets).ok_or_else(too_large)?;
+        let naov = if spec.aovs { npix } else { 0 };
+        Ok(Self {
+            nbuckets,
+            xyz: zeroed(npix, [0.0; 3]).ok_or_else(too_large)?,
+            weight: zeroed(npix, 0.0).ok_or_else(too_large)?,
+            buckets: zeroed(nb, 0.0).ok_or_else(too_large)?,
+            albedo: zeroed(naov, [0.0; 3]).ok_or_else(too_large)?,
+            normal: zeroed(naov, [0.0; 3]).ok_or_else(too_large)?,
+            aov_count: zeroed(naov, 0.0).ok_or_else(too_large)?,
+            rejected: zeroed(spec.height as usize, 0).ok_or_else(too_large)?,
+            spec,
+        })
+    }
+
+    /// The film's definition.
+    pub fn spec(&self) -> &FilmSpec {
+        &self.spec
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.spec.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.spec.height
+    }
+
+    /// Number of spectral buckets per pixel (0 for an RGB film).
+    pub fn nbuckets(&self) -> usize {
+        self.nbuckets
+    }
+
+    /// Whether the film accumulates the albedo and normal AOVs.
+    pub fn has_aovs(&self) -> bool {
+        self.spec.aovs
+    }
+
+    /// Number of samples dropped so far because a value was NaN or infinite or `x` was outside the film.
+    pub fn rejected_samples(&self) -> u64 {
+        self.rejected.iter().sum()
+    }
+
+    fn index(&self, x: u32, y: u32) -> Option<usize> {
+        (x < self.spec.width && y < self.spec.height).then(|| y as usize * self.spec.width as usize + x as usize)
+    }
+
+    fn rows(&mut self) -> Vec<FilmRow<'_>> {
+        let w = self.spec.width as usize;
+        let nb = self.nbuckets;
+        let aov = self.spec.aovs;
+        let bins = Binning::new(&self.spec.kind);
+        let (mut xyz, mut weight, mut buckets) = (&mut self.xyz[..], &mut self.weight[..], &mut self.buckets[..]);
+        let (mut albedo, mut normal, mut count) = (&mut self.albedo[..], &mut self.normal[..], &mut self.aov_count[..]);
+        let mut rows = Vec::with_capacity(self.spec.height as usize);
+        for (y, rejected) in self.rejected.iter_mut().enumerate() {
+            let (x_row, x_rest) = std::mem::take(&mut xyz).split_at_mut(w);
+            let (w_row, w_rest) = std::mem::take(&mut weight).split_at_mut(w);
+            let (b_row, b_rest) = std::mem::take(&mut buckets).split_at_mut(w * nb);
+            let a = if aov { w } else { 0 };
+            let (a_row, a_rest) = std::mem::take(&mut albedo).split_at_mut(a);
+            let (n_row, n_rest) = std::mem::take(&mut normal).split_at_mut(a);
+            let (c_row, c_rest) = std::mem::take(&mut count).split_at_mut(a);
+            (xyz, weight, buckets, albedo, normal, count) = (x_rest, w_rest, b_rest, a_rest, n_rest, c_rest);
+            rows.push(FilmRow {
+                y: y as u32,
+                bins,
+                xyz: x_row,
+                weight: w_row,
+                buckets: b_row,
+                albedo: a_row,
+                normal: n_row,
+                aov_count: c_row,
+                rejected,
+            });
+        }
+        rows
+    }
+
+    /// The rows, top to bottom, each with exclusive access to its pixels' accumulators.
+    pub fn rows_mut(&mut self) -> impl Iterator<Item = FilmRow<'_>> {
+        self.rows().into_iter()
+    }
+
+    /// The rows as a rayon parallel iterator: threads write disjoint rows without locks.
+    pub fn par_rows_mut(&mut self) -> impl IndexedParallelIterator<Item = FilmRow<'_>> {
+        self.rows().into_par_iter()
+    }
+
+    /// Row `y` alone (`None` outside the film).
+    pub fn row_mut(&mut self, y: u32) -> Option<FilmRow<'_>> {
+        if y >= self.spec.height {
+            return None;
+        }
+        self.rows().into_iter().nth(y as usize)
+    }
+
+    /// Adds one camera sample to pixel (x, y): see [`FilmRow::add_sample`]. Returns whether it was accumulated.
+    pub fn add_sample(&mut self, x: u32, y: u32, xyz: Xyz, weight: f64, spectral: &[(f32, f32)]) -> bool {
+        let Some(i) = self.index(x, y) else { return false };
+        let bins = Binning::new(&self.spec.kind);
+        let nb = self.nbuckets;
+        accumulate(
+            &bins,
+            &mut self.xyz[i],
+            &mut self.weight[i],
+            &mut self.buckets[i * nb..(i + 1) * nb],
+            &mut self.rejected[y as usize],
+            xyz,
+            weight,
+            spectral,
+        )
+    }
+
+    /// Adds one albedo (linear RGB) and shading-normal record to pixel (x, y); ignored (returns `false`) without
+    /// AOVs, outside the film, or for non-finite values.
+    pub fn add_aov(&mut self, x: u32, y: u32, albedo: [f64; 3], normal: [f64; 3]) -> bool {
+        let Some(i) = self.index(x, y) else { return false };
+        if !self.spec.aovs {
+            return false;
+        }
+        accumulate_aov(&mut self.albedo[i], &mut self.normal[i], &mut self.aov_count[i], albedo, normal)
+    }
+
+    /// Adds `other`'s accumulators to this film's (for renders split across processes or sample ranges). The films
+    /// must have the same size, kind and AOV setting.
+    pub fn merge(&mut self, other: &Film) -> Result<(), FilmError> {
+        if (self.spec.width, self.spec.height) != (other.spec.width, other.spec.height) {
+            return Err(FilmError::Mismatch(format!(
+                "sizes differ: {}×{} and {}×{}",
+                self.spec.width, self.spec.height, other.spec.width, other.spec.height
+            )));
+        }
+        if self.spec.kind != other.spec.kind {
+            return Err(FilmError::Mismatch(format!("kinds differ: {:?} and {:?}", self.spec.kind, other.spec.kind)));
+        }
+        if self.spec.aovs != other.spec.aovs {
+            return Err(FilmError::Mismatch("one film has AOVs and the other has not".into()));
+        }
+        let add3 = |a: &mut [f64; 3], b: &[f64; 3]| {
+            for c in 0..3 {
+                a[c] += b[c];
+            }
+        };
+        self.xyz.iter_mut().zip(&other.xyz).for_each(|(a, b)| add3(a, b));
+        self.weight.iter_mut().zip(&other.weight).for_each(|(a, b)| *a += b);
+        self.buckets.iter_mut().zip(&other.buckets).for_each(|(a, b)| *a += b);
+        self.albedo.iter_mut().zip(&other.albedo).for_each(|(a, b)| add3(a, b));
+        self.normal.iter_mut().zip(&other.normal).for_each(|(a, b)| add3(a, b));
+        self.aov_count.iter_mut().zip(&other.aov_count).for_each(|(a, b)| *a += b);
+        self.rejected.iter_mut().zip(&other.rejected).for_each(|(a, b)| *a += b);
+        Ok(())
+    }
+
+    /// The sum of filter weights at (x, y) (0 outside the film).
+    pub fn pixel_weight(&self, x: u32, y: u32) -> f64 {
+        self.index(x, y).map_or(0.0, |i| self.weight[i])
+    }
+
+    /// The pixel's XYZ: weighted sum over weight sum (zero for a pixel without weight, or outside the film).
+    pub fn pixel_xyz(&self, x: u32, y: u32) -> Xyz {
+        self.index(x, y).map_or(Xyz::default(), |i| self.xyz_at(i))
+    }
+
+    fn xyz_at(&self, i: usize) -> Xyz {
+        let w = self.weight[i];
+        if w == 0.0 {
+            return Xyz::default();
+        }
+        let s = self.xyz[i];
+        Xyz::new(s[0] / w, s[1] / w, s[2] / w)
+    }
+
+    /// The pixel's spectrum: per bucket, the mean spectral radiance over the bucket (per nm). Empty for an RGB film;
+    /// zeros without weight or outside the film.
+    pub fn pixel_spectrum(&self, x: u32, y: u32) -> Vec<f64> {
+        let nb = self.nbuckets;
+        match self.index(x, y) {
+            Some(i) if self.weight[i] != 0.0 => {
+                self.buckets[i * nb..(i + 1) * nb].iter().map(|b| b / self.weight[i]).collect()
+            }
+            _ => vec![0.0; nb],
+        }
+    }
+
+    /// The image in the film's colour space, linear, row-major from the top row.
+    pub fn to_rgb_image(&self) -> Vec<[f32; 3]> {
+        (0..self.weight.len())
+            .into_par_iter()
+            .map(|i| self.spec.color_space.to_rgb(self.xyz_at(i)).map(|c| c as f32))
+            .collect()
+    }
+
+    /// The spectral image: `nbuckets` values per pixel (see [`Film::pixel_spectrum`]), pixel-major, rows from the
+    /// top. Empty for an RGB film.
+    pub fn to_spectral_image(&self) -> Vec<f32> {
+        let nb = self.nbuckets;
+        if nb == 0 {
+            return Vec::new();
+        }
+        self.buckets
+            .par_chunks(nb)
+            .zip(self.weight.par_iter())
+            .flat_map_iter(|(b, &w)| b.iter().map(move |v| if w != 0.0 { (v / w) as f32 } else { 0.0 }))
+            .collect()
+    }
+
+    /// The AOV images (mean albedo, and the mean shading normal renormalised to unit length), or `None` without
+    /// AOVs. Pixels without records are zero.
+    pub fn to_aov_images(&self) -> Option<AovImages> {
+        if !self.spec.aovs {
+            return None;
+        }
+        let albedo = self
+            .albedo
+            .iter()
+            .zip(&self.aov_count)
+            .map(|(a, &n)| if n > 0.0 { a.map(|c| (c / n) as f32) } else { [0.0; 3] })
+            .collect();
+        let normal = self
+            .normal
+            .iter()
+            .map(|v| {
+                let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                if len > 0.0 {
+                    v.map(|c| (c / len) as f32)
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        Some(AovImages { albedo, normal })
+    }
+}
+
+/// The albedo and normal AOV images, row-major from the top.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AovImages {
+    /// Mean albedo per pixel, linear RGB (`albedo.R/G/B` in an EXR).
+    pub albedo: Vec<[f32; 3]>,
+    /// Mean shading normal per pixel, unit length or zero (`N.X/Y/Z` in an EXR).
+    pub normal: Vec<[f32; 3]>,
+}
+
+/// How wavelengths map to buckets; copied into each row.
+#[derive(Clone, Copy, Debug)]
+struct Binning {
+    nbuckets: usize,
+    lambda_min: f64,
+    lambda_max: f64,
+    inv_width: f64,
+}
+
+impl Binning {
+    fn new(kind: &FilmKind) -> Self {
+        match *kind {
+            FilmKind::Rgb => Self { nbuckets: 0, lambda_min: 0.0, lambda_max: 0.0, inv_width: 0.0 },
+            FilmKind::Spectral { nbuckets, lambda_min, lambda_max } => {
+                Self { nbuckets, lambda_min, lambda_max, inv_width: nbuckets as f64 / (lambda_max - lambda_min) }
+            }
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn accumulate(
+    bins: &Binning,
+    xyz_sum: &mut [f64; 3],
+    weight_sum: &mut f64,
+    buckets: &mut [f64],
+    rejected: &mut u64,
+    xyz: Xyz,
+    weight: f64,
+    spectral: &[(f32, f32)],
+) -> bool {
+    let finite = xyz.x.is_finite()
+        && xyz.y.is_finite()
+        && xyz.z.is_finite()
+        && weight.is_finite()
+        && spectral.iter().all(|(l, v)| v.is_finite() && !l.is_nan());
+    if !finite {
+        *rejected += 1;
+        return false;
+    }
+    xyz_sum[0] += weight * xyz.x;
+    xyz_sum[1] += weight * xyz.y;
+    xyz_sum[2] += weight * xyz.z;
+    *weight_sum += weight;
+    if bins.nbuckets > 0 {
+        for &(lambda, value) in spectral {
+            let lambda = lambda as f64;
+            if lambda >= bins.lambda_min && lambda < bins.lambda_max {
+                let b = (((lambda - bins.lambda_min) * bins.inv_width) as usize).min(bins.nbuckets - 1);
+                buckets[b] += value as f64 * bins.inv_width * weight;
+            }
+        }
+    }
+    true
+}
+
+fn accumulate_aov(
+    albedo_sum: &mut [f64; 3],
+    normal_sum: &mut [f64; 3],
+    count: &mut f64,
+    albedo: [f64; 3],
+    normal: [f64; 3],
+) -> bool {
+    if !albedo.iter().chain(&normal).all(|v| v.is_finite()) {
+        return false;
+    }
+    for c in 0..3 {
+        albedo_sum[c] += albedo[c];
+        normal_sum[c] += normal[c];
+    }
+    *count += 1.0;
+    true
+}
+
+/// Exclusive access to one row of a [`Film`], for one rendering thread.
+#[derive(Debug)]
+pub struct FilmRow<'a> {
+    y: u32,
+    bins: Binning,
+    xyz: &'a mut [[f64; 3]],
+    weight: &'a mut [f64],
+    buckets: &'a mut [f64],
+    albedo: &'a mut [[f64; 3]],
+    normal: &'a mut [[f64; 3]],
+    aov_count: &'a mut [f64],
+    rejected: &'a mut u64,
+}
+
+impl FilmRow<'_> {
+    /// The row's index, from the top.
+    pub fn y(&self) -> u32 {
+        self.y
+    }
+
+    /// The row's width in pixels.
+    pub fn width(&self) -> u32 {
+        self.weight.len() as u32
+    }
+
+    /// Adds one camera sample to pixel `x` of this row.
+    ///
+    /// `xyz` is the sample's tristimulus estimate and `weight` its filter weight ([`crate::FilterSample::weight`]);
+    /// the pixel accumulates `weight·xyz` and `weight`. For a spectral film each `(λ nm, L/pdf)` pair with λ in
+    /// `[lambda_min, lambda_max)` adds `weight·(L/pdf)/Δλ` to the bucket holding λ (Δλ the bucket width); pairs
+    /// outside are ignored, and so is `spectral` for an RGB film. Pass only the active wavelengths.
+    ///
+    /// A sample with any NaN or infinite value, or with `x` outside the row, is dropped and counted
+    /// ([`Film::rejected_samples`]); the return value says whether the sample was accumulated.
+    pub fn add_sample(&mut self, x: u32, xyz: Xyz, weight: f64, spectral: &[(f32, f32)]) -> bool {
+        let x = x as usize;
+        if x >= self.weight.len() {
+            *self.rejected += 1;
+            return false;
+        }
+        let nb = self.bins.nbuckets;
+        accumulate(
+            &self.bins,
+            &mut self.xyz[x],
+            &mut self.weight[x],
+            &mut self.buckets[x * nb..(x + 1) * nb],
+            self.rejected,
+            xyz,
+            weight,
+            spectral,
+        )
+    }
+
+    /// Adds one albedo (linear RGB) and shading-normal record to pixel `x`; ignored (returns `false`) when the
+    /// film has no AOVs, outside the row, or for non-finite values.
+    pub fn add_aov(&mut self, x: u32, albedo: [f64; 3], normal: [f64; 3]) -> bool {
+        let x = x as usize;
+        if x >= self.aov_count.len() {
+            return false;
+        }
+        accumulate_aov(&mut self.albedo[x], &mut self.normal[x], &mut self.aov_count[x], albedo, normal)
+    }
+}
+
+/// The `(λ nm, L/pdf)` pairs of a path's active wavelengths, as [`FilmRow::add_sample`] takes them; built without
+/// allocating.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SpectralEstimates {
+    pairs: [(f32, f32); N_WAVELENGTHS],
+    len: usize,
+}
+
+impl SpectralEstimates {
+    /// One pair per active slot of `wl` (pdf > 0): the wavelength and `radiance[i] / pdf[i]`.
+    pub fn new(radiance: &SampledSpectrum, wl: &SampledWavelengths) -> Self {
+        let pdf = wl.pdf();
+        let mut out = Self::default();
+        for i in 0..N_WAVELENGTHS {
+            if wl.is_active(i) && pdf.0[i] > 0.0 {
+                out.pairs[out.len] = (wl.lambda(i), radiance.0[i] / pdf.0[i]);
+                out.len += 1;
+            }
+        }
+        out
+    }
+
+    /// The pairs.
+    pub fn as_slice(&self) -> &[(f32, f32)] {
+        &self.pairs[..self.len]
+    }
+}

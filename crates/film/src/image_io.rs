@@ -1,0 +1,639 @@
+//! Writing and reading images: OpenEXR (RGB, AOV layers, and the spectral layout of Fichet et al. 2021), PNG and
+//! PFM. The format follows the file extension, case-insensitively.
+//!
+//! Every write is atomic: the image goes to a temporary file in the destination's directory, which is flushed and
+//! synced, then renamed over the destination (and the directory synced). A reader sees either the previous complete
+//! file or the new complete file, never a partial one; on any error the temporary file is removed and an existing
+//! destination is left untouched.
+//!
+//! # The spectral EXR layout
+//!
+//! A spectral film's EXR follows *An OpenEXR Layout for Spectral Images* (A. Fichet, R. Pacanowski, A. Wilkie,
+//! JCGT 10(3), 2021) as its reference implementation (`afichet/spectral-exr`, `EXRSpectralImage.cpp`) and pbrt-v4's
+//! `SpectralFilm` write it: besides `R`, `G`, `B` (linear, the film's colour space), one `FLOAT` channel per bucket
+//! named `S0.<λ>nm` (Stokes component 0, i.e. unpolarised emissive radiance), the bucket's central wavelength
+//! printed as C's `%f` prints a `float` (six decimals) with a comma for the decimal separator, because the dot is
+//! OpenEXR's layer separator: `S0.550,000000nm`. The header carries the string attributes
+//! `spectralLayoutVersion = "1.0"` and `emissiveUnits = "W.m^-2.sr^-1"`. Channel values are the bucket means of
+//! spectral radiance per nm.
+//!
+//! The reader accepts any channel name the layout's grammar allows,
+//! `S0.<digits>[,<digits>][e±<digits>][SI prefix](m|Hz)`, converting to nm.
+
+use crate::{AovImages, Film, ImageError};
+use exr::prelude::{
+    self as ex, AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes, Layer,
+    LayerAttributes, Text, Vec2,
+};
+use std::collections::BTreeMap;
+use std::fs::{self, File};
+use std::io::{BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The extensions [`write_image`] understands, for error messages.
+pub const SUPPORTED_EXTENSIONS: &str = "exr, png, pfm";
+
+/// The value of the `spectralLayoutVersion` attribute written (Fichet et al. 2021).
+pub const SPECTRAL_LAYOUT_VERSION: &str = "1.0";
+/// The value of the `emissiveUnits` attribute written (Fichet et al. 2021; pbrt-v4 writes the same).
+pub const EMISSIVE_UNITS: &str = "W.m^-2.sr^-1";
+
+/// An image file format, chosen by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// OpenEXR, 32-bit float channels, linear.
+    Exr,
+    /// PNG, 8-bit sRGB-encoded with dither on writing; 8 or 16 bit on reading.
+    Png,
+    /// Portable float map, little-endian RGB float, rows bottom to top.
+    Pfm,
+}
+
+impl ImageFormat {
+    /// The format named by `path`'s extension (case-insensitive), or an error naming the extension and the
+    /// supported ones.
+    pub fn from_path(path: &Path) -> Result<Self, ImageError> {
+        let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
+        match ext.to_ascii_lowercase().as_str() {
+            "exr" => Ok(ImageFormat::Exr),
+            "png" => Ok(ImageFormat::Png),
+            "pfm" => Ok(ImageFormat::Pfm),
+            _ => Err(ImageError::UnsupportedExtension {
+                path: path.to_path_buf(),
+                extension: ext,
+                supported: SUPPORTED_EXTENSIONS,
+            }),
+        }
+    }
+}
+
+/// A spectral image read from an EXR in the Fichet et al. layout.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpectralImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// The `S0` channels' wavelengths in nm, ascending.
+    pub wavelengths_nm: Vec<f64>,
+    /// The `S0` channels' exact names, in the order of `wavelengths_nm`.
+    pub channel_names: Vec<String>,
+    /// The values: `wavelengths_nm.len()` per pixel, pixel-major, rows from the top.
+    pub data: Vec<f32>,
+    /// The header's string attributes (such as `spectralLayoutVersion` and `emissiveUnits`).
+    pub attributes: BTreeMap<String, String>,
+}
+
+impl SpectralImage {
+    /// The spectrum of pixel (x, y), one value per wavelength (`None` outside the image).
+    pub fn pixel(&self, x: u32, y: u32) -> Option<&[f32]> {
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        let n = self.wavelengths_nm.len();
+        let i = (y as usize * self.width as usize + x as usize) * n;
+        self.data.get(i..i + n)
+    }
+}
+
+/// The Fichet et al. channel name of the unpolarised emissive channel at `lambda_nm`: `S0.550,000000nm`.
+pub fn spectral_channel_name(lambda_nm: f64) -> String {
+    // The reference implementation prints a float with std::to_string (C's "%f"): six decimals.
+    format!("S0.{:.6}nm", lambda_nm as f32).replace('.', ",").replacen(',', ".", 1)
+}
+
+/// Parses a Fichet et al. channel name: `Some((stokes component, wavelength in nm))` for an emissive channel
+/// `S<0-3>.<value>[prefix](m|Hz)`, `None` for any other name.
+pub fn parse_spectral_channel_name(name: &str) -> Option<(u8, f64)> {
+    let rest = name.strip_prefix('S')?;
+    let mut chars = rest.chars();
+    let stokes = chars.next()?.to_digit(10)?;
+    if stokes > 3 {
+        return None;
+    }
+    let rest = chars.as_str().strip_prefix('.')?;
+    let (rest, hertz) =
+        if let Some(r) = rest.strip_suffix("Hz") { (r, true) } else { (rest.strip_suffix('m')?, false) };
+    const PREFIXES: [(&str, f64); 16] = [
+        ("da", 1e1),
+        ("Y", 1e24),
+        ("Z", 1e21),
+        ("E", 1e18),
+        ("P", 1e15),
+        ("T", 1e12),
+        ("G", 1e9),
+        ("M", 1e6),
+        ("k", 1e3),
+        ("h", 1e2),
+        ("d", 1e-1),
+        ("c", 1e-2),
+        ("m", 1e-3),
+        ("u", 1e-6),
+        ("n", 1e-9),
+        ("p", 1e-12),
+    ];
+    let (number, multiplier) =
+        PREFIXES.iter().find_map(|&(p, m)| rest.strip_suffix(p).map(|r| (r, m))).unwrap_or((rest, 1.0));
+    let value = parse_layout_number(number)? * multiplier;
+    let nm = if hertz { 299_792_458.0 / value * 1e9 } else { value * 1e9 };
+    (nm.is_finite() && nm > 0.0).then_some((stokes as u8, nm))
+}
+
+/// `\d*,?\d*([Ee][+-]?\d+)?` with at least one digit, comma as the decimal separator.
+fn parse_layout_number(s: &str) -> Option<f64> {
+    let (mantissa, exponent) = match s.find(['e', 'E']) {
+        Some(i) => (&s[..i], Some(&s[i + 1..])),
+        None => (s, None),
+    };
+    let (int, frac) = mantissa.split_once(',').unwrap_or((mantissa, ""));
+    let digits = |t: &str| t.bytes().all(|b| b.is_ascii_digit());
+    if !(digits(int) && digits(frac)) || int.len() + frac.len() == 0 {
+        return None;
+    }
+    if let Some(e) = exponent {
+        let e = e.strip_prefix(['+', '-']).unwrap_or(e);
+        if e.is_empty() || !digits(e) {
+            return None;
+        }
+    }
+    s.replace(',', ".").parse().ok()
+}
+
+// ------------------------------------------------------------------------------------------------------------------
+// Atomic writes
+// ------------------------------------------------------------------------------------------------------------------
+
+static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ImageError + '_ {
+    move |source| ImageError::Io { path: path.to_path_buf(), source }
+}
+
+/// The temporary file next to `path`: `.<name>.tmp-<pid>-<n>` in the same directory.
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "image".into());
+    let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+    path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()))
+}
+
+/// Runs `write` on a buffered temporary file beside `path`, syncs it and renames it to `path`; on any error the
+/// temporary file is removed and `path` is untouched.
+fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<(), ImageError>,
+) -> Result<(), ImageError> {
+    let tmp = temp_path(path);
+    let result = (|| {
+        let file = File::options().write(true).create_new(true).open(&tmp).map_err(io_err(&tmp))?;
+        let mut out = BufWriter::with_capacity(1 << 20, file);
+        write(&mut out)?;
+        let file = out.into_inner().map_err(|e| ImageError::Io { path: tmp.clone(), source: e.into_error() })?;
+        file.sync_all().map_err(io_err(&tmp))?;
+        drop(file);
+        fs::rename(&tmp, path).map_err(io_err(path))
+    })();
+    match result {
+        Ok(()) => {
+            // Make the rename itself durable; failing to open the directory (e.g. on some platforms) is harmless.
+            let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            if let Ok(d) = File::open(dir) {
+                let _ = d.sync_all();
+            }
+            Ok(())
+        }
+        Err(e) => {
+            let _ = fs::remove_file(&tmp);
+            Err(e)
+        }
+    }
+}
+
+// ------------------------------------------------------------------------------------------------------------------
+// Writers
+// ------------------------------------------------------------------------------------------------------------------
+
+fn check_size(width: u32, height: u32, len: usize) -> Result<(), ImageError> {
+    if width == 0 || height == 0 {
+        return Err(ImageError::InvalidImage(format!("{width}×{height} has no pixels")));
+    }
+    if (width as usize).checked_mul(height as usize) != Some(len) {
+        return Err(ImageError::InvalidImage(format!("{width}×{height} image given {len} pixels")));
+    }
+    Ok(())
+}
+
+/// Writes the film to `path`, the format following the extension (`.exr`, `.png`, `.pfm`, any case).
+///
+/// EXR: `R`, `G`, `B` in the film's colour space (with its `chromaticities` attribute), plus the spectral channels
+/// and attributes of the Fichet et al. layout for a spectral film, plus `albedo.R/G/B` and `N.X/Y/Z` with AOVs.
+/// PNG and PFM hold the RGB image only.
+pub fn write_image(film: &Film, path: &Path) -> Result<(), ImageError> {
+    let format = ImageFormat::from_path(path)?;
+    let (w, h) = (film.width(), film.height());
+    let rgb = film.to_rgb_image();
+    match format {
+        ImageFormat::Png => write_atomic(path, |out| encode_png(out, path, w, h, &rgb)),
+        ImageFormat::Pfm => write_atomic(path, |out| encode_pfm(out, path, w, h, &rgb)),
+        ImageFormat::Exr => {
+            let npix = rgb.len();
+            let mut channels: Vec<(String, Vec<f32>)> = Vec::new();
+            for (c, name) in ["R", "G", "B"].iter().enumerate() {
+                channels.push((name.to_string(), rgb.iter().map(|p| p[c]).collect()));
+            }
+            let mut attributes = Vec::new();
+            let nb = film.nbuckets();
+            if nb > 0 {
+                let spectral = film.to_spectral_image();
+                for (b, lambda) in film.spec().kind.bucket_centres().into_iter().enumerate() {
+                    let values = (0..npix).map(|i| spectral[i * nb + b]).collect();
+                    channels.push((spectral_channel_name(lambda), values));
+                }
+                attributes.push(("spectralLayoutVersion".to_string(), SPECTRAL_LAYOUT_VERSION.to_string()));
+                attributes.push(("emissiveUnits".to_string(), EMISSIVE_UNITS.to_string()));
+            }
+            if let Some(AovImages { albedo, normal }) = film.to_aov_images() {
+                for (c, name) in ["albedo.R", "albedo.G", "albedo.B"].iter().enumerate() {
+                    channels.push((name.to_string(), albedo.iter().map(|p| p[c]).collect()));
+                }
+                for (c, name) in ["N.X", "N.Y", "N.Z"].iter().enumerate() {
+                    channels.push((name.to_string(), normal.iter().map(|p| p[c]).collect()));
+                }
+            }
+            let cs = &film.spec().color_space;
+            let chroma = ex::attribute::Chromaticities {
+                red: Vec2(cs.primaries[0][0] as f32, cs.primaries[0][1] as f32),
+                green: Vec2(cs.primaries[1][0] as f32, cs.primaries[1][1] as f32),
+                blue: Vec2(cs.primaries[2][0] as f32, cs.primaries[2][1] as f32),
+                white: Vec2(cs.white[0] as f32, cs.white[1] as f32),
+            };
+            write_atomic(path, |out| encode_exr(out, path, w, h, channels, &attributes, Some(chroma)))
+        }
+    }
+}
+
+/// Writes a linear RGB image (row-major from the top) to `path`, the format following the extension: EXR with
+/// `R`, `G`, `B`; PNG sRGB-encoded and dithered; PFM.
+pub fn write_rgb(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<(), ImageError> {
+    let format = ImageFormat::from_path(path)?;
+    check_size(width, height, pixels.len())?;
+    match format {
+        ImageFormat::Png => write_atomic(path, |out| encode_png(out, path, width, height, pixels)),
+        ImageFormat::Pfm => write_atomic(path, |out| encode_pfm(out, path, width, height, pixels)),
+        ImageFormat::Exr => {
+            let channels = ["R", "G", "B"]
+                .iter()
+                .enumerate()
+                .map(|(c, n)| (n.to_string(), pixels.iter().map(|p| p[c]).collect()))
+                .collect();
+            write_atomic(path, |out| encode_exr(out, path, width, height, channels, &[], None))
+        }
+    }
+}
+
+fn text(path: &Path, s: &str) -> Result<Text, ImageError> {
+    Text::new_or_none(s).ok_or_else(|| ImageError::Exr {
+        path: path.to_path_buf(),
+        message: format!("'{s}' cannot be stored as OpenEXR text"),
+    })
+}
+
+fn encode_exr(
+    out: &mut BufWriter<File>,
+    path: &Path,
+    width: u32,
+    height: u32,
+    channels: Vec<(String, Vec<f32>)>,
+    attributes: &[(String, String)],
+    chromaticities: Option<ex::attribute::Chromaticities>,
+) -> Result<(), ImageError> {
+    let list = channels
+        .into_iter()
+        .map(|(name, values)| Ok(AnyChannel::new(text(path, &name)?, FlatSamples::F32(values))))
+        .collect::<Result<Vec<_>, ImageError>>()?;
+    let mut layer_attributes = LayerAttributes::default();
+    for (name, value) in attributes {
+        layer_attributes.other.insert(text(path, name)?, AttributeValue::Text(text(path, value)?));
+    }
+    let size = (width as usize, height as usize);
+    let layer = Layer::new(size, layer_attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(list.into()));
+    let mut image_attributes = ImageAttributes::new(ex::IntegerBounds::from_dimensions(size));
+    image_attributes.chromaticities = chromaticities;
+    let image = Image::new(image_attributes, layer);
+    use exr::prelude::WritableImage;
+    image.write().to_buffered(out).map_err(|e| ImageError::Exr { path: path.to_path_buf(), message: e.to_string() })
+}
+
+/// A uniform number in [0, 1) from a hash of (x, y, channel): the PNG dither, deterministic and uncorrelated
+/// between neighbouring pixels.
+pub(crate) fn dither_u(x: u32, y: u32, channel: u32) -> f64 {
+    fn mix(mut z: u64) -> u64 {
+        // splitmix64's finaliser.
+        z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+    let h = mix(mix(mix(x as u64) ^ y as u64) ^ channel as u64);
+    (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+fn encode_png(
+    out: &mut BufWriter<File>,
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+) -> Result<(), ImageError> {
+    let png_err = |e: png::EncodingError| ImageError::Png { path: path.to_path_buf(), message: e.to_string() };
+    let mut data = Vec::with_capacity(pixels.len() * 3);
+    for (i, p) in pixels.iter().enumerate() {
+        let (x, y) = ((i % width as usize) as u32, (i / width as usize) as u32);
+        for (c, &v) in p.iter().enumerate() {
+            let encoded = spectral::color::srgb_encode(v as f64);
+            data.push(spectral::color::quantize_8bit_dithered(encoded, dither_u(x, y, c as u32)));
+        }
+    }
+    let mut encoder = png::Encoder::new(out, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut writer = encoder.write_header().map_err(png_err)?;
+    writer.write_image_data(&data).map_err(png_err)?;
+    writer.finish().map_err(png_err)
+}
+
+fn encode_pfm(
+    out: &mut BufWriter<File>,
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+) -> Result<(), ImageError> {
+    let mut bytes = Vec::with_capacity(32 + pixels.len() * 12);
+    bytes.extend_from_slice(format!("PF\n{width} {height}\n-1.0\n").as_bytes());
+    for row in pixels.chunks(width as usize).rev() {
+        for p in row {
+            for c in p {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    out.write_all(&bytes).map_err(io_err(path))
+}
+
+// ------------------------------------------------------------------------------------------------------------------
+// Readers
+// ------------------------------------------------------------------------------------------------------------------
+
+type ExrImage = Image<Layer<AnyChannels<FlatSamples>>>;
+
+fn read_exr(path: &Path) -> Result<ExrImage, ImageError> {
+    use exr::prelude::*;
+    read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| match e {
+            exr::error::Error::Io(source) => ImageError::Io { path: path.to_path_buf(), source },
+            e => ImageError::Exr { path: path.to_path_buf(), message: e.to_string() },
+        })
+}
+
+fn exr_size(path: &Path, image: &ExrImage) -> Result<(u32, u32), ImageError> {
+    let s = image.layer_data.size;
+    match (u32::try_from(s.0), u32::try_from(s.1)) {
+        (Ok(w), Ok(h)) if w > 0 && h > 0 => Ok((w, h)),
+        _ => Err(ImageError::Malformed { path: path.to_path_buf(), message: format!("bad size {}×{}", s.0, s.1) }),
+    }
+}
+
+fn exr_channel(image: &ExrImage, name: &str) -> Option<Vec<f32>> {
+    image
+        .layer_data
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.to_string() == name)
+        .map(|c| c.sample_data.values_as_f32().collect())
+}
+
+/// Reads the `R`, `G`, `B` channels of an EXR (a lone `Y` channel is read as grey): (width, height, linear pixels
+/// row-major from the top).
+pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
+    let image = read_exr(path)?;
+    let (w, h) = exr_size(path, &image)?;
+    let channels = match (exr_channel(&image, "R"), exr_channel(&image, "G"), exr_channel(&image, "B")) {
+        (Some(r), Some(g), Some(b)) => [r, g, b],
+        _ => match exr_channel(&image, "Y") {
+            Some(y) => [y.clone(), y.clone(), y],
+            None => {
+                return Err(ImageError::Malformed {
+                    path: path.to_path_buf(),
+                    message: "no R, G, B (or Y) channels".into(),
+                })
+            }
+        },
+    };
+    let n = w as usize * h as usize;
+    if channels.iter().any(|c| c.len() != n) {
+        return Err(ImageError::Malformed { path: path.to_path_buf(), message: "channel sizes differ".into() });
+    }
+    Ok((w, h, (0..n).map(|i| [channels[0][i], channels[1][i], channels[2][i]]).collect()))
+}
+
+/// Reads the `albedo.R/G/B` and `N.X/Y/Z` layers of an EXR written with AOVs, row-major from the top.
+pub fn read_exr_aovs(path: &Path) -> Result<AovImages, ImageError> {
+    let image = read_exr(path)?;
+    let get = |names: [&str; 3]| -> Result<Vec<[f32; 3]>, ImageError> {
+        let mut c = Vec::new();
+        for n in names {
+            c.push(exr_channel(&image, n).ok_or_else(|| ImageError::Malformed {
+                path: path.to_path_buf(),
+                message: format!("no channel {n}"),
+            })?);
+        }
+        Ok((0..c[0].len()).map(|i| [c[0][i], c[1][i], c[2][i]]).collect())
+    };
+    Ok(AovImages { albedo: get(["albedo.R", "albedo.G", "albedo.B"])?, normal: get(["N.X", "N.Y", "N.Z"])? })
+}
+
+/// Reads an EXR in the Fichet et al. spectral layout: its `S0` channels sorted by wavelength, and its string
+/// attributes. An EXR without `S0` channels is an error.
+pub fn read_exr_spectral(path: &Path) -> Result<SpectralImage, ImageError> {
+    let image = read_exr(path)?;
+    let (w, h) = exr_size(path, &image)?;
+    let mut found: Vec<(f64, String, Vec<f32>)> = image
+        .layer_data
+        .channel_data
+        .list
+        .iter()
+        .filter_map(|c| {
+            let name = c.name.to_string();
+            match parse_spectral_channel_name(&name) {
+                Some((0, nm)) => Some((nm, name, c.sample_data.values_as_f32().collect())),
+                _ => None,
+            }
+        })
+        .collect();
+    if found.is_empty() {
+        return Err(ImageError::Malformed {
+            path: path.to_path_buf(),
+            message: "no spectral S0.<wavelength> channels (not a spectral EXR)".into(),
+        });
+    }
+    found.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let n = w as usize * h as usize;
+    if found.iter().any(|c| c.2.len() != n) {
+        return Err(ImageError::Malformed { path: path.to_path_buf(), message: "channel sizes differ".into() });
+    }
+    let nl = found.len();
+    let mut data = vec![0.0f32; n * nl];
+    for (l, (_, _, values)) in found.iter().enumerate() {
+        for (i, v) in values.iter().enumerate() {
+            data[i * nl + l] = *v;
+        }
+    }
+    let mut attributes = BTreeMap::new();
+    for (name, value) in image.attributes.other.iter().chain(image.layer_data.attributes.other.iter()) {
+        if let AttributeValue::Text(t) = value {
+            attributes.insert(name.to_string(), t.to_string());
+        }
+    }
+    Ok(SpectralImage {
+        width: w,
+        height: h,
+        wavelengths_nm: found.iter().map(|c| c.0).collect(),
+        channel_names: found.iter().map(|c| c.1.clone()).collect(),
+        data,
+        attributes,
+    })
+}
+
+fn open_read(path: &Path) -> Result<Vec<u8>, ImageError> {
+    let mut bytes = Vec::new();
+    File::open(path).and_then(|mut f| f.read_to_end(&mut bytes)).map_err(io_err(path))?;
+    Ok(bytes)
+}
+
+/// Reads a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette; alpha ignored), decoding the sRGB transfer
+/// function: (width, height, linear pixels row-major from the top).
+pub fn read_png_linear(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
+    let png_err = |e: png::DecodingError| ImageError::Png { path: path.to_path_buf(), message: e.to_string() };
+    let file = File::open(path).map_err(io_err(path))?;
+    let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().map_err(png_err)?;
+    let mut buf = vec![0u8; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).map_err(png_err)?;
+    let (w, h) = (info.width, info.height);
+    let channels = match info.color_type {
+        png::ColorType::Grayscale => 1,
+        png::ColorType::GrayscaleAlpha => 2,
+        png::ColorType::Rgb => 3,
+        png::ColorType::Rgba => 4,
+        png::ColorType::Indexed => {
+            return Err(ImageError::Malformed { path: path.to_path_buf(), message: "unexpanded palette".into() })
+        }
+    };
+    let sixteen = match info.bit_depth {
+        png::BitDepth::Eight => false,
+        png::BitDepth::Sixteen => true,
+        d => {
+            return Err(ImageError::Malformed {
+                path: path.to_path_buf(),
+                message: format!("unexpected bit depth {d:?} after expansion"),
+            })
+        }
+    };
+    let lut8: Vec<f32> = (0..256).map(|v| spectral::color::srgb_decode(v as f64 / 255.0) as f32).collect();
+    let bytes_per_sample = if sixteen { 2 } else { 1 };
+    let stride = info.line_size;
+    let n = w as usize * h as usize;
+    let mut out = Vec::with_capacity(n);
+    for y in 0..h as usize {
+        let line = buf
+            .get(y * stride..(y + 1) * stride)
+            .ok_or_else(|| ImageError::Malformed { path: path.to_path_buf(), message: "short image data".into() })?;
+        for x in 0..w as usize {
+            let sample = |c: usize| -> f32 {
+                let o = (x * channels + c) * bytes_per_sample;
+                if sixteen {
+                    let v = u16::from_be_bytes([line[o], line[o + 1]]);
+                    spectral::color::srgb_decode(v as f64 / 65535.0) as f32
+                } else {
+                    lut8[line[o] as usize]
+                }
+            };
+            out.push(if channels < 3 { [sample(0); 3] } else { [sample(0), sample(1), sample(2)] });
+        }
+    }
+    Ok((w, h, out))
+}
+
+/// Reads a PFM (`PF` colour or `Pf` grey, either byte order; values multiplied by |scale| when it is not 1):
+/// (width, height, pixels row-major from the top).
+pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
+    let bytes = open_read(path)?;
+    let bad = |m: &str| ImageError::Malformed { path: path.to_path_buf(), message: format!("PFM: {m}") };
+    // Four whitespace-separated tokens, then exactly one whitespace byte before the raster.
+    let mut pos = 0;
+    let mut tokens = Vec::new();
+    while tokens.len() < 4 {
+        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        let start = pos;
+        while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        if start == pos || pos - start > 64 {
+            return Err(bad("truncated or malformed header"));
+        }
+        tokens.push(std::str::from_utf8(&bytes[start..pos]).map_err(|_| bad("non-text header"))?);
+    }
+    if pos >= bytes.len() {
+        return Err(bad("no pixel data"));
+    }
+    pos += 1;
+    let channels = match tokens[0] {
+        "PF" => 3,
+        "Pf" => 1,
+        m => return Err(bad(&format!("bad magic '{m}' (expected PF or Pf)"))),
+    };
+    let w: u32 = tokens[1].parse().map_err(|_| bad("bad width"))?;
+    let h: u32 = tokens[2].parse().map_err(|_| bad("bad height"))?;
+    let scale: f32 = tokens[3].parse().map_err(|_| bad("bad scale"))?;
+    if w == 0 || h == 0 || !scale.is_finite() || scale == 0.0 {
+        return Err(bad("zero size or bad scale"));
+    }
+    let n = (w as usize).checked_mul(h as usize).ok_or_else(|| bad("size overflows"))?;
+    let need = n.checked_mul(channels * 4).ok_or_else(|| bad("size overflows"))?;
+    let raster = bytes.get(pos..).filter(|r| r.len() >= need).ok_or_else(|| bad("truncated pixel data"))?;
+    let little = scale < 0.0;
+    let mult = if scale.abs() != 1.0 { scale.abs() } else { 1.0 };
+    let value = |i: usize| {
+        let b = [raster[4 * i], raster[4 * i + 1], raster[4 * i + 2], raster[4 * i + 3]];
+        (if little { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) }) * mult
+    };
+    let mut out = Vec::with_capacity(n);
+    for y in (0..h as usize).rev() {
+        for x in 0..w as usize {
+            let i = (y * w as usize + x) * channels;
+            out.push(if channels == 3 { [value(i), value(i + 1), value(i + 2)] } else { [value(i); 3] });
+        }
+    }
+    Ok((w, h, out))
+}
+
+/// Reads a linear RGB image by extension: EXR (`R`, `G`, `B`), PNG (sRGB-decoded) or PFM — for textures.
+pub fn read_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Exr => read_exr_rgb(path),
+        ImageFormat::Png => read_png_linear(path),
+        ImageFormat::Pfm => read_pfm(path),
+    }
+}

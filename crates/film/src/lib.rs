@@ -1,0 +1,41 @@
+//! The film of Prismatic: pixel filters, per-pixel accumulation of colour and spectral radiance, and image output.
+//!
+//! - [`Filter`] and [`FilterSampler`]: pbrt-v4's pixel filters, importance sampled so each camera sample lands in
+//!   its own pixel with weight f/pdf (lock-free, thread-count independent rendering).
+//! - [`Film`]: `f64` accumulators per pixel (XYZ, weight, and for a spectral film `nbuckets` wavelength buckets;
+//!   optionally albedo and normal AOVs), written row by row in parallel and mergeable across processes.
+//! - [`write_image`]: EXR (linear float RGB, AOV layers, and the spectral layout of Fichet et al. 2021), PNG (sRGB,
+//!   dithered 8-bit) or PFM by extension, always atomically; readers for each format.
+//!
+//! ```
+//! use film::{Film, FilmKind, FilmSpec, FilterSampler};
+//! use spectral::Xyz;
+//!
+//! let mut spec = FilmSpec::new(4, 3, "out.exr");
+//! spec.kind = FilmKind::spectral_default();
+//! let sampler = FilterSampler::new(&spec.filter).unwrap();
+//! let mut film = Film::new(spec).unwrap();
+//! for mut row in film.rows_mut() {
+//!     for x in 0..row.width() {
+//!         let s = sampler.sample([0.3, 0.7]);
+//!         // One path sample: its XYZ, and (λ, L/pdf) for each active wavelength.
+//!         row.add_sample(x, Xyz::new(0.5, 0.5, 0.5), s.weight, &[(550.0, 1.0), (600.0, 2.0)]);
+//!     }
+//! }
+//! assert!((film.pixel_xyz(1, 2).y - 0.5).abs() < 1e-12);
+//! ```
+
+#![warn(missing_docs)]
+
+mod error;
+pub mod film;
+pub mod filter;
+pub mod image_io;
+
+pub use error::{FilmError, ImageError};
+pub use film::{AovImages, Film, FilmKind, FilmRow, FilmSpec, SpectralEstimates};
+pub use filter::{Filter, FilterSample, FilterSampler};
+pub use image_io::{
+    parse_spectral_channel_name, read_exr_aovs, read_exr_rgb, read_exr_spectral, read_pfm, read_png_linear, read_rgb,
+    spectral_channel_name, write_image, write_rgb, ImageFormat, SpectralImage,
+};

@@ -1,0 +1,239 @@
+//! The film: accumulation, spectral buckets for every wavelength strategy, rows in parallel, merging, validation.
+
+use film::{Film, FilmError, FilmKind, FilmSpec, Filter, FilterSampler, SpectralEstimates};
+use rand_core::{RngCore, SeedableRng};
+use rand_pcg::Pcg64;
+use rayon::prelude::*;
+use spectral::{Observer, SampledSpectrum, WavelengthSampler, WavelengthStrategy, Xyz};
+
+fn uniform(rng: &mut Pcg64) -> f64 {
+    (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+fn spectral_spec(w: u32, h: u32, nbuckets: usize, lambda_min: f64, lambda_max: f64) -> FilmSpec {
+    let mut spec = FilmSpec::new(w, h, "test.exr");
+    spec.kind = FilmKind::Spectral { nbuckets, lambda_min, lambda_max };
+    spec
+}
+
+#[test]
+fn constant_xyz_samples_give_that_xyz_back() {
+    let spec = FilmSpec::new(8, 5, "x.exr");
+    let sampler = FilterSampler::new(&spec.filter).unwrap();
+    let mut film = Film::new(spec).unwrap();
+    let xyz = Xyz::new(0.3, 0.7, 1.1);
+    let mut rng = Pcg64::seed_from_u64(5);
+    for y in 0..5 {
+        for x in 0..8 {
+            for _ in 0..17 {
+                let s = sampler.sample([uniform(&mut rng), uniform(&mut rng)]);
+                assert!(film.add_sample(x, y, xyz, s.weight, &[]));
+            }
+        }
+    }
+    for y in 0..5 {
+        for x in 0..8 {
+            let p = film.pixel_xyz(x, y);
+            assert!((p.x - 0.3).abs() < 1e-12 && (p.y - 0.7).abs() < 1e-12 && (p.z - 1.1).abs() < 1e-12, "{p:?}");
+        }
+    }
+    // And the RGB image is that XYZ in sRGB.
+    let rgb = film.to_rgb_image();
+    let want = spectral::RgbColorSpace::srgb().to_rgb(xyz);
+    for p in rgb {
+        for c in 0..3 {
+            assert!((p[c] as f64 - want[c]).abs() < 1e-6);
+        }
+    }
+    // Pixels without samples, and outside the film, are black, never a panic.
+    let empty = Film::new(FilmSpec::new(2, 2, "e.exr")).unwrap();
+    assert_eq!(empty.pixel_xyz(0, 0), Xyz::default());
+    assert_eq!(film.pixel_xyz(100, 100), Xyz::default());
+    assert_eq!(film.pixel_spectrum(0, 0), Vec::<f64>::new());
+}
+
+#[test]
+fn spectral_bucket_assignment() {
+    // 47 buckets of 10 nm over 360–830: 405 nm is in bucket 4 ([400, 410)), value / 10 nm.
+    let mut film = Film::new(spectral_spec(3, 2, 47, 360.0, 830.0)).unwrap();
+    assert!(film.add_sample(1, 1, Xyz::new(1.0, 1.0, 1.0), 1.0, &[(405.0, 3.0)]));
+    let s = film.pixel_spectrum(1, 1);
+    assert_eq!(s.len(), 47);
+    for (b, v) in s.iter().enumerate() {
+        let want = if b == 4 { 0.3 } else { 0.0 };
+        assert!((v - want).abs() < 1e-12, "bucket {b}: {v}");
+    }
+    let kind = &film.spec().kind;
+    assert_eq!(kind.bucket_of(405.0), Some(4));
+    assert_eq!(kind.bucket_of(360.0), Some(0));
+    assert_eq!(kind.bucket_of(829.999), Some(46));
+    assert_eq!(kind.bucket_of(830.0), None);
+    assert_eq!(kind.bucket_of(359.9), None);
+    assert_eq!(kind.bucket_of(f64::NAN), None);
+    assert!((kind.bucket_centres()[4] - 405.0).abs() < 1e-12);
+
+    // Weights scale the buckets like the colour; wavelengths outside [min, max) are ignored.
+    let mut film = Film::new(spectral_spec(1, 1, 4, 400.0, 800.0)).unwrap();
+    film.add_sample(0, 0, Xyz::default(), 2.0, &[(450.0, 10.0), (799.0, 100.0), (380.0, 1e6), (800.0, 1e6)]);
+    film.add_sample(0, 0, Xyz::default(), 2.0, &[]);
+    // bucket width 100 nm; weight sum 4.
+    assert_eq!(film.pixel_spectrum(0, 0), vec![2.0 * 10.0 / 100.0 / 4.0, 0.0, 0.0, 2.0 * 100.0 / 100.0 / 4.0]);
+}
+
+#[test]
+fn non_finite_samples_are_dropped_and_counted() {
+    let mut film = Film::new(spectral_spec(2, 1, 4, 400.0, 800.0)).unwrap();
+    assert!(!film.add_sample(0, 0, Xyz::new(f64::NAN, 0.0, 0.0), 1.0, &[]));
+    assert!(!film.add_sample(0, 0, Xyz::new(1.0, 1.0, 1.0), f64::INFINITY, &[]));
+    assert!(!film.add_sample(0, 0, Xyz::new(1.0, 1.0, 1.0), 1.0, &[(500.0, f32::NAN)]));
+    assert!(!film.add_sample(5, 0, Xyz::new(1.0, 1.0, 1.0), 1.0, &[]));
+    {
+        let mut row = film.row_mut(0).unwrap();
+        assert!(!row.add_sample(2, Xyz::new(1.0, 1.0, 1.0), 1.0, &[]));
+    }
+    assert!(film.row_mut(1).is_none());
+    assert_eq!(film.pixel_weight(0, 0), 0.0);
+    assert_eq!(film.rejected_samples(), 4);
+}
+
+/// A smooth test spectrum (W m⁻² sr⁻¹ nm⁻¹).
+fn test_spectrum(lambda: f64) -> f64 {
+    1.0 + 0.5 * ((lambda - 360.0) / 470.0) + 0.3 * (lambda / 40.0).sin()
+}
+
+fn bucket_mean(a: f64, b: f64) -> f64 {
+    let n = 10_000;
+    let h = (b - a) / n as f64;
+    (0..n).map(|i| test_spectrum(a + (i as f64 + 0.5) * h)).sum::<f64>() * h / (b - a)
+}
+
+#[test]
+fn every_wavelength_strategy_fills_the_buckets_correctly() {
+    // Each (λ, L/pdf) goes whole into its own bucket, divided by the bucket width: the buckets converge to the mean
+    // spectral radiance over each bucket whatever the density the wavelengths were drawn from.
+    let (lo, hi, nb) = (400.0, 700.0, 10);
+    for strategy in WavelengthStrategy::ALL {
+        let ws = WavelengthSampler::new(strategy, Observer::Cie1931);
+        let mut film = Film::new(spectral_spec(1, 1, nb, lo, hi)).unwrap();
+        let n = 400_000;
+        for k in 0..n {
+            let u = (k as f64 + 0.5) / n as f64; // stratified, so the test is quick and deterministic
+            let wl = ws.sample(u);
+            let l = SampledSpectrum(std::array::from_fn(|i| test_spectrum(wl.lambda(i) as f64) as f32));
+            let est = SpectralEstimates::new(&l, &wl);
+            film.add_sample(0, 0, ws.to_xyz(&l, &wl), 1.0, est.as_slice());
+        }
+        let got = film.pixel_spectrum(0, 0);
+        let width = (hi - lo) / nb as f64;
+        for (b, v) in got.iter().enumerate() {
+            let want = bucket_mean(lo + b as f64 * width, lo + (b + 1) as f64 * width);
+            assert!((v - want).abs() < 0.01 * want, "{strategy}: bucket {b}: {v} vs {want}");
+        }
+    }
+}
+
+#[test]
+fn parallel_rows_are_deterministic_and_match_serial() {
+    let render = |film: &mut Film, sampler: &FilterSampler, parallel: bool| {
+        let work = |mut row: film::FilmRow<'_>| {
+            let y = row.y();
+            for x in 0..row.width() {
+                let mut rng = Pcg64::seed_from_u64(((y as u64) << 32) | x as u64);
+                for _ in 0..8 {
+                    let s = sampler.sample([uniform(&mut rng), uniform(&mut rng)]);
+                    let v = uniform(&mut rng);
+                    let lambda = 360.0 + 470.0 * uniform(&mut rng) as f32;
+                    row.add_sample(x, Xyz::new(v, 2.0 * v, 0.5), s.weight, &[(lambda, v as f32)]);
+                }
+                row.add_aov(x, [0.5, 0.25, 0.125], [0.0, 0.0, 2.0]);
+            }
+        };
+        if parallel {
+            film.par_rows_mut().for_each(work);
+        } else {
+            film.rows_mut().for_each(work);
+        }
+    };
+    let mut spec = spectral_spec(37, 23, 16, 360.0, 830.0);
+    spec.aovs = true;
+    let sampler = FilterSampler::new(&spec.filter).unwrap();
+    let mut serial = Film::new(spec.clone()).unwrap();
+    render(&mut serial, &sampler, false);
+    for threads in [1, 2, 3] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let mut par = Film::new(spec.clone()).unwrap();
+        pool.install(|| render(&mut par, &sampler, true));
+        assert_eq!(par.to_rgb_image(), serial.to_rgb_image());
+        assert_eq!(par.to_spectral_image(), serial.to_spectral_image());
+    }
+    let aov = serial.to_aov_images().unwrap();
+    assert_eq!(aov.albedo[5], [0.5, 0.25, 0.125]);
+    assert_eq!(aov.normal[5], [0.0, 0.0, 1.0]);
+}
+
+#[test]
+fn merge_of_two_half_films_equals_one_film() {
+    let spec = {
+        let mut s = spectral_spec(6, 4, 8, 400.0, 656.0); // 32 nm buckets: exact sums
+        s.aovs = true;
+        s
+    };
+    let sampler = FilterSampler::new(&spec.filter).unwrap();
+    let mut whole = Film::new(spec.clone()).unwrap();
+    let mut first = Film::new(spec.clone()).unwrap();
+    let mut second = Film::new(spec.clone()).unwrap();
+    let mut rng = Pcg64::seed_from_u64(9);
+    for k in 0..2000 {
+        let (x, y) = ((rng.next_u32() % 6), (rng.next_u32() % 4));
+        let s = sampler.sample([uniform(&mut rng), uniform(&mut rng)]);
+        // Values with few significant bits, so sums are exact in any order.
+        let v = (rng.next_u32() % 64) as f64 / 8.0;
+        let w = (s.weight * 64.0).round() / 64.0;
+        let lambda = 400.0 + (rng.next_u32() % 256) as f32;
+        let half = if k % 2 == 0 { &mut first } else { &mut second };
+        for film in [&mut whole, half] {
+            film.add_sample(x, y, Xyz::new(v, v / 2.0, 1.0), w, &[(lambda, v as f32)]);
+            film.add_aov(x, y, [v, 0.5, 0.25], [0.0, 1.0, 0.0]);
+        }
+    }
+    first.merge(&second).unwrap();
+    for y in 0..4 {
+        for x in 0..6 {
+            assert_eq!(first.pixel_xyz(x, y), whole.pixel_xyz(x, y));
+            assert_eq!(first.pixel_weight(x, y), whole.pixel_weight(x, y));
+            assert_eq!(first.pixel_spectrum(x, y), whole.pixel_spectrum(x, y));
+        }
+    }
+    assert_eq!(first.to_aov_images(), whole.to_aov_images());
+
+    // Films that differ cannot be merged.
+    let other = Film::new(spectral_spec(6, 4, 9, 400.0, 656.0)).unwrap();
+    assert!(matches!(first.merge(&other), Err(FilmError::Mismatch(_))));
+    let other = Film::new(FilmSpec::new(5, 4, "a.exr")).unwrap();
+    assert!(matches!(first.merge(&other), Err(FilmError::Mismatch(_))));
+}
+
+#[test]
+fn spec_validation_names_the_parameter() {
+    let name = |spec: FilmSpec| match Film::new(spec).unwrap_err() {
+        FilmError::InvalidParameter { name, .. } => name,
+        e => panic!("unexpected {e:?}"),
+    };
+    assert_eq!(name(FilmSpec::new(0, 10, "a.exr")), "xresolution");
+    assert_eq!(name(FilmSpec::new(10, 0, "a.exr")), "yresolution");
+    assert_eq!(name(spectral_spec(4, 4, 0, 360.0, 830.0)), "nbuckets");
+    assert_eq!(name(spectral_spec(4, 4, 16, 300.0, 830.0)), "lambdamin");
+    assert_eq!(name(spectral_spec(4, 4, 16, f64::NAN, 830.0)), "lambdamin");
+    assert_eq!(name(spectral_spec(4, 4, 16, 500.0, 500.0)), "lambdamax");
+    assert_eq!(name(spectral_spec(4, 4, 16, 500.0, 900.0)), "lambdamax");
+    let mut spec = FilmSpec::new(4, 4, "a.exr");
+    spec.filter = Filter::Gaussian { radius: [-1.0, 1.0], sigma: 0.5 };
+    assert_eq!(name(spec), "xradius");
+    // pbrt-v4's defaults.
+    assert_eq!(FilmKind::spectral_default(), FilmKind::Spectral { nbuckets: 16, lambda_min: 360.0, lambda_max: 830.0 });
+    let d = FilmSpec::default();
+    assert_eq!((d.width, d.height, d.kind, d.filter, d.aovs), (1280, 720, FilmKind::Rgb, Filter::default(), false));
+    // An absurd size is an error, not an abort.
+    let e = Film::new(spectral_spec(u32::MAX, u32::MAX, 4700, 360.0, 830.0)).unwrap_err();
+    assert!(matches!(e, FilmError::TooLarge { .. }), "{e:?}");
+}
