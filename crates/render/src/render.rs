@@ -4,6 +4,9 @@ use glam::Vec2;
 use spectral::{WavelengthSampler, Xyz, N_WAVELENGTHS};
 use std::ops::Range;
 
+use film::{Film, FilmError, FilterSampler};
+use rayon::prelude::*;
+
 use crate::integrator::{PathIntegrator, RayCounts};
 use crate::sampler::Sampler;
 use crate::scene::RenderScene;
@@ -58,4 +61,49 @@ pub fn render_pixel(
         }
         add(PixelContribution { xyz, weight, spectral, n_spectral: n });
     }
+}
+
+/// Totals of a render pass.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RenderStats {
+    /// Camera samples taken.
+    pub samples: u64,
+    /// Rays traced (closest hit and shadow).
+    pub rays: u64,
+}
+
+/// Renders samples `samples` of every pixel into `film`, rows in parallel (rayon). `progress` is called after each
+/// row with the number of camera samples it took. The result does not depend on the number of threads: every
+/// sample's random numbers depend only on (pixel, sample index, seed), and each pixel is written by one thread.
+pub fn render_film(
+    scene: &RenderScene,
+    integrator: &PathIntegrator,
+    wavelengths: &WavelengthSampler,
+    film: &mut Film,
+    samples: Range<u32>,
+    seed: u32,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RenderStats, FilmError> {
+    let filter_sampler = FilterSampler::new(&film.spec().filter)?;
+    let filter = |u: [f32; 2]| {
+        let s = filter_sampler.sample([u[0] as f64, u[1] as f64]);
+        (Vec2::new(s.offset[0] as f32, s.offset[1] as f32), s.weight as f32)
+    };
+    let per_pixel = (samples.end - samples.start) as u64;
+    let stats = film
+        .par_rows_mut()
+        .map(|mut row| {
+            let mut counts = RayCounts::default();
+            let y = row.y();
+            for x in 0..row.width() {
+                render_pixel(scene, integrator, wavelengths, &filter, x, y, samples.clone(), seed, &mut counts, |c| {
+                    row.add_sample(x, c.xyz, c.weight as f64, &c.spectral[..c.n_spectral]);
+                });
+            }
+            let taken = per_pixel * row.width() as u64;
+            progress(taken);
+            RenderStats { samples: taken, rays: counts.intersect + counts.shadow }
+        })
+        .reduce(RenderStats::default, |a, b| RenderStats { samples: a.samples + b.samples, rays: a.rays + b.rays });
+    Ok(stats)
 }
