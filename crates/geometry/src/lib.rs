@@ -1,8 +1,52 @@
 //! Geometry for Prismatic: vectors (glam), transforms, rays, shapes, intersection and acceleration structures.
 //!
-//! Knows nothing of materials, spectra or scene files.
+//! Knows nothing of materials, spectra or scene files. Render-time geometry is f32; transforms are f64.
+//!
+//! - [`ray`]: [`Ray`], floating-point error bounds and robust ray spawning ([`spawn_ray`], [`spawn_ray_to`]).
+//! - [`mesh`]: [`TriangleMesh`] in render space from object-space [`MeshData`]; PLY loading ([`ply`]), Loop
+//!   subdivision ([`subdiv`]) and bilinear-patch meshes split into triangles.
+//! - [`shapes`]: [`Sphere`], [`Disk`], triangle intersection, and area / solid-angle sampling ([`ShapeSample`]).
+//! - [`accel`]: the [`Accel`] trait and [`GeometryScene`], a two-level BVH (compressed wide BVH from `obvhs`) with
+//!   instancing.
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod accel;
+pub mod bounds;
+pub mod mesh;
+pub mod ply;
+pub mod ray;
+pub mod shapes;
+pub mod subdiv;
 pub mod transform;
 
+pub use accel::{Accel, GeometryScene, Hit, Instance, Object, Shape};
+pub use bounds::Bounds3;
 pub use glam::{DMat4, DVec3, Vec2, Vec3, Vec3A};
+pub use mesh::{MeshData, TriangleMesh};
+pub use ray::{offset_ray_origin, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
+pub use shapes::{Disk, ShapeSample, Sphere};
 pub use transform::Transform;
+
+/// Errors from building geometry from user data. Each names the problem.
+#[derive(Debug, thiserror::Error)]
+pub enum GeometryError {
+    /// A mesh's data is inconsistent (index out of range, wrong array length, non-finite value…).
+    #[error("invalid mesh: {0}")]
+    InvalidMesh(String),
+    /// A shape's parameters are invalid (negative radius…).
+    #[error("invalid shape: {0}")]
+    InvalidShape(String),
+    /// An instance refers to a missing object or has a bad transform.
+    #[error("invalid instance: {0}")]
+    InvalidInstance(String),
+    /// A PLY file could not be read or understood.
+    #[error("PLY file {path}: {message}")]
+    Ply {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
+}

@@ -93,7 +93,7 @@ impl Transform {
     }
 
     /// Perspective projection with field of view `fov_deg` and clipping planes `near`, `far` (pbrt's
-    /// `Perspective`): maps camera space to [-1,1]² × [0,1] in x, y and depth before the screen-window scaling.
+    /// `Perspective`): maps camera space to \[-1,1\]² × \[0,1\] in x, y and depth before the screen-window scaling.
     pub fn perspective(fov_deg: f64, near: f64, far: f64) -> Option<Self> {
         let persp = DMat4::from_cols(
             DVec4::new(1.0, 0.0, 0.0, 0.0),

@@ -84,7 +84,7 @@ impl PathIntegrator {
                     if depth == 0 || specular_bounce {
                         l += beta * le;
                     } else {
-                        let p_l = scene.light_probability(li) * light.pdf_li_area(prev_p, hit.p, hit.n);
+                        let p_l = scene.light_probability(li) * light.pdf_li_area(prev_p, d);
                         l += beta * le * power_heuristic(p_b, p_l);
                     }
                 }
@@ -187,7 +187,8 @@ impl PathIntegrator {
         }
         let origin = hit.spawn_origin(ls.wi);
         counts.shadow += 1;
-        let t_max = if ls.dist.is_finite() { (ls.dist - hit.offset * 2.0) * (1.0 - 1e-4) } else { f32::INFINITY };
+        // Stop just short of the light's surface (pbrt's ShadowEpsilon, relative).
+        let t_max = if ls.dist.is_finite() { (ls.p - origin).length() * (1.0 - 1e-4) } else { f32::INFINITY };
         if scene.geometry.occluded(origin, ls.wi, t_max) {
             return SampledSpectrum::zero();
         }

@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use spectral::{Distribution2D, SampledSpectrum, SampledWavelengths, Spectrum};
 use std::f32::consts::PI;
 
-use crate::sampling::{sample_uniform_cone, sample_uniform_sphere, Frame};
+use crate::sampling::{sample_uniform_sphere, Frame};
 
 /// Where light arrives: a point and (for surfaces) its normal.
 #[derive(Clone, Copy, Debug)]
@@ -29,126 +29,10 @@ pub struct LightLiSample {
     pub pdf: f32,
     /// Distance to the sampled point (infinity for lights at infinity).
     pub dist: f32,
+    /// The sampled point (for lights at infinity, meaningless).
+    pub p: Vec3,
     /// True for delta distributions (point, spot, distant), which BSDF sampling can never hit.
     pub delta: bool,
-}
-
-/// The surface an area light covers, in world space.
-#[derive(Clone, Debug)]
-pub enum EmitterShape {
-    /// A triangle with its (oriented) unit normal.
-    Triangle {
-        /// Vertices.
-        p: [Vec3; 3],
-        /// Emitting-side normal.
-        n: Vec3,
-    },
-    /// A sphere (uniform scale only).
-    Sphere {
-        /// Centre.
-        center: Vec3,
-        /// Radius.
-        radius: f32,
-        /// True if the normals point inwards (ReverseOrientation).
-        inward: bool,
-    },
-    /// A flat disk or annulus.
-    Disk {
-        /// Centre.
-        center: Vec3,
-        /// Emitting-side normal.
-        n: Vec3,
-        /// Outer radius.
-        radius: f32,
-        /// Inner radius.
-        inner: f32,
-    },
-}
-
-impl EmitterShape {
-    /// Surface area.
-    pub fn area(&self) -> f32 {
-        match self {
-            EmitterShape::Triangle { p, .. } => 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length(),
-            EmitterShape::Sphere { radius, .. } => 4.0 * PI * radius * radius,
-            EmitterShape::Disk { radius, inner, .. } => PI * (radius * radius - inner * inner),
-        }
-    }
-
-    /// A point on the shape seen from `from`: (point, normal, solid-angle density).
-    fn sample(&self, from: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
-        match self {
-            EmitterShape::Sphere { center, radius, inward } => {
-                let dc2 = (from - *center).length_squared();
-                if dc2 <= radius * radius * 1.0001 || *inward {
-                    // Inside (or inward-facing): area sampling converted to solid angle.
-                    let n = sample_uniform_sphere(u);
-                    let p = *center + *radius * n;
-                    let n = if *inward { -n } else { n };
-                    return area_to_solid_angle(from, p, n, 1.0 / self.area());
-                }
-                // Outside: sample the cone of directions that sees the sphere (pbrt-v4 §6.2.4).
-                let dc = dc2.sqrt();
-                let sin2_max = radius * radius / dc2;
-                let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
-                let frame = Frame::from_z((*center - from) / dc);
-                let w = frame.from_local(sample_uniform_cone(u, cos_max));
-                // Intersect the ray with the sphere for the point (nearest root).
-                let oc = from - *center;
-                let b = oc.dot(w);
-                let disc = (b * b - (oc.length_squared() - radius * radius)).max(0.0);
-                let t = -b - disc.sqrt();
-                let p = from + w * t.max(0.0);
-                let n = (p - *center).normalize();
-                Some((p, n, 1.0 / (2.0 * PI * (1.0 - cos_max))))
-            }
-            EmitterShape::Triangle { p, n } => {
-                // Uniform barycentrics (Heitz 2019 low-distortion map, sqrt form).
-                let su = u.x.sqrt();
-                let (b0, b1) = (1.0 - su, u.y * su);
-                let q = p[0] * b0 + p[1] * b1 + p[2] * (1.0 - b0 - b1);
-                area_to_solid_angle(from, q, *n, 1.0 / self.area())
-            }
-            EmitterShape::Disk { center, n, radius, inner } => {
-                let r = (inner * inner + u.x * (radius * radius - inner * inner)).sqrt();
-                let phi = 2.0 * PI * u.y;
-                let f = Frame::from_z(*n);
-                let q = *center + f.from_local(Vec3::new(r * phi.cos(), r * phi.sin(), 0.0));
-                area_to_solid_angle(from, q, *n, 1.0 / self.area())
-            }
-        }
-    }
-
-    /// Solid-angle density of [`EmitterShape::sample`] for the point `p` with normal `n` seen from `from`.
-    fn pdf(&self, from: Vec3, p: Vec3, n: Vec3) -> f32 {
-        match self {
-            EmitterShape::Sphere { center, radius, inward } => {
-                let dc2 = (from - *center).length_squared();
-                if dc2 <= radius * radius * 1.0001 || *inward {
-                    return area_pdf_to_solid_angle(from, p, n, 1.0 / self.area());
-                }
-                let cos_max = (1.0 - radius * radius / dc2).max(0.0).sqrt();
-                1.0 / (2.0 * PI * (1.0 - cos_max))
-            }
-            _ => area_pdf_to_solid_angle(from, p, n, 1.0 / self.area()),
-        }
-    }
-}
-
-fn area_pdf_to_solid_angle(from: Vec3, p: Vec3, n: Vec3, pdf_area: f32) -> f32 {
-    let d = p - from;
-    let d2 = d.length_squared();
-    let cos = n.dot(-d.normalize_or_zero()).abs();
-    if cos == 0.0 || d2 == 0.0 {
-        0.0
-    } else {
-        pdf_area * d2 / cos
-    }
-}
-
-fn area_to_solid_angle(from: Vec3, p: Vec3, n: Vec3, pdf_area: f32) -> Option<(Vec3, Vec3, f32)> {
-    let pdf = area_pdf_to_solid_angle(from, p, n, pdf_area);
-    (pdf > 0.0 && pdf.is_finite()).then_some((p, n, pdf))
 }
 
 /// An environment image in equal-area octahedral (pbrt-v4's native) or latitude–longitude layout.
@@ -218,10 +102,13 @@ pub enum Light {
         /// Scene bounding sphere radius (for power).
         scene_radius: f32,
     },
-    /// Lambertian emission from one side (or both) of a shape.
+    /// Lambertian emission from one side (or both) of one primitive of a shape (one light per triangle, as
+    /// pbrt-v4 does).
     DiffuseArea {
-        /// The emitting shape.
-        shape: EmitterShape,
+        /// The emitting shape (render space; shared with the geometry).
+        shape: Box<geometry::Shape>,
+        /// The primitive of the shape (triangle index for meshes).
+        element: u32,
         /// Emitted radiance (scaled).
         l: Spectrum,
         /// Emit from both sides.
@@ -246,6 +133,7 @@ impl Light {
                     wi: d / d2.sqrt(),
                     pdf: 1.0,
                     dist: d2.sqrt(),
+                    p: *p,
                     delta: true,
                 })
             }
@@ -263,15 +151,28 @@ impl Light {
                     wi,
                     pdf: 1.0,
                     dist: d2.sqrt(),
+                    p: *p,
                     delta: true,
                 })
             }
-            Light::Distant { w, l, .. } => {
-                Some(LightLiSample { l: l.sample(wl), wi: *w, pdf: 1.0, dist: f32::INFINITY, delta: true })
-            }
+            Light::Distant { w, l, .. } => Some(LightLiSample {
+                l: l.sample(wl),
+                wi: *w,
+                pdf: 1.0,
+                dist: f32::INFINITY,
+                p: Vec3::ZERO,
+                delta: true,
+            }),
             Light::UniformInfinite { l, .. } => {
                 let wi = sample_uniform_sphere(u);
-                Some(LightLiSample { l: l.sample(wl), wi, pdf: 1.0 / (4.0 * PI), dist: f32::INFINITY, delta: false })
+                Some(LightLiSample {
+                    l: l.sample(wl),
+                    wi,
+                    pdf: 1.0 / (4.0 * PI),
+                    dist: f32::INFINITY,
+                    p: Vec3::ZERO,
+                    delta: false,
+                })
             }
             Light::ImageInfinite { map, scale, .. } => {
                 let s = map.distribution.sample([u.x as f64, u.y as f64]);
@@ -284,11 +185,16 @@ impl Light {
                     wi,
                     pdf,
                     dist: f32::INFINITY,
+                    p: Vec3::ZERO,
                     delta: false,
                 })
             }
-            Light::DiffuseArea { shape, l, two_sided } => {
-                let (p, n, pdf) = shape.sample(ctx.p, u)?;
+            Light::DiffuseArea { shape, element, l, two_sided } => {
+                let ss = shape.sample_solid_angle(*element as usize, ctx.p, u)?;
+                let (p, n, pdf) = (ss.p, ss.n, ss.pdf);
+                if !(pdf > 0.0 && pdf.is_finite()) {
+                    return None;
+                }
                 let d = p - ctx.p;
                 let dist = d.length();
                 if dist == 0.0 {
@@ -299,16 +205,15 @@ impl Light {
                 if !facing && !two_sided {
                     return None;
                 }
-                Some(LightLiSample { l: l.sample(wl), wi, pdf, dist, delta: false })
+                Some(LightLiSample { l: l.sample(wl), wi, pdf, dist, p, delta: false })
             }
         }
     }
 
-    /// Solid-angle density that [`Light::sample_li`] would give for the surface point `p` (normal `n`) of an area
-    /// light seen from `from`.
-    pub fn pdf_li_area(&self, from: Vec3, p: Vec3, n: Vec3) -> f32 {
+    /// Solid-angle density that [`Light::sample_li`] would give for direction `wi` from `from` (area lights).
+    pub fn pdf_li_area(&self, from: Vec3, wi: Vec3) -> f32 {
         match self {
-            Light::DiffuseArea { shape, .. } => shape.pdf(from, p, n),
+            Light::DiffuseArea { shape, element, .. } => shape.pdf_solid_angle(*element as usize, from, wi),
             _ => 0.0,
         }
     }
@@ -365,7 +270,9 @@ impl Light {
             Light::ImageInfinite { map, scale, scene_radius } => {
                 4.0 * PI * PI * scene_radius * scene_radius * scale * map.average_luminance()
             }
-            Light::DiffuseArea { shape, l, two_sided } => PI * shape.area() * y(l) * if *two_sided { 2.0 } else { 1.0 },
+            Light::DiffuseArea { shape, element, l, two_sided } => {
+                PI * shape.area(*element as usize) * y(l) * if *two_sided { 2.0 } else { 1.0 }
+            }
         }
     }
 }
@@ -482,33 +389,5 @@ mod tests {
                 assert!((p - q).length() < 1e-4, "{p} → {w} → {q}");
             }
         }
-    }
-
-    #[test]
-    fn sphere_light_cone_pdf_matches_its_samples() {
-        let shape = EmitterShape::Sphere { center: Vec3::new(0.0, 0.0, 10.0), radius: 2.0, inward: false };
-        let from = Vec3::ZERO;
-        for k in 0..50 {
-            let u = Vec2::new((k as f32 + 0.5) / 50.0, ((k * 7) % 50) as f32 / 50.0);
-            let (p, n, pdf) = shape.sample(from, u).unwrap();
-            assert!(((p - Vec3::new(0.0, 0.0, 10.0)).length() - 2.0).abs() < 1e-3);
-            assert!(n.dot(-p.normalize()) > -1e-3, "visible side");
-            assert!((pdf - shape.pdf(from, p, n)).abs() < 1e-6 * pdf);
-        }
-        // Cone pdf = 1/(2π(1 − cos θmax)) with sin θmax = 0.2.
-        let expected = 1.0 / (2.0 * PI * (1.0 - (1.0f32 - 0.04).sqrt()));
-        assert!((shape.pdf(from, Vec3::new(0.0, 0.0, 8.0), -Vec3::Z) - expected).abs() < 1e-3 * expected);
-    }
-
-    #[test]
-    fn triangle_light_pdf_is_area_converted() {
-        let shape = EmitterShape::Triangle {
-            p: [Vec3::new(-1.0, -1.0, 5.0), Vec3::new(1.0, -1.0, 5.0), Vec3::new(0.0, 1.0, 5.0)],
-            n: -Vec3::Z,
-        };
-        let (p, n, pdf) = shape.sample(Vec3::ZERO, Vec2::new(0.3, 0.6)).unwrap();
-        let d2 = p.length_squared();
-        let cos = n.dot(-p.normalize()).abs();
-        assert!((pdf - d2 / (cos * 2.0)).abs() < 1e-4 * pdf);
     }
 }

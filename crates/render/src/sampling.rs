@@ -34,14 +34,6 @@ pub fn sample_uniform_sphere(u: Vec2) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
-/// Uniform direction inside a cone of half-angle θmax around +z; pdf = 1/(2π(1 − cos θmax)).
-pub fn sample_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
-    let cos_theta = (1.0 - u.x) + u.x * cos_theta_max;
-    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
-}
-
 /// Power heuristic with β = 2 (Veach 1997, §9.2.4) for one sample from each of two strategies.
 pub fn power_heuristic(pdf_f: f32, pdf_g: f32) -> f32 {
     let (f, g) = (pdf_f * pdf_f, pdf_g * pdf_g);

@@ -35,8 +35,8 @@ pub struct SurfaceHit {
     pub uv: Vec2,
     /// Tangent for the shading frame.
     pub dpdu: Vec3,
-    /// Distance along ±n that a spawned ray origin must move to clear the surface (floating-point error bound).
-    pub offset: f32,
+    /// Conservative absolute error bound of each coordinate of `p` (for spawning rays that cannot re-hit).
+    pub p_error: Vec3,
     /// Material index, or [`NO_MATERIAL`].
     pub material: u32,
     /// Index of the area light on this surface, if it emits.
@@ -46,14 +46,9 @@ pub struct SurfaceHit {
 }
 
 impl SurfaceHit {
-    /// Origin for a ray leaving the surface in direction `d` (offset to the side `d` points to).
+    /// Origin for a ray leaving the surface in direction `d`: offset along ±n by the error bound (pbrt-v4 §6.8.6).
     pub fn spawn_origin(&self, d: Vec3) -> Vec3 {
-        let off = self.n * self.offset;
-        if d.dot(self.n) >= 0.0 {
-            self.p + off
-        } else {
-            self.p - off
-        }
+        geometry::offset_ray_origin(self.p, self.p_error, self.n, d)
     }
 }
 

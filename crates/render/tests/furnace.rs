@@ -45,7 +45,7 @@ impl Geometry for OneSphere {
             ns: n,
             uv: Vec2::ZERO,
             dpdu: n.cross(Vec3::Z).try_normalize().unwrap_or(Vec3::X),
-            offset: 1e-4,
+            p_error: Vec3::splat(1e-5),
             material: 0,
             area_light: None,
             media: None,

@@ -1,0 +1,354 @@
+//! Triangle meshes in render space, built from object-space data and a transform; bilinear-patch meshes.
+
+use glam::{Vec2, Vec3};
+
+use crate::bounds::Bounds3;
+use crate::transform::Transform;
+use crate::GeometryError;
+
+/// Object-space triangle mesh data, as a scene file gives it: positions, optional per-vertex normals and uvs, and
+/// three `u32` vertex indices per triangle (counter-clockwise seen from the side the normal points to, as pbrt).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshData {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Per-vertex shading normals (same length as `positions`), if any.
+    pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex texture coordinates (same length as `positions`), if any.
+    pub uvs: Option<Vec<Vec2>>,
+    /// Vertex indices, three per triangle.
+    pub indices: Vec<u32>,
+}
+
+impl MeshData {
+    /// Checks the data: indices a multiple of 3 and in range, optional arrays of the right length, every value
+    /// finite. The error names the first problem found.
+    pub fn validate(&self) -> Result<(), GeometryError> {
+        let err = |m: String| Err(GeometryError::InvalidMesh(m));
+        if self.indices.len() % 3 != 0 {
+            return err(format!("{} vertex indices is not a multiple of 3", self.indices.len()));
+        }
+        let n = self.positions.len();
+        if let Some((i, &v)) = self.indices.iter().enumerate().find(|(_, &v)| v as usize >= n) {
+            return err(format!("vertex index {v} (entry {i}) is out of range: the mesh has {n} vertices"));
+        }
+        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
+            return err(format!("position {i} is not finite: {:?}", self.positions[i]));
+        }
+        if let Some(normals) = &self.normals {
+            if normals.len() != n {
+                return err(format!("{} normals for {n} vertices", normals.len()));
+            }
+            if let Some(i) = normals.iter().position(|p| !p.is_finite()) {
+                return err(format!("normal {i} is not finite: {:?}", normals[i]));
+            }
+        }
+        if let Some(uvs) = &self.uvs {
+            if uvs.len() != n {
+                return err(format!("{} uvs for {n} vertices", uvs.len()));
+            }
+            if let Some(i) = uvs.iter().position(|p| !p.is_finite()) {
+                return err(format!("uv {i} is not finite: {:?}", uvs[i]));
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+}
+
+/// A triangle mesh with its vertices in render space (pbrt-v4's `TriangleMesh`).
+///
+/// The geometric normal of triangle `(p0, p1, p2)` is `normalize(cross(p0 − p2, p1 − p2))`, negated when
+/// `reverse_orientation() != transform_swaps_handedness()`; if the mesh has per-vertex normals, the geometric normal
+/// is instead flipped to the side of the interpolated shading normal (pbrt-v4's convention, which decides the side
+/// an area light emits to).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TriangleMesh {
+    positions: Vec<Vec3>,
+    normals: Option<Vec<Vec3>>,
+    uvs: Option<Vec<Vec2>>,
+    indices: Vec<u32>,
+    reverse_orientation: bool,
+    transform_swaps_handedness: bool,
+    bounds: Bounds3,
+}
+
+impl TriangleMesh {
+    /// Transforms object-space `data` to render space with `render_from_object`. `reverse_orientation` is pbrt's
+    /// `ReverseOrientation` state; per-vertex normals are negated when it is set (as pbrt-v4 does). Errors if the
+    /// data is invalid (see [`MeshData::validate`]) or the transform produces non-finite positions.
+    pub fn new(
+        render_from_object: &Transform,
+        data: MeshData,
+        reverse_orientation: bool,
+    ) -> Result<Self, GeometryError> {
+        data.validate()?;
+        let MeshData { mut positions, mut normals, uvs, indices } = data;
+        if !render_from_object.is_identity() {
+            for p in &mut positions {
+                *p = render_from_object.point(p.as_dvec3()).as_vec3();
+            }
+            if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+                return Err(GeometryError::InvalidMesh(format!(
+                    "position {i} is not finite after the transform: {:?}",
+                    positions[i]
+                )));
+            }
+        }
+        if let Some(ns) = &mut normals {
+            for n in ns.iter_mut() {
+                let mut m = if render_from_object.is_identity() {
+                    *n
+                } else {
+                    render_from_object.normal(n.as_dvec3()).as_vec3()
+                };
+                if reverse_orientation {
+                    m = -m;
+                }
+                *n = m.normalize_or_zero();
+            }
+        }
+        let bounds = Bounds3::from_points(indices.iter().map(|&i| positions[i as usize]));
+        Ok(Self {
+            positions,
+            normals,
+            uvs,
+            indices,
+            reverse_orientation,
+            transform_swaps_handedness: render_from_object.swaps_handedness(),
+            bounds,
+        })
+    }
+
+    /// Render-space vertex positions.
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+
+    /// Render-space unit shading normals (already negated under `ReverseOrientation`), if any.
+    pub fn normals(&self) -> Option<&[Vec3]> {
+        self.normals.as_deref()
+    }
+
+    /// Per-vertex uvs, if any.
+    pub fn uvs(&self) -> Option<&[Vec2]> {
+        self.uvs.as_deref()
+    }
+
+    /// Vertex indices, three per triangle.
+    pub fn indices(&self) -> &[u32] {
+        &self.indices
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// True if pbrt's `ReverseOrientation` was in effect.
+    pub fn reverse_orientation(&self) -> bool {
+        self.reverse_orientation
+    }
+
+    /// True if the render-from-object transform swapped handedness.
+    pub fn transform_swaps_handedness(&self) -> bool {
+        self.transform_swaps_handedness
+    }
+
+    /// True if the geometric normal from the vertex order must be negated (pbrt's
+    /// `reverseOrientation ^ transformSwapsHandedness`).
+    pub fn flip_normal(&self) -> bool {
+        self.reverse_orientation ^ self.transform_swaps_handedness
+    }
+
+    /// Bounds of all referenced vertices.
+    pub fn bounds(&self) -> Bounds3 {
+        self.bounds
+    }
+
+    /// The vertex indices of triangle `tri`. Panics if `tri >= triangle_count()` (an internal index, never user
+    /// data).
+    #[inline]
+    pub fn triangle(&self, tri: usize) -> [u32; 3] {
+        let i = 3 * tri;
+        [self.indices[i], self.indices[i + 1], self.indices[i + 2]]
+    }
+
+    /// The three render-space vertices of triangle `tri`.
+    #[inline]
+    pub fn triangle_positions(&self, tri: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.triangle(tri);
+        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
+    }
+
+    /// The uvs of triangle `tri`: the mesh's, or pbrt's default (0,0), (1,0), (1,1).
+    #[inline]
+    pub fn triangle_uvs(&self, tri: usize) -> [Vec2; 3] {
+        match &self.uvs {
+            Some(uv) => {
+                let [a, b, c] = self.triangle(tri);
+                [uv[a as usize], uv[b as usize], uv[c as usize]]
+            }
+            None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
+        }
+    }
+
+    /// The shading normals at the vertices of triangle `tri`, if the mesh has normals.
+    #[inline]
+    pub fn triangle_normals(&self, tri: usize) -> Option<[Vec3; 3]> {
+        let n = self.normals.as_ref()?;
+        let [a, b, c] = self.triangle(tri);
+        Some([n[a as usize], n[b as usize], n[c as usize]])
+    }
+
+    /// Area of triangle `tri`.
+    pub fn triangle_area(&self, tri: usize) -> f32 {
+        let [p0, p1, p2] = self.triangle_positions(tri);
+        0.5 * (p1 - p0).cross(p2 - p0).length()
+    }
+
+    /// Total surface area.
+    pub fn area(&self) -> f64 {
+        (0..self.triangle_count()).map(|t| self.triangle_area(t) as f64).sum()
+    }
+}
+
+/// Object-space bilinear patch mesh data (pbrt-v4's `bilinearmesh`): four indices per patch in the order
+/// `p00 p10 p01 p11`, optional per-vertex uvs and normals.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BilinearMeshData {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Per-vertex normals, if any.
+    pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex uvs, if any.
+    pub uvs: Option<Vec<Vec2>>,
+    /// Vertex indices, four per patch: `p00 p10 p01 p11`.
+    pub indices: Vec<u32>,
+}
+
+impl BilinearMeshData {
+    /// Splits every patch into the two triangles `(p00, p10, p11)` and `(p00, p11, p01)`, whose geometric normals
+    /// point the way pbrt's patch normal `cross(∂p/∂u, ∂p/∂v)` does. Triangle `2k` and `2k + 1` come from patch `k`.
+    ///
+    /// Planar patches (the usual case: quads) are represented exactly; a non-planar patch is approximated by its two
+    /// triangles (no exact ray–bilinear-patch intersection yet). Without uvs each patch gets its own four vertices
+    /// with pbrt's default patch uvs (0,0), (1,0), (0,1), (1,1).
+    pub fn to_triangles(&self) -> Result<MeshData, GeometryError> {
+        if self.indices.len() % 4 != 0 {
+            return Err(GeometryError::InvalidMesh(format!(
+                "bilinear mesh: {} vertex indices is not a multiple of 4",
+                self.indices.len()
+            )));
+        }
+        let n = self.positions.len();
+        if let Some(&v) = self.indices.iter().find(|&&v| v as usize >= n) {
+            return Err(GeometryError::InvalidMesh(format!(
+                "bilinear mesh: vertex index {v} is out of range: the mesh has {n} vertices"
+            )));
+        }
+        let tri_of = |q: &[u32]| [q[0], q[1], q[3], q[0], q[3], q[2]];
+        if self.uvs.is_some() {
+            let indices = self.indices.chunks_exact(4).flat_map(tri_of).collect();
+            return Ok(MeshData {
+                positions: self.positions.clone(),
+                normals: self.normals.clone(),
+                uvs: self.uvs.clone(),
+                indices,
+            });
+        }
+        let patches = self.indices.len() / 4;
+        let mut out = MeshData {
+            positions: Vec::with_capacity(4 * patches),
+            normals: self.normals.as_ref().map(|_| Vec::with_capacity(4 * patches)),
+            uvs: Some(Vec::with_capacity(4 * patches)),
+            indices: Vec::with_capacity(6 * patches),
+        };
+        let default_uv = [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0)];
+        for (k, q) in self.indices.chunks_exact(4).enumerate() {
+            for (j, &v) in q.iter().enumerate() {
+                out.positions.push(self.positions[v as usize]);
+                if let (Some(dst), Some(src)) = (&mut out.normals, &self.normals) {
+                    dst.push(src.get(v as usize).copied().unwrap_or(Vec3::ZERO));
+                }
+                if let Some(uvs) = &mut out.uvs {
+                    uvs.push(default_uv[j]);
+                }
+            }
+            let b = 4 * k as u32;
+            out.indices.extend(tri_of(&[b, b + 1, b + 2, b + 3]));
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    fn quad() -> MeshData {
+        MeshData {
+            positions: vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+            ],
+            normals: None,
+            uvs: None,
+            indices: vec![0, 1, 2, 0, 2, 3],
+        }
+    }
+
+    #[test]
+    fn validation_names_the_problem() {
+        let mut m = quad();
+        m.indices.push(1);
+        let e = m.validate().unwrap_err().to_string();
+        assert!(e.contains("multiple of 3"), "{e}");
+        let mut m = quad();
+        m.indices[4] = 9;
+        let e = m.validate().unwrap_err().to_string();
+        assert!(e.contains("out of range"), "{e}");
+        let mut m = quad();
+        m.positions[2].x = f32::NAN;
+        assert!(m.validate().unwrap_err().to_string().contains("not finite"));
+        let mut m = quad();
+        m.uvs = Some(vec![Vec2::ZERO; 3]);
+        assert!(m.validate().unwrap_err().to_string().contains("3 uvs for 4 vertices"));
+    }
+
+    #[test]
+    fn transform_and_handedness() {
+        let t = Transform::scale(DVec3::new(-2.0, 1.0, 1.0)).unwrap();
+        let m = TriangleMesh::new(&t, quad(), false).unwrap();
+        assert_eq!(m.positions()[1], Vec3::new(-2.0, 0.0, 0.0));
+        assert!(m.transform_swaps_handedness() && m.flip_normal());
+        assert!((m.area() - 2.0).abs() < 1e-6);
+        let m = TriangleMesh::new(&t, quad(), true).unwrap();
+        assert!(!m.flip_normal());
+    }
+
+    #[test]
+    fn bilinear_split_keeps_pbrt_orientation() {
+        let b = BilinearMeshData {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)],
+            indices: vec![0, 1, 2, 3],
+            ..Default::default()
+        };
+        let m = b.to_triangles().unwrap();
+        assert_eq!(m.triangle_count(), 2);
+        for t in m.indices.chunks_exact(3) {
+            let [p0, p1, p2] = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
+            // pbrt's triangle normal cross(p0 − p2, p1 − p2) equals the patch's cross(dpdu, dpdv) = +z.
+            assert!((p0 - p2).cross(p1 - p2).z > 0.0);
+        }
+        assert_eq!(m.uvs.as_ref().unwrap()[3], Vec2::new(1.0, 1.0));
+        assert!(BilinearMeshData { indices: vec![0, 1, 2], ..b.clone() }.to_triangles().is_err());
+    }
+}
