@@ -4,6 +4,7 @@
 //! non-zero exit status, never a panic.
 
 mod ior_cmd;
+mod render_cmd;
 mod spectrum_cmd;
 
 use std::process::ExitCode;
@@ -24,6 +25,8 @@ enum Command {
     Ior(ior_cmd::IorArgs),
     /// Print the colour of a spectrum: CIE XYZ, chromaticity xy and linear RGB.
     Spectrum(spectrum_cmd::SpectrumArgs),
+    /// Render a pbrt-v4 scene to EXR, PNG or PFM (spectral path tracing with dispersion).
+    Render(render_cmd::RenderArgs),
 }
 
 fn main() -> ExitCode {
@@ -31,6 +34,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Ior(args) => ior_cmd::run(&args),
         Command::Spectrum(args) => spectrum_cmd::run(&args),
+        Command::Render(args) => render_cmd::run(&args),
     };
     match result {
         Ok(text) => {

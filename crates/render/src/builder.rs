@@ -535,20 +535,17 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     if let Some((rw, rh)) = options.resolution {
         (w, h) = (rw, rh);
     }
-    let filename = match &options.output {
-        Some(o) => o.clone(),
-        None => PathBuf::from(fp.get_string("filename", "pbrt.exr")?),
-    };
+    // Read the scene's values even when overridden, so they are not reported as unused.
+    let scene_filename = PathBuf::from(fp.get_string("filename", "pbrt.exr")?);
+    let filename = options.output.clone().unwrap_or(scene_filename);
     let filter = make_filter(&desc.filter)?;
     let film =
         FilmSpec { width: w, height: h, filename, kind, color_space: RgbColorSpace::srgb(), filter, aovs: false };
     film.validate().map_err(|e| SceneError::at(desc.film.loc.clone(), e.to_string()))?;
 
     // Sampler and integrator.
-    let spp = match options.spp {
-        Some(s) => s,
-        None => p_count(&desc.sampler.params, "pixelsamples", 16, &desc.sampler.loc)? as u32,
-    };
+    let scene_spp = p_count(&desc.sampler.params, "pixelsamples", 16, &desc.sampler.loc)? as u32;
+    let spp = options.spp.unwrap_or(scene_spp);
     let ip = &desc.integrator.params;
     let integrator = match desc.integrator.name.as_str() {
         "path" | "volpath" => {
@@ -556,7 +553,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
             if md < 0 {
                 return err(&desc.integrator.loc, format!("'maxdepth' must be non-negative, got {md}"));
             }
-            if desc.integrator.name == "volpath" {
+            if desc.integrator.name == "volpath" && !desc.media.is_empty() {
                 warnings.push(format!(
                     "{}: warning: integrator \"volpath\" renders as \"path\" (absorbing media only)",
                     desc.integrator.loc

@@ -1,0 +1,214 @@
+//! `prismatic render`: a pbrt-v4 scene in, an image out.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use render::builder::{build_scene, BuildOptions};
+use render::render::render_film;
+use spectral::{Observer, WavelengthSampler, WavelengthStrategy};
+
+/// Arguments of `prismatic render`.
+#[derive(Args, Debug)]
+#[command(after_help = "Examples:\n  prismatic render scenes/cornell-glass.pbrt -o cornell.png\n  \
+                        prismatic render scene.pbrt --spp 64 --wavelengths cmf -o out.exr\n  \
+                        prismatic render scene.pbrt --time 30 --resolution 640x480\n\n\
+                        The output format follows the file extension: .exr (linear RGB; spectral films add S0.<λ>nm \
+                        channels), .png (sRGB, dithered 8-bit), .pfm.")]
+pub struct RenderArgs {
+    /// The pbrt-v4 scene file.
+    pub scene: PathBuf,
+
+    /// Output image (overrides the scene's Film "filename").
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+
+    /// Samples per pixel (overrides the scene's Sampler "pixelsamples").
+    #[arg(long, value_name = "N")]
+    pub spp: Option<u32>,
+
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+
+    /// Seed of the sampler: different seeds give independent images that can be averaged.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+
+    /// Render progressively for this many seconds, then write (instead of a fixed --spp).
+    #[arg(long, value_name = "SECONDS")]
+    pub time: Option<f64>,
+
+    /// Image size WxH (overrides the scene's film resolution).
+    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
+    pub resolution: Option<(u32, u32)>,
+
+    /// Wavelength strategy: rgb (three bands), cmf (one wavelength from the Stiles & Burch pdf) or hero (four).
+    #[arg(long, default_value = "hero")]
+    pub wavelengths: WavelengthStrategy,
+
+    /// No progress bar and no statistics.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}' is not WxH (e.g. 640x480)"))?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("width '{w}' is not a positive integer"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("height '{h}' is not a positive integer"))?;
+    if w == 0 || h == 0 || w > 65536 || h > 65536 {
+        return Err(format!("resolution {w}x{h} is out of range (1..=65536 each)"));
+    }
+    Ok((w, h))
+}
+
+/// Peak resident set size of this process in bytes (Linux `VmHWM`), if known.
+pub fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// Runs the subcommand; returns the summary to print.
+pub fn run(args: &RenderArgs) -> Result<String> {
+    if let Some(s) = args.spp {
+        if s == 0 || s > 1 << 24 {
+            bail!("--spp must be between 1 and {}, got {s}", 1 << 24);
+        }
+    }
+    if let Some(t) = args.time {
+        if !(t.is_finite() && t > 0.0) {
+            bail!("--time must be a positive number of seconds, got {t}");
+        }
+    }
+    if let Some(n) = args.threads {
+        if n == 0 {
+            bail!("--threads must be at least 1");
+        }
+        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot start the thread pool")?;
+    }
+    let start = Instant::now();
+    let desc = pbrt::parse_file(&args.scene).map_err(|e| anyhow!("{e}"))?;
+    let options = BuildOptions { resolution: args.resolution, spp: args.spp, output: args.output.clone() };
+    let built = build_scene(&desc, &options).map_err(|e| anyhow!("{e}"))?;
+    for w in &built.warnings {
+        eprintln!("{w}");
+    }
+    let setup = start.elapsed();
+    let mut film = film::Film::new(built.film.clone()).map_err(|e| anyhow!("{e}"))?;
+    let wavelengths = WavelengthSampler::new(args.wavelengths, Observer::Cie1931);
+    let (w, h) = (built.film.width as u64, built.film.height as u64);
+
+    let show = !args.quiet && std::io::stderr().is_terminal();
+    let bar =
+        if show { ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr()) } else { ProgressBar::hidden() };
+    let taken = AtomicU64::new(0);
+    let render_start = Instant::now();
+    let mut rays = 0u64;
+    let mut spp_done = 0u32;
+    match args.time {
+        None => {
+            let total = w * h * built.spp as u64;
+            bar.set_length(total);
+            bar.set_style(
+                ProgressStyle::with_template("{bar:40} {percent:>3}%  {msg}  eta {eta}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            let progress = |n: u64| {
+                let t = taken.fetch_add(n, Ordering::Relaxed) + n;
+                bar.set_position(t);
+                let secs = render_start.elapsed().as_secs_f64().max(1e-9);
+                bar.set_message(format!("{:.2} Msamples/s", t as f64 / secs / 1e6));
+            };
+            let stats = render_film(
+                &built.scene,
+                &built.integrator,
+                &wavelengths,
+                &mut film,
+                0..built.spp,
+                args.seed,
+                &progress,
+            )
+            .map_err(|e| anyhow!("{e}"))?;
+            rays += stats.rays;
+            spp_done = built.spp;
+        }
+        Some(seconds) => {
+            // Progressive: passes of growing sample counts until the time is spent (each pass continues the
+            // per-pixel sample sequence, so the result equals a single render with the same total spp).
+            let budget = Duration::from_secs_f64(seconds);
+            bar.set_style(
+                ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+                    .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+            );
+            let mut pass = 1u32;
+            while render_start.elapsed() < budget {
+                let pass_start = Instant::now();
+                let progress = |n: u64| {
+                    taken.fetch_add(n, Ordering::Relaxed);
+                };
+                let range = spp_done..spp_done + pass;
+                let stats =
+                    render_film(&built.scene, &built.integrator, &wavelengths, &mut film, range, args.seed, &progress)
+                        .map_err(|e| anyhow!("{e}"))?;
+                rays += stats.rays;
+                spp_done += pass;
+                bar.set_message(format!("{spp_done} spp"));
+                bar.tick();
+                // Grow the pass while it stays well inside the remaining time.
+                let left = budget.saturating_sub(render_start.elapsed());
+                if pass_start.elapsed() * 4 < left {
+                    pass *= 2;
+                } else if pass_start.elapsed() > left && pass > 1 {
+                    pass /= 2;
+                }
+            }
+        }
+    }
+    bar.finish_and_clear();
+    let render_time = render_start.elapsed();
+    let path = built.film.filename.clone();
+    film::write_image(&film, &path).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+    if args.quiet {
+        return Ok(String::new());
+    }
+    let samples = w * h * spp_done as u64;
+    let secs = render_time.as_secs_f64().max(1e-9);
+    let peak = peak_rss_bytes().map(|b| format!("{:.1} MB", b as f64 / 1e6)).unwrap_or_else(|| "unknown".into());
+    Ok(format!(
+        "wrote {} ({}x{}, {} spp, {} wavelengths)\n\
+         scene setup {:.2} s ({} triangles, {} lights), render {:.2} s\n\
+         {:.3} Msamples/s, {:.3} Mrays/s, peak memory {}\n",
+        path.display(),
+        w,
+        h,
+        spp_done,
+        args.wavelengths,
+        setup.as_secs_f64(),
+        built.triangles,
+        built.scene.lights.len(),
+        secs,
+        samples as f64 / secs / 1e6,
+        rays as f64 / secs / 1e6,
+        peak
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resolutions_parse_and_bad_ones_are_rejected() {
+        assert_eq!(parse_resolution("640x480"), Ok((640, 480)));
+        assert_eq!(parse_resolution("8X4"), Ok((8, 4)));
+        for bad in ["640", "0x10", "ax4", "10x-1", "100000x1"] {
+            assert!(parse_resolution(bad).is_err(), "{bad}");
+        }
+    }
+}
