@@ -1,0 +1,62 @@
+//! BSDF sampling and evaluation throughput (`cargo bench -p render --bench bsdf`).
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use glam::{Vec2, Vec3};
+use render::bxdf::{Bxdf, TransportMode};
+use render::layered::CoatedDiffuse;
+use render::microfacet::TrowbridgeReitz;
+use spectral::SampledSpectrum;
+use std::hint::black_box;
+
+fn bxdfs() -> Vec<(&'static str, Bxdf)> {
+    let rough = TrowbridgeReitz::new(0.3, 0.3);
+    vec![
+        ("diffuse", Bxdf::Diffuse { r: SampledSpectrum::splat(0.5) }),
+        (
+            "rough conductor",
+            Bxdf::Conductor { eta: SampledSpectrum::splat(0.2), k: SampledSpectrum::splat(3.0), distrib: rough },
+        ),
+        ("smooth dielectric", Bxdf::Dielectric { eta: 1.5, distrib: TrowbridgeReitz::new(0.0, 0.0) }),
+        ("rough dielectric", Bxdf::Dielectric { eta: 1.5, distrib: rough }),
+        (
+            "coated diffuse",
+            Bxdf::CoatedDiffuse(Box::new(CoatedDiffuse::new(SampledSpectrum::splat(0.5), 1.5, rough, 0.01, 10, 1))),
+        ),
+    ]
+}
+
+fn bench(c: &mut Criterion) {
+    const N: u64 = 1024;
+    let wo = Vec3::new(0.3, 0.2, 0.93).normalize();
+    let mut g = c.benchmark_group("bsdf");
+    g.throughput(Throughput::Elements(N));
+    for (name, b) in bxdfs() {
+        g.bench_function(format!("{name}/sample_f"), |bench| {
+            bench.iter(|| {
+                let mut acc = 0.0f32;
+                for i in 0..N {
+                    let u = (i as f32 + 0.5) / N as f32;
+                    if let Some(s) = b.sample_f(wo, u, Vec2::new(u, 1.0 - u), TransportMode::Radiance) {
+                        acc += s.f[0] / s.pdf;
+                    }
+                }
+                black_box(acc)
+            })
+        });
+        g.bench_function(format!("{name}/f+pdf"), |bench| {
+            bench.iter(|| {
+                let mut acc = 0.0f32;
+                for i in 0..N {
+                    let u = (i as f32 + 0.5) / N as f32;
+                    let wi = Vec3::new(u - 0.5, 0.3, 0.8).normalize();
+                    acc += b.f(wo, wi, TransportMode::Radiance)[0] + b.pdf(wo, wi, TransportMode::Radiance);
+                }
+                black_box(acc)
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
