@@ -39,6 +39,9 @@ pub struct BsdfSample {
     /// True when `pdf` is only proportional to the density (stochastic layered BxDFs): `f/pdf` is still the
     /// right path weight, but MIS must ask [`Bxdf::pdf`] for the density.
     pub pdf_is_proportional: bool,
+    /// For a refraction through a dispersive interface: the wavelength slot whose direction was followed; the
+    /// integrator must keep only that slot ([`spectral::SampledWavelengths::keep_only`]).
+    pub keep_slot: Option<usize>,
 }
 
 /// Which lobes a restricted sampling call may choose.
@@ -118,6 +121,14 @@ pub enum Bxdf {
         /// Microfacet roughness.
         distrib: TrowbridgeReitz,
     },
+    /// A smooth dielectric whose index differs per carried wavelength. Reflection keeps every wavelength (its
+    /// direction does not depend on λ); refraction follows one slot chosen uniformly, which the path then keeps.
+    DispersiveDielectric {
+        /// Relative index per wavelength slot.
+        eta: SampledSpectrum,
+        /// Which slots are active.
+        active: [bool; N_WAVELENGTHS],
+    },
     /// A diffuse base under a dielectric coating, evaluated by a stochastic random walk between the layers.
     CoatedDiffuse(Box<CoatedDiffuse>),
     /// A thin slab: reflection plus straight-through transmission with inter-reflection summed; the Fresnel
@@ -134,7 +145,7 @@ impl Bxdf {
         match self {
             Bxdf::Diffuse { .. } => false,
             Bxdf::Conductor { distrib, .. } | Bxdf::Dielectric { distrib, .. } => distrib.effectively_smooth(),
-            Bxdf::ThinDielectric { .. } => true,
+            Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => true,
             Bxdf::CoatedDiffuse(_) => false,
         }
     }
@@ -167,7 +178,7 @@ impl Bxdf {
                 }
                 SampledSpectrum::splat(rough_dielectric_f(*eta, distrib, wo, wi, mode))
             }
-            Bxdf::ThinDielectric { .. } => SampledSpectrum::zero(),
+            Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => SampledSpectrum::zero(),
             Bxdf::CoatedDiffuse(c) => c.f(wo, wi, mode),
         }
     }
@@ -205,7 +216,7 @@ impl Bxdf {
                 }
                 rough_dielectric_pdf(*eta, distrib, wo, wi, lobes)
             }
-            Bxdf::ThinDielectric { .. } => 0.0,
+            Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => 0.0,
             Bxdf::CoatedDiffuse(c) => c.pdf(wo, wi, mode),
         }
     }
@@ -233,6 +244,7 @@ impl Bxdf {
                     transmission: false,
                     eta: 1.0,
                     pdf_is_proportional: false,
+                    keep_slot: None,
                 })
             }
             Bxdf::Conductor { eta, k, distrib } => {
@@ -251,6 +263,7 @@ impl Bxdf {
                         transmission: false,
                         eta: 1.0,
                         pdf_is_proportional: false,
+                        keep_slot: None,
                     });
                 }
                 if wo.z == 0.0 {
@@ -276,10 +289,12 @@ impl Bxdf {
                     transmission: false,
                     eta: 1.0,
                     pdf_is_proportional: false,
+                    keep_slot: None,
                 })
             }
             Bxdf::Dielectric { eta, distrib } => sample_dielectric(*eta, distrib, wo, uc, u, mode, lobes),
             Bxdf::CoatedDiffuse(c) => c.sample_f(wo, uc, u, mode),
+            Bxdf::DispersiveDielectric { eta, active } => sample_dispersive(eta, active, wo, uc, mode, lobes),
             Bxdf::ThinDielectric { eta } => {
                 let mut r = SampledSpectrum::zero();
                 for i in 0..N_WAVELENGTHS {
@@ -306,6 +321,7 @@ impl Bxdf {
                         transmission: false,
                         eta: 1.0,
                         pdf_is_proportional: false,
+                        keep_slot: None,
                     })
                 } else {
                     Some(BsdfSample {
@@ -316,10 +332,85 @@ impl Bxdf {
                         transmission: true,
                         eta: 1.0,
                         pdf_is_proportional: false,
+                        keep_slot: None,
                     })
                 }
             }
         }
+    }
+}
+
+/// Smooth dispersive interface. A slot j is drawn uniformly from the k active ones (from `uc`), and reflection is
+/// chosen with probability R(λj). Reflection is an event of marginal probability P = (1/k)·Σj R(λj) whose direction
+/// is shared by all wavelengths, so every slot keeps its own R(λi)/P. Refraction through slot j has probability
+/// (1/k)·T(λj); the returned pdf is T(λj) and the integrator divides slot j's density by k when it keeps it.
+fn sample_dispersive(
+    eta: &SampledSpectrum,
+    active: &[bool; N_WAVELENGTHS],
+    wo: Vec3,
+    uc: f32,
+    mode: TransportMode,
+    lobes: Lobes,
+) -> Option<BsdfSample> {
+    let k = active.iter().filter(|&&a| a).count();
+    if k == 0 || wo.z == 0.0 {
+        return None;
+    }
+    let mut r = SampledSpectrum::zero();
+    let mut mean_r = 0.0;
+    for i in 0..N_WAVELENGTHS {
+        if active[i] {
+            r[i] = fresnel_dielectric(wo.z, eta[i]);
+            mean_r += r[i] / k as f32;
+        }
+    }
+    let x = uc * k as f32;
+    let pick = (x as usize).min(k - 1);
+    let u_event = x - pick as f32;
+    let j = (0..N_WAVELENGTHS).filter(|&i| active[i]).nth(pick)?;
+    let (pr, pt) = lobe_weights(r[j], 1.0 - r[j], lobes);
+    if pr + pt <= 0.0 {
+        return None;
+    }
+    if u_event < pr / (pr + pt) {
+        let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+        let p_reflect = match lobes {
+            Lobes::Reflection => 1.0,
+            _ => mean_r,
+        };
+        if p_reflect <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            f: r * (1.0 / wi.z.abs()),
+            wi,
+            pdf: p_reflect,
+            specular: true,
+            transmission: false,
+            eta: 1.0,
+            pdf_is_proportional: false,
+            keep_slot: None,
+        })
+    } else {
+        let (wi, etap) = refract(wo, Vec3::Z, eta[j])?;
+        if wi.z == 0.0 {
+            return None;
+        }
+        let t = 1.0 - r[j];
+        let mut ft = t / wi.z.abs();
+        if mode == TransportMode::Radiance {
+            ft /= etap * etap;
+        }
+        Some(BsdfSample {
+            f: SampledSpectrum::splat(ft),
+            wi,
+            pdf: pt / (pr + pt),
+            specular: true,
+            transmission: true,
+            eta: etap,
+            pdf_is_proportional: false,
+            keep_slot: Some(j),
+        })
     }
 }
 
@@ -358,6 +449,7 @@ fn sample_dielectric(
                 transmission: false,
                 eta: 1.0,
                 pdf_is_proportional: false,
+                keep_slot: None,
             })
         } else {
             let (wi, etap) = refract(wo, Vec3::Z, eta)?;
@@ -376,6 +468,7 @@ fn sample_dielectric(
                 transmission: true,
                 eta: etap,
                 pdf_is_proportional: false,
+                keep_slot: None,
             })
         }
     } else {
@@ -401,6 +494,7 @@ fn sample_dielectric(
                 transmission: false,
                 eta: 1.0,
                 pdf_is_proportional: false,
+                keep_slot: None,
             })
         } else {
             let (wi, etap) = refract(wo, wm, eta)?;
@@ -423,6 +517,7 @@ fn sample_dielectric(
                 transmission: true,
                 eta: etap,
                 pdf_is_proportional: false,
+                keep_slot: None,
             })
         }
     }
@@ -586,6 +681,33 @@ mod tests {
         assert!((sin_i - 1.5 * sin_t).abs() < 1e-6 && wt.z < 0.0);
         // From inside at 60°: sin θt = 1.5·0.866 > 1.
         assert!(refract(Vec3::new(0.866, 0.0, -0.5), Vec3::Z, 1.5).is_none());
+    }
+
+    #[test]
+    fn dispersive_dielectric_conserves_energy_per_wavelength() {
+        // Per slot, E[f·|cos|/pdf] over reflection and kept refractions (weighted by k for the kept slot, as the
+        // integrator's density division does) must be 1: R(λ) + T(λ) = 1 for every wavelength.
+        let eta = SampledSpectrum([1.80, 1.78, 1.77, 1.76]);
+        let b = Bxdf::DispersiveDielectric { eta, active: [true; 4] };
+        let mut rng = Pcg32::seed_from_u64(5);
+        for wo in [Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.3, 0.2, -0.93).normalize()] {
+            let n = 200_000;
+            let mut sum = [0.0f64; 4];
+            for _ in 0..n {
+                let Some(s) = b.sample_f(wo, uniform(&mut rng), Vec2::ZERO, TransportMode::Importance) else {
+                    continue;
+                };
+                let w = s.f * (s.wi.z.abs() / s.pdf);
+                match s.keep_slot {
+                    None => (0..4).for_each(|i| sum[i] += w[i] as f64),
+                    Some(j) => sum[j] += 4.0 * w[j] as f64,
+                }
+            }
+            for (i, v) in sum.iter().enumerate() {
+                let a = v / n as f64;
+                assert!((a - 1.0).abs() < 0.01, "{wo}: slot {i}: {a}");
+            }
+        }
     }
 
     #[test]

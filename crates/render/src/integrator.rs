@@ -133,6 +133,9 @@ impl PathIntegrator {
             if bs.pdf <= 0.0 || bs.f.is_black() {
                 break;
             }
+            if let Some(slot) = bs.keep_slot {
+                wl.keep_only(slot);
+            }
             let wi = frame.from_local(bs.wi);
             beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
             p_b = if bs.pdf_is_proportional { bxdf.pdf(wo, bs.wi, TransportMode::Radiance) } else { bs.pdf };

@@ -244,6 +244,7 @@ impl CoatedDiffuse {
                     transmission: false,
                     eta: 1.0,
                     pdf_is_proportional: true,
+                    keep_slot: None,
                 });
             }
             f *= s.wi.z.abs();

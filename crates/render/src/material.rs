@@ -146,8 +146,19 @@ impl Material {
                 Some(Bxdf::Conductor { eta, k, distrib: roughness.distribution(ctx) })
             }
             Material::Dielectric { ior, roughness } => {
+                let distrib = roughness.distribution(ctx);
+                if ior.is_dispersive() && distrib.effectively_smooth() && !wl.is_single() {
+                    // Keep all wavelengths until the sampled event is a refraction (see DispersiveDielectric).
+                    let mut eta = SampledSpectrum::zero();
+                    let mut active = [false; N_WAVELENGTHS];
+                    for i in 0..N_WAVELENGTHS {
+                        active[i] = wl.is_active(i);
+                        eta[i] = ior.n(wl.lambda(i));
+                    }
+                    return Some(Bxdf::DispersiveDielectric { eta, active });
+                }
                 let eta = single_eta(ior, wl, u);
-                Some(Bxdf::Dielectric { eta, distrib: roughness.distribution(ctx) })
+                Some(Bxdf::Dielectric { eta, distrib })
             }
             Material::ThinDielectric { ior } => {
                 let mut eta = SampledSpectrum::zero();
@@ -190,6 +201,7 @@ fn clamp01(s: SampledSpectrum) -> SampledSpectrum {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::texture::FloatTexture;
     use glam::{Vec2, Vec3};
 
     #[test]
@@ -198,6 +210,12 @@ mod tests {
         let m = Material::Dielectric { ior: DielectricIor::Model(sf11.clone()), roughness: Roughness::smooth() };
         let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
         let ctx = TextureEvalContext { uv: Vec2::ZERO, p: Vec3::ZERO };
+        let Some(Bxdf::DispersiveDielectric { eta, active }) = m.bxdf(&ctx, &mut wl, 0.6) else { panic!() };
+        assert_eq!(active, [true; 4], "a smooth dispersive interface keeps all wavelengths until it refracts");
+        assert!((eta[2] as f64 - sf11.n(650.0)).abs() < 1e-6);
+        // A rough dispersive interface reduces the path to one wavelength first (its microfacet sampling is shared).
+        let rough = Roughness { u: FloatTexture::Constant(0.1), v: FloatTexture::Constant(0.1), remap: false };
+        let m = Material::Dielectric { ior: DielectricIor::Model(sf11.clone()), roughness: rough };
         let Some(Bxdf::Dielectric { eta, .. }) = m.bxdf(&ctx, &mut wl, 0.6) else { panic!() };
         assert!(wl.is_single());
         assert!((eta as f64 - sf11.n(650.0)).abs() < 1e-6, "kept slot 2 (650 nm)");

@@ -165,20 +165,29 @@ impl SampledWavelengths {
     /// selection probability 1/k, so the estimator stays unbiased (seed 000's Russian roulette over bands with pdf
     /// 1/3 for `rgb`; pbrt-v4's `TerminateSecondary` for `hero`). Returns the index of the kept slot.
     pub fn terminate_secondary(&mut self, u: f32) -> usize {
-        let active: Vec<usize> = (0..N_WAVELENGTHS).filter(|&i| self.pdf[i] > 0.0).collect();
-        let k = active.len();
-        if k <= 1 {
-            return active.first().copied().unwrap_or(0);
+        let k = self.active_count();
+        if k == 0 {
+            return 0;
         }
         let pick = ((u * k as f32) as usize).min(k - 1);
-        let keep = active[pick];
+        let slot = (0..N_WAVELENGTHS).filter(|&i| self.pdf[i] > 0.0).nth(pick).unwrap_or(0);
+        self.keep_only(slot);
+        slot
+    }
+
+    /// Keeps slot `slot` (which the caller chose uniformly among the k active slots) and drops the others,
+    /// dividing its density by k (no-op when at most one slot is active).
+    pub fn keep_only(&mut self, slot: usize) {
+        let k = self.active_count();
+        if k <= 1 {
+            return;
+        }
         for i in 0..N_WAVELENGTHS {
-            if i != keep {
+            if i != slot {
                 self.pdf[i] = 0.0;
             }
         }
-        self.pdf[keep] /= k as f32;
-        keep
+        self.pdf[slot] /= k as f32;
     }
 }
 
