@@ -42,7 +42,13 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("prismatic: error: {e:#}");
+            // Scene errors already read "file:line:column: error: …".
+            let msg = format!("{e:#}");
+            if msg.contains(": error: ") {
+                eprintln!("prismatic: {msg}");
+            } else {
+                eprintln!("prismatic: error: {msg}");
+            }
             ExitCode::FAILURE
         }
     }

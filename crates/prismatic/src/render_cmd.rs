@@ -82,8 +82,8 @@ pub fn run(args: &RenderArgs) -> Result<String> {
         }
     }
     if let Some(t) = args.time {
-        if !(t.is_finite() && t > 0.0) {
-            bail!("--time must be a positive number of seconds, got {t}");
+        if !(t.is_finite() && t > 0.0 && t <= 1e7) {
+            bail!("--time must be a positive number of seconds (at most 1e7), got {t}");
         }
     }
     if let Some(n) = args.threads {
@@ -98,6 +98,14 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     let built = build_scene(&desc, &options).map_err(|e| anyhow!("{e}"))?;
     for w in &built.warnings {
         eprintln!("{w}");
+    }
+    // Check the output before spending time on the render.
+    let out_path = &built.film.filename;
+    film::ImageFormat::from_path(out_path).map_err(|e| anyhow!("{e}"))?;
+    if let Some(dir) = out_path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            bail!("cannot write {}: directory {} does not exist", out_path.display(), dir.display());
+        }
     }
     let setup = start.elapsed();
     let mut film = film::Film::new(built.film.clone()).map_err(|e| anyhow!("{e}"))?;
@@ -147,7 +155,7 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                     .unwrap_or_else(|_| ProgressStyle::default_spinner()),
             );
             let mut pass = 1u32;
-            while render_start.elapsed() < budget {
+            while spp_done == 0 || render_start.elapsed() < budget {
                 let pass_start = Instant::now();
                 let progress = |n: u64| {
                     taken.fetch_add(n, Ordering::Relaxed);

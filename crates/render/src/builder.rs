@@ -81,7 +81,16 @@ fn normalise_emission(loc: &Loc, s: Spectrum, scale: f64) -> Result<Spectrum> {
     if y.is_nan() || y <= 0.0 {
         return err(loc, "emission spectrum has no luminance (it is zero across the visible range)");
     }
-    Ok(s.scaled(scale / y))
+    if !scale.is_finite() || scale < 0.0 {
+        return err(loc, format!("emission scale must be a finite non-negative number, got {scale}"));
+    }
+    let scaled = s.scaled(scale / y);
+    // Radiance is carried in f32: anything near its range would overflow along a path.
+    let peak = scaled.max_value();
+    if peak.is_nan() || peak >= 1e30 {
+        return err(loc, format!("emission is too large ('scale'/'power' give a peak of {:e})", scaled.max_value()));
+    }
+    Ok(scaled)
 }
 
 struct Textures {

@@ -258,20 +258,21 @@ impl Light {
     }
 
     /// Emitted power, reduced to a luminance-weighted scalar for the power-based light sampler.
-    pub fn power(&self) -> f32 {
-        let y = |s: &Spectrum| spectral::Observer::Cie1931.spectrum_to_xyz(s).y as f32;
+    pub fn power(&self) -> f64 {
+        let y = |s: &Spectrum| spectral::Observer::Cie1931.spectrum_to_xyz(s).y;
+        let pi = std::f64::consts::PI;
         match self {
-            Light::Point { i, .. } => 4.0 * PI * y(i),
+            Light::Point { i, .. } => 4.0 * pi * y(i),
             Light::Spot { i, cos_falloff_start, cos_falloff_end, .. } => {
-                2.0 * PI * y(i) * (1.0 - 0.5 * (cos_falloff_start + cos_falloff_end))
+                2.0 * pi * y(i) * (1.0 - 0.5 * ((cos_falloff_start + cos_falloff_end) as f64))
             }
-            Light::Distant { l, scene_radius, .. } => PI * scene_radius * scene_radius * y(l),
-            Light::UniformInfinite { l, scene_radius } => 4.0 * PI * PI * scene_radius * scene_radius * y(l),
+            Light::Distant { l, scene_radius, .. } => pi * (*scene_radius as f64).powi(2) * y(l),
+            Light::UniformInfinite { l, scene_radius } => 4.0 * pi * pi * (*scene_radius as f64).powi(2) * y(l),
             Light::ImageInfinite { map, scale, scene_radius } => {
-                4.0 * PI * PI * scene_radius * scene_radius * scale * map.average_luminance()
+                4.0 * pi * pi * (*scene_radius as f64).powi(2) * (*scale as f64) * map.average_luminance() as f64
             }
             Light::DiffuseArea { shape, element, l, two_sided } => {
-                PI * shape.area(*element as usize) * y(l) * if *two_sided { 2.0 } else { 1.0 }
+                pi * shape.area(*element as usize) as f64 * y(l) * if *two_sided { 2.0 } else { 1.0 }
             }
         }
     }

@@ -105,7 +105,9 @@ impl RenderScene {
         camera_medium: Option<u32>,
         camera: Camera,
     ) -> Self {
-        let power: Vec<f64> = lights.iter().map(|l| l.power().max(0.0) as f64).collect();
+        // Non-finite powers cannot occur for lights the builder validated; treat them as unusable rather than panic.
+        let power: Vec<f64> =
+            lights.iter().map(|l| l.power()).map(|p| if p.is_finite() { p.max(0.0) } else { 0.0 }).collect();
         let light_distribution = (!lights.is_empty())
             .then(|| Distribution1D::new(&power, 0.0, 1.0).expect("light powers are finite and non-negative"));
         let infinite_lights =
