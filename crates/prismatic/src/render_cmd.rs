@@ -51,6 +51,11 @@ pub struct RenderArgs {
     #[arg(long, default_value = "hero")]
     pub wavelengths: WavelengthStrategy,
 
+    /// Also write albedo and normal layers (albedo.R/G/B, N.X/Y/Z) of the first surface hit, for denoisers
+    /// (EXR output only).
+    #[arg(long)]
+    pub aovs: bool,
+
     /// No progress bar and no statistics.
     #[arg(long)]
     pub quiet: bool,
@@ -108,7 +113,14 @@ pub fn run(args: &RenderArgs) -> Result<String> {
         }
     }
     let setup = start.elapsed();
-    let mut film = film::Film::new(built.film.clone()).map_err(|e| anyhow!("{e}"))?;
+    let mut spec = built.film.clone();
+    if args.aovs {
+        if film::ImageFormat::from_path(out_path).ok() != Some(film::ImageFormat::Exr) {
+            bail!("--aovs needs an .exr output (got {})", out_path.display());
+        }
+        spec.aovs = true;
+    }
+    let mut film = film::Film::new(spec).map_err(|e| anyhow!("{e}"))?;
     let wavelengths = WavelengthSampler::new(args.wavelengths, Observer::Cie1931);
     let (w, h) = (built.film.width as u64, built.film.height as u64);
 

@@ -150,6 +150,19 @@ impl Bxdf {
         }
     }
 
+    /// A colour for albedo AOVs (denoiser guides): the diffuse albedo, a coated base's albedo, a conductor's
+    /// normal-incidence reflectance, and 1 for transparent dielectrics.
+    pub fn albedo_hint(&self) -> SampledSpectrum {
+        match self {
+            Bxdf::Diffuse { r } => *r,
+            Bxdf::Conductor { eta, k, .. } => fresnel_conductor(1.0, eta, k),
+            Bxdf::CoatedDiffuse(c) => c.base_albedo(),
+            Bxdf::Dielectric { .. } | Bxdf::DispersiveDielectric { .. } | Bxdf::ThinDielectric { .. } => {
+                SampledSpectrum::splat(1.0)
+            }
+        }
+    }
+
     /// Value for the pair (`wo`, `wi`) (zero for delta components).
     pub fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> SampledSpectrum {
         match self {

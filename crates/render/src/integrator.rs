@@ -25,6 +25,15 @@ pub struct RayCounts {
     pub shadow: u64,
 }
 
+/// What the camera ray hit first, for AOVs.
+#[derive(Clone, Copy, Debug)]
+pub struct FirstHit {
+    /// Albedo hint of the surface's BxDF at the path's wavelengths.
+    pub albedo: SampledSpectrum,
+    /// World-space shading normal.
+    pub normal: Vec3,
+}
+
 /// The `path` integrator.
 #[derive(Clone, Copy, Debug)]
 pub struct PathIntegrator {
@@ -35,6 +44,7 @@ pub struct PathIntegrator {
 impl PathIntegrator {
     /// Radiance arriving at the camera along `o + t·d`, at the wavelengths of `wl` (which a dispersive surface may
     /// reduce to one).
+    #[allow(clippy::too_many_arguments)]
     pub fn li(
         &self,
         scene: &RenderScene,
@@ -43,6 +53,7 @@ impl PathIntegrator {
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
+        mut first_hit: Option<&mut Option<FirstHit>>,
     ) -> SampledSpectrum {
         let mut l = SampledSpectrum::zero();
         let mut beta = SampledSpectrum::splat(1.0);
@@ -118,6 +129,11 @@ impl PathIntegrator {
             }
             let ctx = TextureEvalContext { uv: hit.uv, p: hit.p };
             let Some(bxdf) = scene.materials[material_index as usize].bxdf(&ctx, wl, u[8]) else { break };
+            if depth == 0 {
+                if let Some(fh) = first_hit.take() {
+                    *fh = Some(FirstHit { albedo: bxdf.albedo_hint(), normal: hit.ns });
+                }
+            }
             if depth == self.max_depth {
                 break;
             }

@@ -72,6 +72,14 @@ impl CoatedDiffuse {
         }
     }
 
+    /// The base's albedo (for albedo AOVs).
+    pub fn base_albedo(&self) -> SampledSpectrum {
+        match &self.bottom {
+            Bxdf::Diffuse { r } => *r,
+            _ => SampledSpectrum::zero(),
+        }
+    }
+
     /// Estimate of f(ωo, ωi). The base is opaque, so only reflection is non-zero.
     pub fn f(&self, mut wo: Vec3, mut wi: Vec3, mode: TransportMode) -> SampledSpectrum {
         // Two-sided: evaluate from the coated side.

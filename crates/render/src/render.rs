@@ -1,7 +1,9 @@
 //! The per-pixel driver: camera samples through the integrator into colour and spectral contributions.
 
+use film::SpectralEstimates;
 use glam::Vec2;
-use spectral::{WavelengthSampler, Xyz, N_WAVELENGTHS};
+use glam::Vec3;
+use spectral::{Spectrum, WavelengthSampler, Xyz};
 use std::ops::Range;
 
 use film::{Film, FilmError, FilterSampler};
@@ -19,9 +21,10 @@ pub struct PixelContribution {
     /// Filter weight f/pdf of the sampled film offset.
     pub weight: f32,
     /// Per-wavelength estimates L(λ)/pdf(λ) of the active slots, for spectral films.
-    pub spectral: [(f32, f32); N_WAVELENGTHS],
-    /// How many entries of `spectral` are used.
-    pub n_spectral: usize,
+    pub spectral: SpectralEstimates,
+    /// Albedo (XYZ under the colour space's white, Y = 1 for white) and shading normal at the first hit, when
+    /// AOVs were asked for and the camera ray hit a surface.
+    pub aov: Option<(Xyz, Vec3)>,
 }
 
 /// Renders samples `samples` of pixel (`x`, `y`), calling `add` once per camera sample.
@@ -38,6 +41,7 @@ pub fn render_pixel(
     samples: Range<u32>,
     seed: u32,
     counts: &mut RayCounts,
+    aovs: Option<&Spectrum>,
     mut add: impl FnMut(PixelContribution),
 ) {
     for s in samples {
@@ -47,19 +51,20 @@ pub fn render_pixel(
         let lens = Vec2::from(sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
         let ray = scene.camera.generate_ray(film, lens);
-        let l = integrator.li(scene, ray.origin, ray.direction, &mut wl, &mut sampler, counts);
+        let mut first_hit = None;
+        let fh = aovs.is_some().then_some(&mut first_hit);
+        let wl_camera = wl;
+        let l = integrator.li(scene, ray.origin, ray.direction, &mut wl, &mut sampler, counts, fh);
         let l = if l.0.iter().all(|v| v.is_finite()) { l } else { spectral::SampledSpectrum::zero() };
         let xyz = wavelengths.to_xyz(&l, &wl);
-        let mut spectral = [(0.0f32, 0.0f32); N_WAVELENGTHS];
-        let mut n = 0;
-        let pdf = wl.pdf();
-        for i in 0..N_WAVELENGTHS {
-            if wl.is_active(i) {
-                spectral[n] = (wl.lambda(i), l[i] / pdf[i]);
-                n += 1;
+        // The albedo is seen under the white illuminant at the wavelengths the camera ray started with.
+        let aov = match (aovs, first_hit) {
+            (Some(white), Some(h)) => {
+                Some((wavelengths.to_xyz(&(h.albedo * white.sample(&wl_camera)), &wl_camera), h.normal))
             }
-        }
-        add(PixelContribution { xyz, weight, spectral, n_spectral: n });
+            _ => None,
+        };
+        add(PixelContribution { xyz, weight, spectral: SpectralEstimates::new(&l, &wl), aov });
     }
 }
 
@@ -90,15 +95,34 @@ pub fn render_film(
         (Vec2::new(s.offset[0] as f32, s.offset[1] as f32), s.weight as f32)
     };
     let per_pixel = (samples.end - samples.start) as u64;
+    let white = film.has_aovs().then(|| spectral::named::illuminant("stdillum-D65").expect("D65 is built in"));
+    let color_space = film.spec().color_space.clone();
     let stats = film
         .par_rows_mut()
         .map(|mut row| {
             let mut counts = RayCounts::default();
             let y = row.y();
             for x in 0..row.width() {
-                render_pixel(scene, integrator, wavelengths, &filter, x, y, samples.clone(), seed, &mut counts, |c| {
-                    row.add_sample(x, c.xyz, c.weight as f64, &c.spectral[..c.n_spectral]);
-                });
+                let aovs = white.as_ref();
+                render_pixel(
+                    scene,
+                    integrator,
+                    wavelengths,
+                    &filter,
+                    x,
+                    y,
+                    samples.clone(),
+                    seed,
+                    &mut counts,
+                    aovs,
+                    |c| {
+                        row.add_sample(x, c.xyz, c.weight as f64, c.spectral.as_slice());
+                        if let Some((albedo, n)) = c.aov {
+                            let n = [n.x as f64, n.y as f64, n.z as f64];
+                            row.add_aov(x, color_space.to_rgb(albedo), n);
+                        }
+                    },
+                );
             }
             let taken = per_pixel * row.width() as u64;
             progress(taken);

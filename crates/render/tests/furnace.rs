@@ -86,7 +86,7 @@ fn mean_y(scene: &RenderScene, strategy: WavelengthStrategy, spp: u32, max_depth
     for y in 2..6 {
         for x in 2..6 {
             let mut sum = 0.0;
-            render_pixel(scene, &integrator, &ws, &filter, x, y, 0..spp, 1, &mut counts, |c| sum += c.xyz.y);
+            render_pixel(scene, &integrator, &ws, &filter, x, y, 0..spp, 1, &mut counts, None, |c| sum += c.xyz.y);
             values.push(sum / spp as f64);
         }
     }
