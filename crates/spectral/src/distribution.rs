@@ -14,6 +14,9 @@ use crate::{check_finite, SpectrumError};
 pub struct Distribution1D {
     func: Vec<f64>,
     cdf: Vec<f64>,
+    /// Guide table: `guide[g]` is the bin holding u = g/G, so a search only scans the bins between two entries
+    /// (same result as a full binary search, fewer steps).
+    guide: Vec<u32>,
     integral: f64,
     min: f64,
     max: f64,
@@ -78,7 +81,14 @@ impl Distribution1D {
         };
         let integral = if integral > 0.0 { integral } else { max - min };
         cdf[n] = 1.0;
-        Ok(Self { func, cdf, integral, min, max })
+        let g = n.max(1);
+        let guide = (0..=g)
+            .map(|i| {
+                let u = i as f64 / g as f64;
+                (cdf.partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1) as u32
+            })
+            .collect();
+        Ok(Self { func, cdf, guide, integral, min, max })
     }
 
     /// Number of bins.
@@ -114,8 +124,12 @@ impl Distribution1D {
     pub fn sample(&self, u: f64) -> Sample1D {
         let n = self.len();
         let u = u.clamp(0.0, 1.0);
-        // Binary search: the last edge j with cdf[j] <= u, restricted to a real bin.
-        let j = (self.cdf.partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1);
+        // Binary search for the last edge j with cdf[j] <= u (restricted to a real bin), within the range the
+        // guide table brackets.
+        let g = self.guide.len() - 1;
+        let gi = ((u * g as f64) as usize).min(g - 1);
+        let (lo, hi) = (self.guide[gi] as usize, (self.guide[gi + 1] as usize + 1).min(n));
+        let j = (lo + self.cdf[lo..=hi].partition_point(|&c| c <= u)).saturating_sub(1).clamp(lo, n - 1);
         let width = self.cdf[j + 1] - self.cdf[j];
         let t = if width > 0.0 { ((u - self.cdf[j]) / width).clamp(0.0, 1.0) } else { 0.0 };
         let dx = self.bin_width();
@@ -239,6 +253,24 @@ mod tests {
         assert!((d.cdf(2.5) - 0.3125).abs() < 1e-12);
         assert_eq!(d.sample(0.0).x, 0.0);
         assert!(d.sample(0.999_999_9).x < 4.0);
+    }
+
+    #[test]
+    fn guided_search_finds_the_same_bin_as_a_full_binary_search() {
+        let mut x = 12345u64;
+        let mut next = || {
+            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for n in [1usize, 2, 3, 7, 100, 471] {
+            let f: Vec<f64> = (0..n).map(|i| if i % 4 == 2 { 0.0 } else { next() * next() * 10.0 }).collect();
+            let d = Distribution1D::new(&f, 0.0, 1.0).unwrap();
+            for k in 0..5000 {
+                let u = if k < 3 { [0.0, 1.0, 0.5][k] } else { next() };
+                let full = (d.cdf.partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1);
+                assert_eq!(d.sample(u).bin, full, "n {n}, u {u}");
+            }
+        }
     }
 
     #[test]

@@ -12,6 +12,8 @@ use crate::{check_finite, SpectrumError};
 pub struct PiecewiseLinear {
     lambdas: Vec<f64>,
     values: Vec<f64>,
+    /// The spacing, when the wavelengths form a regular grid (most tables): lookups then index directly.
+    step: Option<f64>,
 }
 
 impl PiecewiseLinear {
@@ -33,7 +35,8 @@ impl PiecewiseLinear {
                 w[0], w[1]
             )));
         }
-        Ok(Self { lambdas, values })
+        let step = regular_step(&lambdas);
+        Ok(Self { lambdas, values, step })
     }
 
     /// Builds a table from interleaved `λ₀, v₀, λ₁, v₁, …` pairs, as pbrt-v4 writes inline spectra.
@@ -67,21 +70,37 @@ impl PiecewiseLinear {
         if n == 1 {
             return self.values[0];
         }
-        // Binary search for the segment [λᵢ, λᵢ₊₁] holding λ.
-        let i = self.lambdas.partition_point(|&l| l <= lambda_nm).clamp(1, n - 1) - 1;
+        // The segment [λᵢ, λᵢ₊₁] holding λ: direct on a regular grid, else by binary search.
+        let i = match self.step {
+            Some(step) => (((lambda_nm - self.lambdas[0]) / step) as usize).min(n - 2),
+            None => self.lambdas.partition_point(|&l| l <= lambda_nm).clamp(1, n - 1) - 1,
+        };
         let t = (lambda_nm - self.lambdas[i]) / (self.lambdas[i + 1] - self.lambdas[i]);
         self.values[i] + t * (self.values[i + 1] - self.values[i])
     }
 
     /// The same table with every value multiplied by `s`.
     pub fn scaled(&self, s: f64) -> Self {
-        Self { lambdas: self.lambdas.clone(), values: self.values.iter().map(|v| v * s).collect() }
+        Self { lambdas: self.lambdas.clone(), values: self.values.iter().map(|v| v * s).collect(), step: self.step }
     }
 
     /// Largest value.
     pub fn max_value(&self) -> f64 {
         self.values.iter().copied().fold(f64::NEG_INFINITY, f64::max)
     }
+}
+
+/// The common spacing of `lambdas` if they are a regular grid (to 1e-9 relative), else `None`.
+fn regular_step(lambdas: &[f64]) -> Option<f64> {
+    if lambdas.len() < 3 {
+        return None;
+    }
+    let step = (lambdas[lambdas.len() - 1] - lambdas[0]) / (lambdas.len() - 1) as f64;
+    let regular = lambdas
+        .iter()
+        .enumerate()
+        .all(|(i, &l)| (l - (lambdas[0] + step * i as f64)).abs() <= 1e-9 * step.max(l.abs()));
+    regular.then_some(step)
 }
 
 /// A spectral distribution: reflectance, index of refraction, emission, … as a function of wavelength in nm.
@@ -182,6 +201,20 @@ mod tests {
         assert_eq!(s.eval(399.9), 0.0);
         assert_eq!(s.eval(600.1), 0.0);
         assert_eq!(s.eval(f64::NAN), 0.0);
+    }
+
+    #[test]
+    fn regular_grids_index_directly_and_agree_with_binary_search() {
+        let l: Vec<f64> = (0..=94).map(|i| 360.0 + 5.0 * i as f64).collect();
+        let v: Vec<f64> = l.iter().map(|x| (x / 37.0).sin()).collect();
+        let regular = PiecewiseLinear::new(l.clone(), v.clone()).unwrap();
+        assert!(regular.step.is_some());
+        let irregular = PiecewiseLinear { step: None, ..regular.clone() };
+        for k in 0..=4700 {
+            let x = 360.0 + k as f64 * 0.1;
+            assert!((regular.eval(x) - irregular.eval(x)).abs() < 1e-12, "{x}");
+        }
+        assert!(PiecewiseLinear::new(vec![400.0, 410.0, 430.0], vec![1.0; 3]).unwrap().step.is_none());
     }
 
     #[test]
