@@ -6,13 +6,13 @@
 //!
 //! Like pbrt-v4, the film does not splat a camera sample into every pixel its filter covers. Instead the camera
 //! sample's offset from the pixel centre is *drawn from the filter* ([`FilterSampler::sample`]: exactly for the box,
-//! otherwise from a tabulated 2D distribution of |f|), and the sample is weighted by f(p)/pdf(p). Each sample then
+//! otherwise from tabulated 1D distributions of |f| along each axis), and the sample is weighted by f(p)/pdf(p). Each sample then
 //! touches only its own pixel, so pixels are independent: rendering is lock-free and deterministic for any thread
 //! count. For a positive filter the weight is (close to) the constant ∫f; a filter with negative lobes (Mitchell)
 //! gives weights of either sign.
 
 use crate::FilmError;
-use spectral::Distribution2D;
+use spectral::Distribution1D;
 
 /// A pixel reconstruction filter, centred on the pixel centre, with per-axis radii in pixels.
 #[derive(Clone, Debug, PartialEq)]
@@ -252,8 +252,10 @@ const MAX_CELLS: f64 = 512.0;
 #[derive(Clone, Debug)]
 pub struct FilterSampler {
     filter: Filter,
-    /// `None` for the box, which is sampled exactly.
-    distribution: Option<Distribution2D>,
+    /// `None` for the box, which is sampled exactly; otherwise one tabulated distribution per axis (every filter
+    /// here is separable, f(x, y) = fx(x)·fy(y), so sampling x and y independently from |fx| and |fy| is exact
+    /// importance sampling of |f| up to the tabulation, and much cheaper than a 2D table).
+    distribution: Option<(Distribution1D, Distribution1D)>,
 }
 
 impl FilterSampler {
@@ -264,29 +266,29 @@ impl FilterSampler {
             Filter::Box { .. } => None,
             _ => {
                 let r = filter.radius();
-                let nx = (CELLS_PER_PIXEL * r[0]).ceil().clamp(2.0, MAX_CELLS) as usize;
-                let ny = (CELLS_PER_PIXEL * r[1]).ceil().clamp(2.0, MAX_CELLS) as usize;
-                let (dx, dy) = (2.0 * r[0] / nx as f64, 2.0 * r[1] / ny as f64);
-                let mut values = Vec::with_capacity(nx * ny);
-                for j in 0..ny {
-                    for i in 0..nx {
-                        let (x0, y0) = (-r[0] + i as f64 * dx, -r[1] + j as f64 * dy);
-                        let centre = filter.evaluate([x0 + 0.5 * dx, y0 + 0.5 * dy]).abs();
-                        // A cell whose centre sits on a zero crossing still needs some probability, or the
-                        // estimator would miss the filter's mass there: fall back to the corners' mean.
-                        let v = if centre > 0.0 {
-                            centre
-                        } else {
-                            [(x0, y0), (x0 + dx, y0), (x0, y0 + dy), (x0 + dx, y0 + dy)]
-                                .iter()
-                                .map(|&(x, y)| filter.evaluate([x, y]).abs())
-                                .sum::<f64>()
-                                / 4.0
-                        };
-                        values.push(v);
-                    }
-                }
-                Some(Distribution2D::new(&values, nx, ny, (-r[0], r[0]), (-r[1], r[1]))?)
+                // One axis of |f| through the centre (f(x, 0) ∝ fx(x) for these separable filters, all non-zero
+                // at the origin), tabulated at 64 cells per pixel of radius.
+                let axis = |radius: f64, eval: &dyn Fn(f64) -> f64| -> Result<Distribution1D, FilmError> {
+                    let n = (CELLS_PER_PIXEL * radius).ceil().clamp(2.0, MAX_CELLS) as usize;
+                    let dx = 2.0 * radius / n as f64;
+                    let values: Vec<f64> = (0..n)
+                        .map(|i| {
+                            let x0 = -radius + i as f64 * dx;
+                            let centre = eval(x0 + 0.5 * dx).abs();
+                            // A cell centred on a zero crossing still needs some probability, or the estimator
+                            // would miss the filter's mass there: fall back to the edges' mean.
+                            if centre > 0.0 {
+                                centre
+                            } else {
+                                0.5 * (eval(x0).abs() + eval(x0 + dx).abs())
+                            }
+                        })
+                        .collect();
+                    Ok(Distribution1D::new(&values, -radius, radius)?)
+                };
+                let dx = axis(r[0], &|x| filter.evaluate([x, 0.0]))?;
+                let dy = axis(r[1], &|y| filter.evaluate([0.0, y]))?;
+                Some((dx, dy))
             }
         };
         Ok(Self { filter: filter.clone(), distribution })
@@ -309,10 +311,12 @@ impl FilterSampler {
                 offset: [(2.0 * u[0] - 1.0) * r[0], (2.0 * u[1] - 1.0) * r[1]],
                 weight: 4.0 * r[0] * r[1],
             },
-            Some(d) => {
-                let s = d.sample(u);
-                let weight = if s.pdf > 0.0 { self.filter.evaluate(s.point) / s.pdf } else { 0.0 };
-                FilterSample { offset: s.point, weight }
+            Some((dx, dy)) => {
+                let (sx, sy) = (dx.sample(u[0]), dy.sample(u[1]));
+                let pdf = sx.pdf * sy.pdf;
+                let point = [sx.x, sy.x];
+                let weight = if pdf > 0.0 { self.filter.evaluate(point) / pdf } else { 0.0 };
+                FilterSample { offset: point, weight }
             }
         }
     }
@@ -325,7 +329,7 @@ impl FilterSampler {
         }
         match &self.distribution {
             None => 1.0 / (4.0 * r[0] * r[1]),
-            Some(d) => d.pdf(offset),
+            Some((dx, dy)) => dx.pdf(offset[0]) * dy.pdf(offset[1]),
         }
     }
 }
