@@ -318,14 +318,35 @@ impl EnvironmentMap {
         }
     }
 
-    /// Radiance at `uv` (nearest texel).
+    /// Radiance at `uv`, bilinearly interpolated between texel centres (lat-long: wrapping around in φ, clamped
+    /// at the poles; equal-area: clamped at the square's edges).
     pub fn lookup(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
-        let x = ((uv.x * self.width as f32) as usize).min(self.width - 1);
-        let y = ((uv.y * self.height as f32) as usize).min(self.height - 1);
-        let t = &self.texels[y * self.width + x];
+        let (w, h) = (self.width as i64, self.height as i64);
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let texel = |xi: i64, yi: i64| {
+            let xi = if self.equal_area { xi.clamp(0, w - 1) } else { xi.rem_euclid(w) };
+            let yi = yi.clamp(0, h - 1);
+            &self.texels[(yi * w + xi) as usize]
+        };
+        let corners = [
+            (x0, y0, (1.0 - fx) * (1.0 - fy)),
+            (x0 + 1, y0, fx * (1.0 - fy)),
+            (x0, y0 + 1, (1.0 - fx) * fy),
+            (x0 + 1, y0 + 1, fx * fy),
+        ];
         let mut s = SampledSpectrum::zero();
-        for i in 0..spectral::N_WAVELENGTHS {
-            s[i] = t.eval(wl.lambda(i) as f64) as f32;
+        for (xi, yi, weight) in corners {
+            if weight == 0.0 {
+                continue;
+            }
+            let t = texel(xi, yi);
+            for i in 0..spectral::N_WAVELENGTHS {
+                s[i] += weight * t.eval(wl.lambda(i) as f64) as f32;
+            }
         }
         s
     }
@@ -378,6 +399,25 @@ pub fn equal_area_sphere_to_square(d: Vec3) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn environment_lookup_interpolates_between_texels_and_wraps_in_phi() {
+        let grey = |v: f64| spectral::rgb_uplift::RgbIlluminantSpectrum::new([v, v, v]).unwrap();
+        let map = EnvironmentMap {
+            width: 2,
+            height: 1,
+            texels: vec![grey(0.0), grey(1.0)],
+            equal_area: false,
+            mean_luminance: 0.5,
+            distribution: Distribution2D::new(&[1.0, 1.0], 2, 1, (0.0, 1.0), (0.0, 1.0)).unwrap(),
+            frame: Frame::from_z(Vec3::Z),
+        };
+        let wl = SampledWavelengths::new([450.0, 500.0, 550.0, 600.0], [4.0; 4]);
+        let at = |u: f32| map.lookup(Vec2::new(u, 0.5), &wl)[2] / map.lookup(Vec2::new(0.75, 0.5), &wl)[2];
+        assert!(at(0.25).abs() < 1e-6, "texel centre");
+        assert!((at(0.5) - 0.5).abs() < 1e-5, "halfway");
+        assert!((at(0.0) - 0.5).abs() < 1e-5, "wraps around φ");
+    }
 
     #[test]
     fn equal_area_mapping_round_trips() {
