@@ -624,43 +624,37 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
         }
     };
 
-    // Shapes: object 0 holds the world's shapes; each ObjectBegin definition becomes another object.
+    // Shapes: object 0 holds the world's shapes; each ObjectBegin definition becomes another object. Area lights
+    // are only created for world shapes (pbrt-v4 drops them inside instances, with a warning at parse time).
     let mut lights: Vec<Light> = vec![];
-    let mut world_shapes = vec![];
-    let mut world_info = vec![];
     let mut triangles = 0usize;
-    for se in &desc.shapes {
-        let Some(shape) = make_shape(se)? else { continue };
-        triangles += shape_triangles(&shape);
-        let material = material_index(&se.material, &se.entity.loc)?;
-        let inside = medium_of(&se.inside_medium, &se.entity.loc)?;
-        let outside = medium_of(&se.outside_medium, &se.entity.loc)?;
-        let media_if = (inside.is_some() || outside.is_some() || material == NO_MATERIAL)
-            .then_some(MediumInterface { inside, outside });
-        let area_light_base = match &se.area_light {
-            Some(al) => Some(area_lights(al, &shape, &mut lights)?),
-            None => None,
+    let mut object_shapes =
+        |shapes: &[ShapeEntity], lights: Option<&mut Vec<Light>>| -> Result<(Vec<Shape>, Vec<ShapeInfo>)> {
+            let mut lights = lights;
+            let (mut out, mut out_info) = (vec![], vec![]);
+            for se in shapes {
+                let Some(shape) = make_shape(se)? else { continue };
+                triangles += shape_triangles(&shape);
+                let material = material_index(&se.material, &se.entity.loc)?;
+                let inside = medium_of(&se.inside_medium, &se.entity.loc)?;
+                let outside = medium_of(&se.outside_medium, &se.entity.loc)?;
+                let media = (inside.is_some() || outside.is_some() || material == NO_MATERIAL)
+                    .then_some(MediumInterface { inside, outside });
+                let area_light_base = match (&se.area_light, lights.as_deref_mut()) {
+                    (Some(al), Some(lights)) => Some(area_lights(al, &shape, lights)?),
+                    _ => None,
+                };
+                out_info.push(ShapeInfo { material, area_light_base, media });
+                out.push(shape);
+            }
+            Ok((out, out_info))
         };
-        world_info.push(ShapeInfo { material, area_light_base, media: media_if });
-        world_shapes.push(shape);
-    }
+    let (world_shapes, world_info) = object_shapes(&desc.shapes, Some(&mut lights))?;
     let mut objects = vec![Object::new(world_shapes)];
     let mut info = vec![world_info];
     let mut object_index: HashMap<&str, u32> = HashMap::new();
     for od in &desc.objects {
-        let mut shapes = vec![];
-        let mut oinfo = vec![];
-        for se in &od.shapes {
-            let Some(shape) = make_shape(se)? else { continue };
-            triangles += shape_triangles(&shape);
-            let material = material_index(&se.material, &se.entity.loc)?;
-            let inside = medium_of(&se.inside_medium, &se.entity.loc)?;
-            let outside = medium_of(&se.outside_medium, &se.entity.loc)?;
-            let media_if = (inside.is_some() || outside.is_some() || material == NO_MATERIAL)
-                .then_some(MediumInterface { inside, outside });
-            oinfo.push(ShapeInfo { material, area_light_base: None, media: media_if });
-            shapes.push(shape);
-        }
+        let (shapes, oinfo) = object_shapes(&od.shapes, None)?;
         object_index.insert(od.name.as_str(), objects.len() as u32);
         objects.push(Object::new(shapes));
         info.push(oinfo);
