@@ -405,26 +405,38 @@ fn sample_dispersive(
             keep_slot: None,
         })
     } else {
-        let (wi, etap) = refract(wo, Vec3::Z, eta[j])?;
-        if wi.z == 0.0 {
-            return None;
-        }
-        let t = 1.0 - r[j];
-        let mut ft = t / wi.z.abs();
-        if mode == TransportMode::Radiance {
-            ft /= etap * etap;
-        }
-        Some(BsdfSample {
-            f: SampledSpectrum::splat(ft),
-            wi,
-            pdf: pt / (pr + pt),
-            specular: true,
-            transmission: true,
-            eta: etap,
-            pdf_is_proportional: false,
-            keep_slot: Some(j),
-        })
+        smooth_transmission(wo, eta[j], 1.0 - r[j], pt / (pr + pt), mode, Some(j))
     }
+}
+
+/// Refraction through a smooth interface of relative index `eta` with Fresnel transmittance `t`, chosen with
+/// probability `pdf`: f = T/|cos θi|, divided by η² for radiance (pbrt-v4 §9.3.5, non-symmetric scattering).
+fn smooth_transmission(
+    wo: Vec3,
+    eta: f32,
+    t: f32,
+    pdf: f32,
+    mode: TransportMode,
+    keep_slot: Option<usize>,
+) -> Option<BsdfSample> {
+    let (wi, etap) = refract(wo, Vec3::Z, eta)?;
+    if wi.z == 0.0 {
+        return None;
+    }
+    let mut ft = t / wi.z.abs();
+    if mode == TransportMode::Radiance {
+        ft /= etap * etap;
+    }
+    Some(BsdfSample {
+        f: SampledSpectrum::splat(ft),
+        wi,
+        pdf,
+        specular: true,
+        transmission: true,
+        eta: etap,
+        pdf_is_proportional: false,
+        keep_slot,
+    })
 }
 
 fn lobe_weights(r: f32, t: f32, lobes: Lobes) -> (f32, f32) {
@@ -465,24 +477,7 @@ fn sample_dielectric(
                 keep_slot: None,
             })
         } else {
-            let (wi, etap) = refract(wo, Vec3::Z, eta)?;
-            if wi.z == 0.0 {
-                return None;
-            }
-            let mut ft = (1.0 - r0) / wi.z.abs();
-            if mode == TransportMode::Radiance {
-                ft /= etap * etap;
-            }
-            Some(BsdfSample {
-                f: SampledSpectrum::splat(ft),
-                wi,
-                pdf: t / (r + t),
-                specular: true,
-                transmission: true,
-                eta: etap,
-                pdf_is_proportional: false,
-                keep_slot: None,
-            })
+            smooth_transmission(wo, eta, 1.0 - r0, t / (r + t), mode, None)
         }
     } else {
         // Rough interface (Walter et al. 2007): sample a visible microfacet normal, then reflect or refract.
