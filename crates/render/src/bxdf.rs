@@ -44,6 +44,13 @@ pub struct BsdfSample {
     pub keep_slot: Option<usize>,
 }
 
+impl BsdfSample {
+    /// A reflection sample (no change of medium, exact pdf, all wavelengths kept).
+    pub fn reflection(f: SampledSpectrum, wi: Vec3, pdf: f32, specular: bool) -> Self {
+        Self { f, wi, pdf, specular, transmission: false, eta: 1.0, pdf_is_proportional: false, keep_slot: None }
+    }
+}
+
 /// Which lobes a restricted sampling call may choose.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Lobes {
@@ -249,16 +256,7 @@ impl Bxdf {
                     wi.z = -wi.z;
                 }
                 let pdf = cosine_hemisphere_pdf(wi.z.abs());
-                (pdf > 0.0).then(|| BsdfSample {
-                    f: *r * FRAC_1_PI,
-                    wi,
-                    pdf,
-                    specular: false,
-                    transmission: false,
-                    eta: 1.0,
-                    pdf_is_proportional: false,
-                    keep_slot: None,
-                })
+                (pdf > 0.0).then(|| BsdfSample::reflection(*r * FRAC_1_PI, wi, pdf, false))
             }
             Bxdf::Conductor { eta, k, distrib } => {
                 if distrib.effectively_smooth() {
@@ -268,16 +266,7 @@ impl Bxdf {
                         return None;
                     }
                     let f = fresnel_conductor(c, eta, k) * (1.0 / c);
-                    return Some(BsdfSample {
-                        f,
-                        wi,
-                        pdf: 1.0,
-                        specular: true,
-                        transmission: false,
-                        eta: 1.0,
-                        pdf_is_proportional: false,
-                        keep_slot: None,
-                    });
+                    return Some(BsdfSample::reflection(f, wi, 1.0, true));
                 }
                 if wo.z == 0.0 {
                     return None;
@@ -294,16 +283,7 @@ impl Bxdf {
                 }
                 let fr = fresnel_conductor(wo.dot(wm).abs(), eta, k);
                 let f = fr * (distrib.d(wm) * distrib.g(wo, wi) / (4.0 * cos_i * cos_o));
-                Some(BsdfSample {
-                    f,
-                    wi,
-                    pdf,
-                    specular: false,
-                    transmission: false,
-                    eta: 1.0,
-                    pdf_is_proportional: false,
-                    keep_slot: None,
-                })
+                Some(BsdfSample::reflection(f, wi, pdf, false))
             }
             Bxdf::Dielectric { eta, distrib } => sample_dielectric(*eta, distrib, wo, uc, u, mode, lobes),
             Bxdf::CoatedDiffuse(c) => c.sample_f(wo, uc, u, mode),
@@ -326,16 +306,7 @@ impl Bxdf {
                 }
                 if uc < pr / (pr + pt) {
                     let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                    Some(BsdfSample {
-                        f: r * (1.0 / c),
-                        wi,
-                        pdf: pr / (pr + pt),
-                        specular: true,
-                        transmission: false,
-                        eta: 1.0,
-                        pdf_is_proportional: false,
-                        keep_slot: None,
-                    })
+                    Some(BsdfSample::reflection(r * (1.0 / c), wi, pr / (pr + pt), true))
                 } else {
                     Some(BsdfSample {
                         f: t * (1.0 / c),
@@ -394,16 +365,7 @@ fn sample_dispersive(
         if p_reflect <= 0.0 {
             return None;
         }
-        Some(BsdfSample {
-            f: r * (1.0 / wi.z.abs()),
-            wi,
-            pdf: p_reflect,
-            specular: true,
-            transmission: false,
-            eta: 1.0,
-            pdf_is_proportional: false,
-            keep_slot: None,
-        })
+        Some(BsdfSample::reflection(r * (1.0 / wi.z.abs()), wi, p_reflect, true))
     } else {
         smooth_transmission(wo, eta[j], 1.0 - r[j], pt / (pr + pt), mode, Some(j))
     }
@@ -466,16 +428,7 @@ fn sample_dielectric(
         if uc < r / (r + t) {
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
             let f = SampledSpectrum::splat(r0 / wi.z.abs());
-            Some(BsdfSample {
-                f,
-                wi,
-                pdf: r / (r + t),
-                specular: true,
-                transmission: false,
-                eta: 1.0,
-                pdf_is_proportional: false,
-                keep_slot: None,
-            })
+            Some(BsdfSample::reflection(f, wi, r / (r + t), true))
         } else {
             smooth_transmission(wo, eta, 1.0 - r0, t / (r + t), mode, None)
         }
@@ -494,16 +447,7 @@ fn sample_dielectric(
             }
             let pdf = distrib.pdf(wo, wm) / (4.0 * wo.dot(wm).abs()) * r / (r + t);
             let f = distrib.d(wm) * distrib.g(wo, wi) * r0 / (4.0 * wi.z * wo.z).abs();
-            (pdf > 0.0).then(|| BsdfSample {
-                f: SampledSpectrum::splat(f),
-                wi,
-                pdf,
-                specular: false,
-                transmission: false,
-                eta: 1.0,
-                pdf_is_proportional: false,
-                keep_slot: None,
-            })
+            (pdf > 0.0).then(|| BsdfSample::reflection(SampledSpectrum::splat(f), wi, pdf, false))
         } else {
             let (wi, etap) = refract(wo, wm, eta)?;
             if same_hemisphere(wo, wi) || wi.z == 0.0 {

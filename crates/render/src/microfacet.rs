@@ -137,23 +137,27 @@ impl TrowbridgeReitz {
 mod tests {
     use super::*;
 
+    /// Midpoint quadrature of `f(ω)` over the upper hemisphere on an n×n grid in (cos θ, φ), where dω = d(cos θ) dφ.
+    fn integrate_hemisphere(n: usize, f: impl Fn(Vec3, f64) -> f64) -> f64 {
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            for j in 0..n {
+                let ct = (i as f64 + 0.5) / n as f64;
+                let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / n as f64;
+                let st = (1.0 - ct * ct).sqrt();
+                let w = Vec3::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
+                sum += f(w, ct);
+            }
+        }
+        sum * 2.0 * std::f64::consts::PI / (n * n) as f64
+    }
+
     #[test]
     fn d_is_normalised_over_projected_area() {
         // ∫ D(ωm) cos θm dωm = 1 over the hemisphere.
         for (ax, ay) in [(0.3, 0.3), (0.1, 0.5), (0.8, 0.8)] {
             let d = TrowbridgeReitz::new(ax, ay);
-            let n = 800;
-            let mut sum = 0.0f64;
-            for i in 0..n {
-                for j in 0..n {
-                    // Uniform in (cos θ, φ): dω = d(cos θ) dφ.
-                    let ct = (i as f64 + 0.5) / n as f64;
-                    let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / n as f64;
-                    let st = (1.0 - ct * ct).sqrt();
-                    let wm = Vec3::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
-                    sum += d.d(wm) as f64 * ct * 2.0 * std::f64::consts::PI / (n * n) as f64;
-                }
-            }
+            let sum = integrate_hemisphere(800, |wm, ct| d.d(wm) as f64 * ct);
             assert!((sum - 1.0).abs() < 5e-3, "α = ({ax}, {ay}): {sum}");
         }
     }
@@ -163,18 +167,7 @@ mod tests {
         // ∫ G₁(ω)/cos θ · D(ωm) · max(0, ω·ωm) dωm = 1 over the front-facing microfacets (midpoint quadrature).
         let d = TrowbridgeReitz::new(0.4, 0.2);
         let wo = Vec3::new(0.5, 0.1, 0.86).normalize();
-        let n = 600;
-        let mut sum = 0.0f64;
-        for i in 0..n {
-            for j in 0..n {
-                let ct = (i as f64 + 0.5) / n as f64;
-                let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / n as f64;
-                let st = (1.0 - ct * ct).sqrt();
-                let wm = Vec3::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
-                let visible = if wo.dot(wm) > 0.0 { d.d_visible(wo, wm) as f64 } else { 0.0 };
-                sum += visible * 2.0 * std::f64::consts::PI / (n * n) as f64;
-            }
-        }
+        let sum = integrate_hemisphere(600, |wm, _| if wo.dot(wm) > 0.0 { d.d_visible(wo, wm) as f64 } else { 0.0 });
         assert!((sum - 1.0).abs() < 5e-3, "{sum}");
         // Samples are unit vectors in the upper hemisphere facing wo.
         for k in 0..100 {
