@@ -9,6 +9,13 @@
 //! strategy — unlike pbrt-v4's spectral film, which averages Lᵢ without the pdf and so is right only for uniform
 //! wavelength sampling.
 //!
+//! Light-tracing integrators (`lightpath`, `bdpt`) also *splat*: a contribution found by connecting a light path to
+//! the camera lands at a raster position of its own, spread over the pixels around it by the pixel filter
+//! (normalised to unit integral). Splats are kept apart from the camera samples, and a pixel's value is
+//! `camera sum / weight sum + splat sum · (pixels / light paths)`: each light path estimates the whole image, so the
+//! splat sums divided by the number of light paths per pixel are in the same units (radiance) as camera samples, for
+//! the RGB and the spectral film alike.
+//!
 //! Rendering threads write disjoint rows ([`Film::par_rows_mut`]) without locks; since the filter is importance
 //! sampled ([`crate::FilterSampler`]) each camera sample lands in its own pixel, so the result does not depend on the
 //! thread count. Films rendered separately (other processes, other sample ranges) add up with [`Film::merge`].
@@ -194,6 +201,14 @@ pub struct Film {
     aov_count: Vec<f64>,
     /// Samples dropped for non-finite values or out-of-range coordinates, per row.
     rejected: Vec<u64>,
+    /// Splatted XYZ sums (empty until the first splat).
+    splat_xyz: Vec<[f64; 3]>,
+    /// Splatted bucket sums (empty until the first splat on a spectral film).
+    splat_buckets: Vec<f64>,
+    /// Number of light paths whose splats were added (see the module documentation).
+    light_paths: f64,
+    /// Splats dropped for non-finite values.
+    rejected_splats: u64,
 }
 
 fn zeroed<T: Clone>(n: usize, value: T) -> Option<Vec<T>> {
@@ -226,6 +241,10 @@ impl Film {
             normal: zeroed(naov, [0.0; 3]).ok_or_else(too_large)?,
             aov_count: zeroed(naov, 0.0).ok_or_else(too_large)?,
             rejected: zeroed(spec.height as usize, 0).ok_or_else(too_large)?,
+            splat_xyz: Vec::new(),
+            splat_buckets: Vec::new(),
+            light_paths: 0.0,
+            rejected_splats: 0,
             spec,
         })
     }
@@ -255,9 +274,79 @@ impl Film {
         self.spec.aovs
     }
 
-    /// Number of samples dropped so far because a value was NaN or infinite or `x` was outside the film.
+    /// Number of samples (and splats) dropped so far because a value was NaN or infinite or `x` was outside the
+    /// film.
     pub fn rejected_samples(&self) -> u64 {
-        self.rejected.iter().sum()
+        self.rejected.iter().sum::<u64>() + self.rejected_splats
+    }
+
+    /// Splats a light-path contribution at raster position `raster` (pixels, y down, continuous): every pixel whose
+    /// centre lies within the filter's radius receives the contribution times `f(centre offset) / ∫f`. `xyz` and
+    /// `spectral` (`(λ nm, L/pdf)` pairs, as in [`FilmRow::add_sample`]) are the contribution's estimates. The
+    /// splat sums count once [`Film::add_light_paths`] says how many light paths were traced. Returns whether the
+    /// splat was accumulated (non-finite values are dropped and counted).
+    pub fn add_splat(&mut self, raster: [f64; 2], xyz: Xyz, spectral: &[(f32, f32)]) -> bool {
+        let finite = xyz.x.is_finite()
+            && xyz.y.is_finite()
+            && xyz.z.is_finite()
+            && raster.iter().all(|v| v.is_finite())
+            && spectral.iter().all(|(l, v)| v.is_finite() && !l.is_nan());
+        if !finite {
+            self.rejected_splats += 1;
+            return false;
+        }
+        let npix = self.weight.len();
+        if self.splat_xyz.is_empty() {
+            self.splat_xyz = vec![[0.0; 3]; npix];
+            self.splat_buckets = vec![0.0; npix * self.nbuckets];
+        }
+        let filter = &self.spec.filter;
+        let [rx, ry] = filter.radius();
+        let norm = 1.0 / filter.integral();
+        let bins = Binning::new(&self.spec.kind);
+        let (w, h) = (self.spec.width as i64, self.spec.height as i64);
+        // Pixels whose centres (x + 0.5, y + 0.5) lie within the filter's support around `raster`.
+        let x0 = ((raster[0] - 0.5 - rx).ceil() as i64).max(0);
+        let x1 = ((raster[0] - 0.5 + rx).floor() as i64).min(w - 1);
+        let y0 = ((raster[1] - 0.5 - ry).ceil() as i64).max(0);
+        let y1 = ((raster[1] - 0.5 + ry).floor() as i64).min(h - 1);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let f = filter.evaluate([x as f64 + 0.5 - raster[0], y as f64 + 0.5 - raster[1]]) * norm;
+                if f == 0.0 {
+                    continue;
+                }
+                let i = (y * w + x) as usize;
+                let s = &mut self.splat_xyz[i];
+                s[0] += f * xyz.x;
+                s[1] += f * xyz.y;
+                s[2] += f * xyz.z;
+                if bins.nbuckets > 0 {
+                    let nb = bins.nbuckets;
+                    add_to_buckets(&bins, &mut self.splat_buckets[i * nb..(i + 1) * nb], spectral, f);
+                }
+            }
+        }
+        true
+    }
+
+    /// Records that `n` more light paths were traced (their splats, if any, have been or will be added).
+    pub fn add_light_paths(&mut self, n: u64) {
+        self.light_paths += n as f64;
+    }
+
+    /// The number of light paths recorded with [`Film::add_light_paths`].
+    pub fn light_paths(&self) -> f64 {
+        self.light_paths
+    }
+
+    /// The factor that turns splat sums into radiance: pixels per light path (0 before any light path).
+    fn splat_scale(&self) -> f64 {
+        if self.light_paths > 0.0 && !self.splat_xyz.is_empty() {
+            self.weight.len() as f64 / self.light_paths
+        } else {
+            0.0
+        }
     }
 
     fn index(&self, x: u32, y: u32) -> Option<usize> {
@@ -368,6 +457,16 @@ impl Film {
         self.normal.iter_mut().zip(&other.normal).for_each(|(a, b)| add3(a, b));
         self.aov_count.iter_mut().zip(&other.aov_count).for_each(|(a, b)| *a += b);
         self.rejected.iter_mut().zip(&other.rejected).for_each(|(a, b)| *a += b);
+        if !other.splat_xyz.is_empty() {
+            if self.splat_xyz.is_empty() {
+                self.splat_xyz = vec![[0.0; 3]; self.weight.len()];
+                self.splat_buckets = vec![0.0; self.weight.len() * self.nbuckets];
+            }
+            self.splat_xyz.iter_mut().zip(&other.splat_xyz).for_each(|(a, b)| add3(a, b));
+            self.splat_buckets.iter_mut().zip(&other.splat_buckets).for_each(|(a, b)| *a += b);
+        }
+        self.light_paths += other.light_paths;
+        self.rejected_splats += other.rejected_splats;
         Ok(())
     }
 
@@ -383,22 +482,36 @@ impl Film {
 
     fn xyz_at(&self, i: usize) -> Xyz {
         let w = self.weight[i];
-        if w == 0.0 {
-            return Xyz::default();
-        }
         let s = self.xyz[i];
-        Xyz::new(s[0] / w, s[1] / w, s[2] / w)
+        let camera = if w == 0.0 { [0.0; 3] } else { [s[0] / w, s[1] / w, s[2] / w] };
+        let k = self.splat_scale();
+        if k == 0.0 {
+            return Xyz::new(camera[0], camera[1], camera[2]);
+        }
+        let p = self.splat_xyz[i];
+        Xyz::new(camera[0] + k * p[0], camera[1] + k * p[1], camera[2] + k * p[2])
+    }
+
+    /// Bucket `b` of pixel `i`: camera part plus splat part.
+    fn bucket_at(&self, i: usize, b: usize, k: f64) -> f64 {
+        let nb = self.nbuckets;
+        let w = self.weight[i];
+        let camera = if w == 0.0 { 0.0 } else { self.buckets[i * nb + b] / w };
+        if k == 0.0 {
+            camera
+        } else {
+            camera + k * self.splat_buckets[i * nb + b]
+        }
     }
 
     /// The pixel's spectrum: per bucket, the mean spectral radiance over the bucket (per nm). Empty for an RGB film;
     /// zeros without weight or outside the film.
     pub fn pixel_spectrum(&self, x: u32, y: u32) -> Vec<f64> {
         let nb = self.nbuckets;
+        let k = self.splat_scale();
         match self.index(x, y) {
-            Some(i) if self.weight[i] != 0.0 => {
-                self.buckets[i * nb..(i + 1) * nb].iter().map(|b| b / self.weight[i]).collect()
-            }
-            _ => vec![0.0; nb],
+            Some(i) => (0..nb).map(|b| self.bucket_at(i, b, k)).collect(),
+            None => vec![0.0; nb],
         }
     }
 
@@ -417,10 +530,10 @@ impl Film {
         if nb == 0 {
             return Vec::new();
         }
-        self.buckets
-            .par_chunks(nb)
-            .zip(self.weight.par_iter())
-            .flat_map_iter(|(b, &w)| b.iter().map(move |v| if w != 0.0 { (v / w) as f32 } else { 0.0 }))
+        let k = self.splat_scale();
+        (0..self.weight.len())
+            .into_par_iter()
+            .flat_map_iter(|i| (0..nb).map(move |b| self.bucket_at(i, b, k) as f32))
             .collect()
     }
 
@@ -506,15 +619,20 @@ fn accumulate(
     xyz_sum[2] += weight * xyz.z;
     *weight_sum += weight;
     if bins.nbuckets > 0 {
-        for &(lambda, value) in spectral {
-            let lambda = lambda as f64;
-            if lambda >= bins.lambda_min && lambda < bins.lambda_max {
-                let b = (((lambda - bins.lambda_min) * bins.inv_width) as usize).min(bins.nbuckets - 1);
-                buckets[b] += value as f64 * bins.inv_width * weight;
-            }
-        }
+        add_to_buckets(bins, buckets, spectral, weight);
     }
     true
+}
+
+/// Adds `weight·(L/pdf)/Δλ` of each `(λ, L/pdf)` pair to the bucket holding λ (pairs outside are ignored).
+fn add_to_buckets(bins: &Binning, buckets: &mut [f64], spectral: &[(f32, f32)], weight: f64) {
+    for &(lambda, value) in spectral {
+        let lambda = lambda as f64;
+        if lambda >= bins.lambda_min && lambda < bins.lambda_max {
+            let b = (((lambda - bins.lambda_min) * bins.inv_width) as usize).min(bins.nbuckets - 1);
+            buckets[b] += value as f64 * bins.inv_width * weight;
+        }
+    }
 }
 
 fn accumulate_aov(

@@ -237,3 +237,45 @@ fn spec_validation_names_the_parameter() {
     let e = Film::new(spectral_spec(u32::MAX, u32::MAX, 4700, 360.0, 830.0)).unwrap_err();
     assert!(matches!(e, FilmError::TooLarge { .. }), "{e:?}");
 }
+
+/// Splats: a pixel's value is camera mean + splat sum × pixels / light paths; the filter (normalised to unit
+/// integral) spreads a splat over the pixels within its radius; spectral buckets get the same treatment; merging
+/// adds splats and light-path counts.
+#[test]
+fn splats_are_scaled_by_pixels_per_light_path_and_spread_by_the_filter() {
+    let mut spec = spectral_spec(4, 3, 2, 400.0, 600.0);
+    spec.filter = Filter::new_box([0.5, 0.5]).unwrap();
+    let mut film = Film::new(spec.clone()).unwrap();
+    assert!(film.add_sample(1, 1, Xyz::new(1.0, 1.0, 1.0), 1.0, &[(450.0, 100.0)]));
+    // Two splats in pixel (1, 1) and one in (3, 2); 24 light paths over 12 pixels: scale ½.
+    assert!(film.add_splat([1.5, 1.5], Xyz::new(2.0, 4.0, 6.0), &[(450.0, 200.0)]));
+    assert!(film.add_splat([1.2, 1.9], Xyz::new(2.0, 0.0, 0.0), &[(550.0, 100.0)]));
+    assert!(film.add_splat([3.7, 2.1], Xyz::new(0.0, 8.0, 0.0), &[]));
+    assert!(!film.add_splat([0.5, 0.5], Xyz::new(f64::NAN, 0.0, 0.0), &[]));
+    film.add_light_paths(24);
+    let p = film.pixel_xyz(1, 1);
+    assert_eq!((p.x, p.y, p.z), (1.0 + 0.5 * 4.0, 1.0 + 0.5 * 4.0, 1.0 + 0.5 * 6.0));
+    assert_eq!(film.pixel_xyz(3, 2).y, 4.0);
+    assert_eq!(film.pixel_xyz(0, 0).y, 0.0);
+    // Buckets of 100 nm: 100/100 from the camera sample, ½·200/100 and ½·100/100 from the splats.
+    assert_eq!(film.pixel_spectrum(1, 1), vec![1.0 + 1.0, 0.5]);
+    assert_eq!(film.rejected_samples(), 1);
+    // A wider triangle filter spreads one splat over 2×2 pixels with weights summing to 1.
+    let mut tri = spectral_spec(4, 4, 1, 400.0, 600.0);
+    tri.filter = Filter::triangle([1.0, 1.0]).unwrap();
+    let mut f2 = Film::new(tri).unwrap();
+    f2.add_splat([2.0, 2.0], Xyz::new(0.0, 16.0, 0.0), &[]);
+    f2.add_light_paths(16);
+    let total: f64 = (0..4).flat_map(|y| (0..4).map(move |x| (x, y))).map(|(x, y)| f2.pixel_xyz(x, y).y).sum();
+    assert!((total - 16.0).abs() < 1e-12, "{total}");
+    assert!((f2.pixel_xyz(1, 1).y - 4.0).abs() < 1e-12);
+    // Merging two films: splat sums and light paths add, so the scale stays right.
+    let mut a = Film::new(spec.clone()).unwrap();
+    let mut b = Film::new(spec).unwrap();
+    a.add_splat([0.5, 0.5], Xyz::new(0.0, 6.0, 0.0), &[]);
+    a.add_light_paths(12);
+    b.add_splat([0.5, 0.5], Xyz::new(0.0, 2.0, 0.0), &[]);
+    b.add_light_paths(12);
+    a.merge(&b).unwrap();
+    assert_eq!(a.pixel_xyz(0, 0).y, 4.0);
+}

@@ -18,8 +18,9 @@ use spectral::rgb_uplift::RgbIlluminantSpectrum;
 use spectral::{Distribution2D, Observer, RgbColorSpace, Spectrum};
 
 use crate::camera::{Camera, Projection, ScreenWindow};
-use crate::integrator::PathIntegrator;
+use crate::integrator::{Integrator, PathIntegrator};
 use crate::light::{EnvironmentMap, Light};
+use crate::lightpath::LightPathIntegrator;
 use crate::material::{ConductorSpec, DielectricIor, Material, Roughness};
 use crate::sampling::Frame;
 use crate::scene::{AbsorbingMedium, Geometry, MediumInterface, RenderScene, SurfaceHit, NO_MATERIAL};
@@ -45,7 +46,7 @@ pub struct BuiltScene {
     /// Samples per pixel.
     pub spp: u32,
     /// The integrator.
-    pub integrator: PathIntegrator,
+    pub integrator: Integrator,
     /// Triangles in the scene (instances counted once).
     pub triangles: usize,
     /// Warnings (unused parameters, ignored features), each with file, line and column.
@@ -412,6 +413,11 @@ impl Geometry for SceneGeometry {
         use geometry::Accel;
         self.accel.occluded(&geometry::Ray::new(o, d), t_max)
     }
+
+    fn bounding_sphere(&self) -> (Vec3, f32) {
+        use geometry::Accel;
+        self.accel.bounds().bounding_sphere()
+    }
 }
 
 fn geo_err(loc: &Loc, e: geometry::GeometryError) -> SceneError {
@@ -556,21 +562,27 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     let scene_spp = p_count(&desc.sampler.params, "pixelsamples", 16, &desc.sampler.loc)? as u32;
     let spp = options.spp.unwrap_or(scene_spp);
     let ip = &desc.integrator.params;
+    let max_depth = || -> Result<u32> {
+        let md = ip.get_int("maxdepth", 5)?;
+        if md < 0 {
+            let l = ip.get("maxdepth").map(|q| q.loc.clone()).unwrap_or_else(|| desc.integrator.loc.clone());
+            return err(&l, format!("'maxdepth' must be non-negative, got {md}"));
+        }
+        Ok(md.min(1_000) as u32)
+    };
     let integrator = match desc.integrator.name.as_str() {
         "path" | "volpath" => {
-            let md = ip.get_int("maxdepth", 5)?;
-            if md < 0 {
-                return err(&desc.integrator.loc, format!("'maxdepth' must be non-negative, got {md}"));
-            }
+            let md = max_depth()?;
             if desc.integrator.name == "volpath" && !desc.media.is_empty() {
                 warnings.push(format!(
                     "{}: warning: integrator \"volpath\" renders as \"path\" (absorbing media only)",
                     desc.integrator.loc
                 ));
             }
-            PathIntegrator { max_depth: md.min(1_000) as u32 }
+            Integrator::Path(PathIntegrator { max_depth: md })
         }
-        other => return err(&desc.integrator.loc, unsupported("integrator", other, &["path", "volpath"])),
+        "lightpath" => Integrator::LightPath(LightPathIntegrator { max_depth: max_depth()? }),
+        other => return err(&desc.integrator.loc, unsupported("integrator", other, &["path", "volpath", "lightpath"])),
     };
 
     // Textures and materials (anonymous first, then named; a name maps to its index).
@@ -681,6 +693,12 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
 
     // Camera.
     let camera = make_camera(desc, (w, h))?;
+    if matches!(integrator, Integrator::LightPath(_)) && !camera.supports_light_tracing() {
+        return err(
+            &desc.camera.entity.loc,
+            format!("integrator \"{}\" needs a perspective camera (an orthographic camera cannot be reached by light paths)", integrator.name()),
+        );
+    }
     let camera_medium = medium_of(&desc.camera.medium, &desc.camera.entity.loc)?;
 
     let scene =
@@ -808,7 +826,7 @@ fn light(le: &scene::LightEntity, scene_radius: f32, warnings: &mut Vec<String>)
             let from = p.get_point3("from", DVec3::ZERO)?;
             let to = p.get_point3("to", DVec3::new(0.0, 0.0, 1.0))?;
             let cone = p.get_float("coneangle", 30.0)?;
-            let delta = p.get_float("conedelta", 5.0)?;
+            let delta = p.get_float("conedeltaangle", 5.0)?;
             let (cos_end, cos_start) = (cone.to_radians().cos(), (cone - delta).to_radians().cos());
             let k = if power > 0.0 {
                 power / (2.0 * std::f64::consts::PI * (1.0 - 0.5 * (cos_start + cos_end)))

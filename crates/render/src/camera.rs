@@ -46,6 +46,7 @@ pub enum Projection {
 pub struct Camera {
     projection: Projection,
     world_from_camera: Transform,
+    camera_from_world: Transform,
     resolution: (u32, u32),
     window: ScreenWindow,
     lens_radius: f32,
@@ -75,6 +76,7 @@ impl Camera {
         Self {
             projection,
             world_from_camera: camera_from_world.inverse(),
+            camera_from_world: *camera_from_world,
             resolution,
             window,
             lens_radius,
@@ -114,6 +116,123 @@ impl Camera {
         let o = self.world_from_camera.point(origin.as_dvec3()).as_vec3();
         let d = self.world_from_camera.vector(dir.as_dvec3()).normalize().as_vec3();
         CameraRay { origin: o, direction: d }
+    }
+}
+
+/// A sampled connection from a point in the scene to the camera's lens (for light tracing).
+#[derive(Clone, Copy, Debug)]
+pub struct CameraWiSample {
+    /// Unit direction from the reference point towards the lens point.
+    pub wi: Vec3,
+    /// Importance `We` of the ray from the lens point towards the reference point.
+    pub we: f32,
+    /// Density of the lens point with respect to solid angle at the reference point.
+    pub pdf: f32,
+    /// Where the ray lands on the film (pixels, y down).
+    pub raster: Vec2,
+    /// The lens point (world space).
+    pub p_lens: Vec3,
+    /// Distance from the reference point to the lens point.
+    pub dist: f32,
+}
+
+impl Camera {
+    /// Whether the camera has a finite-aperture importance function that light paths can connect to: perspective
+    /// cameras (pinhole or thin lens). An orthographic camera's importance is a delta in direction.
+    pub fn supports_light_tracing(&self) -> bool {
+        matches!(self.projection, Projection::Perspective { .. })
+    }
+
+    /// Unit viewing axis (camera +z) in world space.
+    pub fn forward(&self) -> Vec3 {
+        self.world_from_camera.vector(DVec3::Z).normalize().as_vec3()
+    }
+
+    /// Area of the film's window on the plane z = 1 in camera space (pbrt-v4's `A` in §16.1.1).
+    fn image_plane_area(&self) -> f32 {
+        match self.projection {
+            Projection::Perspective { tan_half_fov } => {
+                let w = &self.window;
+                (w.x_max - w.x_min) * (w.y_max - w.y_min) * tan_half_fov * tan_half_fov
+            }
+            Projection::Orthographic => 0.0,
+        }
+    }
+
+    /// Area of the lens (1 for a pinhole, whose position density is a delta).
+    fn lens_area(&self) -> f32 {
+        if self.lens_radius > 0.0 {
+            std::f32::consts::PI * self.lens_radius * self.lens_radius
+        } else {
+            1.0
+        }
+    }
+
+    /// Raster position of the camera-space ray from lens point `o` (z = 0) in direction `d`, if it is in front of
+    /// the camera and lands on the film.
+    fn raster_of(&self, o: Vec3, d: Vec3) -> Option<Vec2> {
+        let Projection::Perspective { tan_half_fov } = self.projection else { return None };
+        if d.z <= 0.0 {
+            return None;
+        }
+        // A thin lens sends every ray through the point where the chief ray of its film position meets the plane
+        // of focus; a pinhole ray is its own chief ray (pbrt-v4 §5.2.3).
+        let q = if self.lens_radius > 0.0 {
+            let p_focus = o + d * (self.focal_distance / d.z);
+            Vec2::new(p_focus.x, p_focus.y) / self.focal_distance
+        } else {
+            Vec2::new(d.x, d.y) / d.z
+        };
+        let (sx, sy) = (q.x / tan_half_fov, q.y / tan_half_fov);
+        let w = &self.window;
+        let x = (sx - w.x_min) / (w.x_max - w.x_min) * self.resolution.0 as f32;
+        let y = (w.y_max - sy) / (w.y_max - w.y_min) * self.resolution.1 as f32;
+        let inside = x >= 0.0 && y >= 0.0 && x < self.resolution.0 as f32 && y < self.resolution.1 as f32;
+        inside.then_some(Vec2::new(x, y))
+    }
+
+    /// Importance `We` of the world-space ray leaving lens point `origin` in unit direction `dir`, and its raster
+    /// position; `None` outside the film. `We = 1 / (A · A_lens · cos⁴θ)` (pbrt-v4 eq. 16.3 with the lens), so that
+    /// ∫ We cosθ dω over the film is `1/A_lens` and a pixel's measurement is the radiance averaged over it.
+    pub fn we(&self, origin: Vec3, dir: Vec3) -> Option<(f32, Vec2)> {
+        let o = self.camera_from_world.point(origin.as_dvec3()).as_vec3();
+        let d = self.camera_from_world.vector(dir.as_dvec3()).as_vec3().normalize_or_zero();
+        let raster = self.raster_of(Vec3::new(o.x, o.y, 0.0), d)?;
+        let cos = d.z;
+        let cos2 = cos * cos;
+        Some((1.0 / (self.image_plane_area() * self.lens_area() * cos2 * cos2), raster))
+    }
+
+    /// Densities with which [`Camera::generate_ray`] produces a ray in world direction `dir` with uniform film and
+    /// lens samples: (per unit lens area, per steradian). `(0, 0)` outside the film.
+    pub fn pdf_we(&self, origin: Vec3, dir: Vec3) -> (f32, f32) {
+        if self.we(origin, dir).is_none() {
+            return (0.0, 0.0);
+        }
+        let cos = self.camera_from_world.vector(dir.as_dvec3()).as_vec3().normalize_or_zero().z;
+        (1.0 / self.lens_area(), 1.0 / (self.image_plane_area() * cos * cos * cos))
+    }
+
+    /// Samples a point on the lens with `u` and connects the world-space point `p_ref` to it: the importance
+    /// arriving at `p_ref` from the camera, the density per solid angle at `p_ref`, and the raster position. `None`
+    /// if the connection misses the film or the camera cannot be connected to (orthographic).
+    pub fn sample_wi(&self, p_ref: Vec3, u: Vec2) -> Option<CameraWiSample> {
+        if !self.supports_light_tracing() {
+            return None;
+        }
+        let lens = self.lens_radius * sample_uniform_disk_concentric(u);
+        let p_lens = self.world_from_camera.point(DVec3::new(lens.x as f64, lens.y as f64, 0.0)).as_vec3();
+        let v = p_lens - p_ref;
+        let dist = v.length();
+        if dist.is_nan() || dist <= 0.0 {
+            return None;
+        }
+        let wi = v / dist;
+        let (we, raster) = self.we(p_lens, -wi)?;
+        let cos = self.forward().dot(-wi).abs();
+        // Area density 1/A_lens turned into solid angle at p_ref: dist² / (cos θ_lens · A_lens).
+        let pdf = dist * dist / (cos * self.lens_area());
+        Some(CameraWiSample { wi, we, pdf, raster, p_lens, dist })
     }
 }
 
@@ -160,6 +279,77 @@ mod tests {
             let r = cam.generate_ray(film, lens);
             let hit = r.origin + r.direction * ((5.0 - r.origin.z) / r.direction.z);
             assert!((hit - target).length() < 1e-4, "{hit} vs {target}");
+        }
+    }
+
+    fn test_camera(lens_radius: f32) -> Camera {
+        let cam_from_world =
+            Transform::look_at(DVec3::new(0.3, -0.2, 0.1), DVec3::new(1.0, 0.5, 4.0), DVec3::Y).unwrap();
+        Camera::new(
+            Projection::Perspective { tan_half_fov: (25f32.to_radians()).tan() },
+            &cam_from_world,
+            (48, 32),
+            ScreenWindow::for_aspect(1.5),
+            lens_radius,
+            3.0,
+        )
+    }
+
+    #[test]
+    fn importance_raster_inverts_generate_ray() {
+        for lens_radius in [0.0, 0.05] {
+            let cam = test_camera(lens_radius);
+            for (film, lens) in [
+                (Vec2::new(3.3, 7.9), Vec2::new(0.2, 0.7)),
+                (Vec2::new(40.1, 30.5), Vec2::new(0.9, 0.1)),
+                (Vec2::new(24.0, 16.0), Vec2::new(0.5, 0.5)),
+            ] {
+                let r = cam.generate_ray(film, lens);
+                let (we, raster) = cam.we(r.origin, r.direction).expect("on the film");
+                assert!((raster - film).length() < 2e-3, "{raster} vs {film}");
+                assert!(we > 0.0);
+            }
+            // Behind the camera: no importance.
+            assert!(cam.we(cam.position(), -cam.forward()).is_none());
+        }
+    }
+
+    #[test]
+    fn importance_integrates_to_one_over_the_film() {
+        // ∫ We(ω) cosθ dω over the film's directions = 1 / A_lens (pbrt-v4 eq. 16.2); Monte Carlo with uniform
+        // sphere directions from the lens centre (pinhole) — 200k samples, expected error ≈ 1%.
+        let cam = test_camera(0.0);
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            let u = Vec2::new(((i as f32) + 0.5) / n as f32, ((i as u64 * 7919 % n as u64) as f32 + 0.5) / n as f32);
+            let w = crate::sampling::sample_uniform_sphere(u);
+            if let Some((we, _)) = cam.we(cam.position(), w) {
+                sum += (we * w.dot(cam.forward())) as f64 * 4.0 * std::f64::consts::PI;
+            }
+        }
+        let integral = sum / n as f64;
+        assert!((integral - 1.0).abs() < 0.02, "∫ We cos dω = {integral}");
+    }
+
+    #[test]
+    fn sample_wi_agrees_with_we_and_pdf_we() {
+        for lens_radius in [0.0, 0.05] {
+            let cam = test_camera(lens_radius);
+            let r = cam.generate_ray(Vec2::new(10.5, 20.25), Vec2::new(0.3, 0.6));
+            let p_ref = r.origin + 5.0 * r.direction;
+            let s = cam.sample_wi(p_ref, Vec2::new(0.3, 0.6)).expect("visible");
+            assert!((s.raster - Vec2::new(10.5, 20.25)).length() < 5e-3, "{}", s.raster);
+            assert!((s.dist - 5.0).abs() < 1e-4);
+            let (we, _) = cam.we(s.p_lens, -s.wi).unwrap();
+            assert_eq!(we, s.we);
+            let (pdf_pos, pdf_dir) = cam.pdf_we(s.p_lens, -s.wi);
+            assert!(pdf_pos > 0.0 && pdf_dir > 0.0);
+            let cos = cam.forward().dot(-s.wi);
+            assert!(
+                (s.pdf - s.dist * s.dist / (cos * if lens_radius > 0.0 { pdf_pos.recip() } else { 1.0 })).abs()
+                    < 1e-3 * s.pdf
+            );
         }
     }
 

@@ -34,6 +34,25 @@ pub struct FirstHit {
     pub normal: Vec3,
 }
 
+/// The integrators the renderer can run, chosen by the scene's `Integrator` directive.
+#[derive(Clone, Copy, Debug)]
+pub enum Integrator {
+    /// Unidirectional path tracing from the camera.
+    Path(PathIntegrator),
+    /// Particle tracing from the lights, splatted onto the film.
+    LightPath(crate::lightpath::LightPathIntegrator),
+}
+
+impl Integrator {
+    /// The integrator's name in a scene file.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Integrator::Path(_) => "path",
+            Integrator::LightPath(_) => "lightpath",
+        }
+    }
+}
+
 /// The `path` integrator.
 #[derive(Clone, Copy, Debug)]
 pub struct PathIntegrator {
@@ -105,30 +124,20 @@ impl PathIntegrator {
             for v in u.iter_mut() {
                 *v = sampler.next_1d();
             }
-            let mut material_index = hit.material;
-            let mut mix_u = u[7];
-            while material_index != NO_MATERIAL {
-                if let Material::Mix { materials, amount } = &scene.materials[material_index as usize] {
-                    let a = amount.eval(&TextureEvalContext { uv: hit.uv, p: hit.p }).clamp(0.0, 1.0);
-                    let pick = if mix_u < a { 1 } else { 0 };
-                    mix_u = if pick == 1 { mix_u / a.max(1e-6) } else { (mix_u - a) / (1.0 - a).max(1e-6) };
-                    material_index = materials[pick];
-                } else {
-                    break;
+            let bxdf = match resolve_surface(scene, &hit, wl, u[7], u[8]) {
+                Surface::PassThrough => {
+                    // Pass straight through, switching media; does not count as a bounce.
+                    medium = next_medium(&hit, d, medium);
+                    o = hit.spawn_origin(d);
+                    crossings += 1;
+                    if crossings > 256 {
+                        break;
+                    }
+                    continue;
                 }
-            }
-            if material_index == NO_MATERIAL {
-                // Pass straight through, switching media; does not count as a bounce.
-                medium = next_medium(&hit, d, medium);
-                o = hit.spawn_origin(d);
-                crossings += 1;
-                if crossings > 256 {
-                    break;
-                }
-                continue;
-            }
-            let ctx = TextureEvalContext { uv: hit.uv, p: hit.p };
-            let Some(bxdf) = scene.materials[material_index as usize].bxdf(&ctx, wl, u[8]) else { break };
+                Surface::Absorb => break,
+                Surface::Scatter(b) => b,
+            };
             if depth == 0 {
                 if let Some(fh) = first_hit.take() {
                     *fh = Some(FirstHit { albedo: bxdf.albedo_hint(), normal: hit.ns });
@@ -221,8 +230,48 @@ impl PathIntegrator {
     }
 }
 
+/// What a ray meets at a surface once mixes are resolved.
+pub(crate) enum Surface {
+    /// A boundary between media without a material: the ray goes on unchanged.
+    PassThrough,
+    /// A material that scatters nothing at these wavelengths.
+    Absorb,
+    /// The BxDF to scatter with.
+    Scatter(Bxdf),
+}
+
+/// Resolves the material at `hit` (a mix picks one of its materials with `u_mix`, repeatedly) and builds its BxDF
+/// at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front).
+pub(crate) fn resolve_surface(
+    scene: &RenderScene,
+    hit: &SurfaceHit,
+    wl: &mut SampledWavelengths,
+    mut u_mix: f32,
+    u_bxdf: f32,
+) -> Surface {
+    let mut material_index = hit.material;
+    while material_index != NO_MATERIAL {
+        if let Material::Mix { materials, amount } = &scene.materials[material_index as usize] {
+            let a = amount.eval(&TextureEvalContext { uv: hit.uv, p: hit.p }).clamp(0.0, 1.0);
+            let pick = if u_mix < a { 1 } else { 0 };
+            u_mix = if pick == 1 { u_mix / a.max(1e-6) } else { (u_mix - a) / (1.0 - a).max(1e-6) };
+            material_index = materials[pick];
+        } else {
+            break;
+        }
+    }
+    if material_index == NO_MATERIAL {
+        return Surface::PassThrough;
+    }
+    let ctx = TextureEvalContext { uv: hit.uv, p: hit.p };
+    match scene.materials[material_index as usize].bxdf(&ctx, wl, u_bxdf) {
+        Some(b) => Surface::Scatter(b),
+        None => Surface::Absorb,
+    }
+}
+
 /// The medium a ray enters when it leaves `hit` in direction `d` (unchanged if the surface has no interface).
-fn next_medium(hit: &SurfaceHit, d: Vec3, current: Option<u32>) -> Option<u32> {
+pub(crate) fn next_medium(hit: &SurfaceHit, d: Vec3, current: Option<u32>) -> Option<u32> {
     match hit.media {
         Some(mi) => {
             if d.dot(hit.n) < 0.0 {

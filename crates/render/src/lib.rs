@@ -8,6 +8,7 @@ pub mod camera;
 pub mod integrator;
 pub mod layered;
 pub mod light;
+pub mod lightpath;
 pub mod material;
 pub mod microfacet;
 pub mod render;

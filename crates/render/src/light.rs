@@ -35,6 +35,32 @@ pub struct LightLiSample {
     pub delta: bool,
 }
 
+/// A ray of light leaving a light source, for light tracing and photon mapping.
+#[derive(Clone, Copy, Debug)]
+pub struct LightLeSample {
+    /// Origin of the emitted ray.
+    pub o: Vec3,
+    /// Unit direction of the emitted ray.
+    pub d: Vec3,
+    /// Emitted radiance (or intensity for point and spot lights) along the ray.
+    pub l: SampledSpectrum,
+    /// For area lights, the surface point the ray leaves (to spawn rays from and to weight by |cos θ|).
+    pub surface: Option<geometry::SurfacePoint>,
+    /// Density of the origin: per unit area (area lights; the disk of a light at infinity), 1 for point lights.
+    pub pdf_pos: f32,
+    /// Density of the direction per steradian (1 for a distant light's single direction).
+    pub pdf_dir: f32,
+}
+
+impl LightLeSample {
+    /// The sample's contribution to the emitted flux: `L·|cos θ| / (pdf_pos·pdf_dir)` (the cosine only for area
+    /// lights), the initial throughput of a light path before the light-selection probability.
+    pub fn flux_weight(&self) -> SampledSpectrum {
+        let cos = self.surface.map_or(1.0, |s| s.n.dot(self.d).abs());
+        self.l * (cos / (self.pdf_pos * self.pdf_dir))
+    }
+}
+
 /// An environment image in equal-area octahedral (pbrt-v4's native) or latitude–longitude layout.
 #[derive(Clone, Debug)]
 pub struct EnvironmentMap {
@@ -208,6 +234,98 @@ impl Light {
                 Some(LightLiSample { l: l.sample(wl), wi, pdf, dist, p, delta: false })
             }
         }
+    }
+
+    /// Samples a ray leaving the light with `u_pos` and `u_dir` (pbrt-v4's `SampleLe`, §12 and §16.1.2). `scene`
+    /// is the scene's bounding sphere (centre, radius): lights at infinity emit from a disk of that radius
+    /// facing the scene, so that every parallel ray that can hit the scene is sampled.
+    pub fn sample_le(
+        &self,
+        u_pos: Vec2,
+        u_dir: Vec2,
+        wl: &SampledWavelengths,
+        scene: (Vec3, f32),
+    ) -> Option<LightLeSample> {
+        let (center, radius) = (scene.0, scene.1.max(1e-6));
+        // A ray arriving from direction `w_to_light`: origin on the disk of radius R perpendicular to it, R beyond
+        // the centre, pdf 1/(πR²) (pbrt-v4 §12.5).
+        let from_infinity = |w_to_light: Vec3| {
+            let f = Frame::from_z(w_to_light);
+            let disk = crate::sampling::sample_uniform_disk_concentric(u_pos);
+            let o = center + radius * (w_to_light + disk.x * f.x + disk.y * f.y);
+            (o, -w_to_light, 1.0 / (PI * radius * radius))
+        };
+        let s = match self {
+            Light::Point { p, i } => LightLeSample {
+                o: *p,
+                d: sample_uniform_sphere(u_dir),
+                l: i.sample(wl),
+                surface: None,
+                pdf_pos: 1.0,
+                pdf_dir: 1.0 / (4.0 * PI),
+            },
+            Light::Spot { p, frame, i, cos_falloff_start, cos_falloff_end } => {
+                // Uniform in the cone of half-angle acos(cos_falloff_end); pdf 1/(2π(1 − cos)).
+                let cos_max = *cos_falloff_end;
+                let cos_t = 1.0 - u_dir.x * (1.0 - cos_max);
+                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+                let phi = 2.0 * PI * u_dir.y;
+                let d = frame.from_local(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t));
+                let falloff = smoothstep(*cos_falloff_end, *cos_falloff_start, cos_t);
+                LightLeSample {
+                    o: *p,
+                    d,
+                    l: i.sample(wl) * falloff,
+                    surface: None,
+                    pdf_pos: 1.0,
+                    pdf_dir: 1.0 / (2.0 * PI * (1.0 - cos_max)),
+                }
+            }
+            Light::Distant { w, l, .. } => {
+                let (o, d, pdf_pos) = from_infinity(*w);
+                LightLeSample { o, d, l: l.sample(wl), surface: None, pdf_pos, pdf_dir: 1.0 }
+            }
+            Light::UniformInfinite { l, .. } => {
+                let w = sample_uniform_sphere(u_dir);
+                let (o, d, pdf_pos) = from_infinity(w);
+                LightLeSample { o, d, l: l.sample(wl), surface: None, pdf_pos, pdf_dir: 1.0 / (4.0 * PI) }
+            }
+            Light::ImageInfinite { map, scale, .. } => {
+                let s = map.distribution.sample([u_dir.x as f64, u_dir.y as f64]);
+                let uv = Vec2::new(s.point[0] as f32, s.point[1] as f32);
+                let (w_local, jac) = map.direction(uv)?;
+                let pdf_dir = s.pdf as f32 / jac;
+                let (o, d, pdf_pos) = from_infinity(map.frame.from_local(w_local));
+                LightLeSample { o, d, l: map.lookup(uv, wl) * *scale, surface: None, pdf_pos, pdf_dir }
+            }
+            Light::DiffuseArea { shape, element, l, two_sided } => {
+                let ss = shape.sample_area(*element as usize, u_pos)?;
+                // Cosine-weighted about the emitting side; a two-sided emitter picks a side with probability ½.
+                let (mut u, mut n) = (u_dir, ss.n);
+                let mut side_pdf = 1.0;
+                if *two_sided {
+                    side_pdf = 0.5;
+                    if u.x < 0.5 {
+                        u.x *= 2.0;
+                    } else {
+                        u.x = 2.0 * u.x - 1.0;
+                        n = -n;
+                    }
+                    u.x = u.x.min(1.0 - f32::EPSILON / 2.0);
+                }
+                let local = crate::sampling::sample_cosine_hemisphere(u);
+                let d = Frame::from_z(n).from_local(local);
+                LightLeSample {
+                    o: ss.p,
+                    d,
+                    l: l.sample(wl),
+                    surface: Some(geometry::SurfacePoint { p: ss.p, p_error: ss.p_error, n: ss.n }),
+                    pdf_pos: ss.pdf,
+                    pdf_dir: side_pdf * crate::sampling::cosine_hemisphere_pdf(local.z),
+                }
+            }
+        };
+        (s.pdf_pos > 0.0 && s.pdf_dir > 0.0 && s.pdf_pos.is_finite() && s.pdf_dir.is_finite()).then_some(s)
     }
 
     /// Solid-angle density that [`Light::sample_li`] would give for direction `wi` from `from` (area lights).
@@ -417,6 +535,50 @@ mod tests {
         assert!(at(0.25).abs() < 1e-6, "texel centre");
         assert!((at(0.5) - 0.5).abs() < 1e-5, "halfway");
         assert!((at(0.0) - 0.5).abs() < 1e-5, "wraps around φ");
+    }
+
+    /// The flux that emitted light paths carry equals each light's power: the mean of `flux_weight` over
+    /// stratified `sample_le` draws matches `power()` (closed forms: 4πI, 2πI(1 − (cos θ₀ + cos θ₁)/2), πR²L,
+    /// 4π²R²L, πAL, twice for two-sided) within 0.5% for a constant spectrum (luminance 1 per unit value).
+    #[test]
+    fn emitted_flux_equals_power() {
+        let wl = SampledWavelengths::new([450.0, 500.0, 550.0, 600.0], [4.0; 4]);
+        let c = |v: f64| Spectrum::Constant(v);
+        let sphere = geometry::Shape::Sphere(
+            geometry::shapes::Sphere::new(0.7, geometry::Transform::translate(glam::DVec3::new(1.0, 2.0, 3.0)), false)
+                .unwrap(),
+        );
+        let lights = [
+            Light::Point { p: Vec3::new(1.0, 0.0, 0.0), i: c(2.0) },
+            Light::Spot {
+                p: Vec3::ZERO,
+                frame: Frame::from_z(Vec3::new(0.0, 0.6, 0.8)),
+                i: c(3.0),
+                cos_falloff_start: 20f32.to_radians().cos(),
+                cos_falloff_end: 35f32.to_radians().cos(),
+            },
+            Light::Distant { w: Vec3::new(0.0, 0.0, 1.0), l: c(1.5), scene_radius: 2.0 },
+            Light::UniformInfinite { l: c(0.5), scene_radius: 2.0 },
+            Light::DiffuseArea { shape: Box::new(sphere.clone()), element: 0, l: c(1.25), two_sided: false },
+            Light::DiffuseArea { shape: Box::new(sphere), element: 0, l: c(1.25), two_sided: true },
+        ];
+        let n = 64;
+        for light in &lights {
+            let mut sum = 0.0f64;
+            for i in 0..n * n {
+                let (a, b) = (i / n, i % n);
+                let u_pos = Vec2::new((a as f32 + 0.5) / n as f32, (b as f32 + 0.5) / n as f32);
+                // A second, shuffled stratification for the direction.
+                let j = (i * 2654435761usize) % (n * n);
+                let u_dir = Vec2::new(((j / n) as f32 + 0.5) / n as f32, ((j % n) as f32 + 0.5) / n as f32);
+                if let Some(s) = light.sample_le(u_pos, u_dir, &wl, (Vec3::ZERO, 2.0)) {
+                    sum += s.flux_weight()[2] as f64;
+                }
+            }
+            let flux = sum / (n * n) as f64;
+            let power = light.power();
+            assert!((flux / power - 1.0).abs() < 5e-3, "{light:?}: flux {flux} vs power {power}");
+        }
     }
 
     #[test]

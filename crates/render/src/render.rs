@@ -9,7 +9,8 @@ use std::ops::Range;
 use film::{Film, FilmError, FilterSampler};
 use rayon::prelude::*;
 
-use crate::integrator::{PathIntegrator, RayCounts};
+use crate::integrator::{Integrator, PathIntegrator, RayCounts};
+use crate::lightpath::LightPathIntegrator;
 use crate::sampler::Sampler;
 use crate::scene::RenderScene;
 
@@ -77,10 +78,98 @@ pub struct RenderStats {
     pub rays: u64,
 }
 
-/// Renders samples `samples` of every pixel into `film`, rows in parallel (rayon). `progress` is called after each
-/// row with the number of camera samples it took. The result does not depend on the number of threads: every
-/// sample's random numbers depend only on (pixel, sample index, seed), and each pixel is written by one thread.
+/// Renders samples `samples` of every pixel into `film` with `integrator`, in parallel (rayon). `progress` is called
+/// as work completes with the number of pixel samples done. The result does not depend on the number of threads:
+/// every sample's random numbers depend only on (pixel, sample index, seed), each pixel's camera samples are written
+/// by one thread, and light-path splats are added in a fixed order.
+///
+/// For `lightpath`, every pixel sample is one camera ray that records only the light it sees directly, plus one
+/// light path whose connections to the camera are splatted.
 pub fn render_film(
+    scene: &RenderScene,
+    integrator: &Integrator,
+    wavelengths: &WavelengthSampler,
+    film: &mut Film,
+    samples: Range<u32>,
+    seed: u32,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RenderStats, FilmError> {
+    match integrator {
+        Integrator::Path(p) => render_camera_paths(scene, p, wavelengths, film, samples, seed, progress),
+        Integrator::LightPath(lp) => render_light_paths(scene, lp, wavelengths, film, samples, seed, progress),
+    }
+}
+
+/// Salt that makes a light path's random numbers independent of its pixel sample's camera ray.
+const LIGHT_PATH_SEED_SALT: u32 = 0x6c69_6768;
+
+/// One light-path contribution waiting to be splatted.
+struct SplatRecord {
+    raster: [f64; 2],
+    xyz: Xyz,
+    spectral: SpectralEstimates,
+}
+
+/// Camera rays for directly visible light, and one light path per pixel sample, splatted.
+fn render_light_paths(
+    scene: &RenderScene,
+    integrator: &LightPathIntegrator,
+    wavelengths: &WavelengthSampler,
+    film: &mut Film,
+    samples: Range<u32>,
+    seed: u32,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RenderStats, FilmError> {
+    // Emitters seen directly: a path tracer that stops at the first surface.
+    let direct = PathIntegrator { max_depth: 0 };
+    let mut stats = render_camera_paths(scene, &direct, wavelengths, film, samples.clone(), seed, &|_| {})?;
+    stats.samples = 0;
+    let (w, h) = (film.width(), film.height());
+    let light_seed = crate::sampler::hash_words(&[seed, LIGHT_PATH_SEED_SALT]);
+    // Rows of light paths are traced in parallel in batches small enough to hold their splats in memory, then the
+    // splats are added in row order: the same sums in the same order for any number of threads.
+    let paths_per_row = (w as u64 * (samples.end - samples.start) as u64).max(1);
+    let batch_rows = ((1u64 << 16) / paths_per_row).clamp(1, h as u64) as u32;
+    let mut y0 = 0;
+    while y0 < h {
+        let y1 = (y0 + batch_rows).min(h);
+        let rows: Vec<(Vec<SplatRecord>, RayCounts)> = (y0..y1)
+            .into_par_iter()
+            .map(|y| {
+                let mut splats = Vec::new();
+                let mut counts = RayCounts::default();
+                for x in 0..w {
+                    for s in samples.clone() {
+                        let mut sampler = Sampler::new(x, y, s, light_seed);
+                        let mut wl = wavelengths.sample(sampler.next_1d() as f64);
+                        integrator.trace(scene, &mut wl, &mut sampler, &mut counts, |raster, l, wl| {
+                            splats.push(SplatRecord {
+                                raster: [raster.x as f64, raster.y as f64],
+                                xyz: wavelengths.to_xyz(&l, wl),
+                                spectral: SpectralEstimates::new(&l, wl),
+                            });
+                        });
+                    }
+                }
+                progress(paths_per_row);
+                (splats, counts)
+            })
+            .collect();
+        for (splats, counts) in rows {
+            for sp in &splats {
+                film.add_splat(sp.raster, sp.xyz, sp.spectral.as_slice());
+            }
+            stats.rays += counts.intersect + counts.shadow;
+        }
+        y0 = y1;
+    }
+    film.add_light_paths(w as u64 * h as u64 * (samples.end - samples.start) as u64);
+    stats.samples = w as u64 * h as u64 * (samples.end - samples.start) as u64;
+    Ok(stats)
+}
+
+/// Path tracing from the camera: see [`render_film`].
+fn render_camera_paths(
     scene: &RenderScene,
     integrator: &PathIntegrator,
     wavelengths: &WavelengthSampler,

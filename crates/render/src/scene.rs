@@ -58,6 +58,8 @@ pub trait Geometry: Send + Sync {
     fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit>;
     /// True if anything lies along `o + t·d` with `0 < t < t_max`.
     fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool;
+    /// A sphere (centre, radius) enclosing all geometry.
+    fn bounding_sphere(&self) -> (Vec3, f32);
 }
 
 /// A homogeneous medium that only absorbs (Beer–Lambert): coloured glass interiors.
@@ -92,6 +94,8 @@ pub struct RenderScene {
     pub camera_medium: Option<u32>,
     /// The camera.
     pub camera: Camera,
+    /// A sphere (centre, radius > 0) enclosing the geometry: where lights at infinity emit light paths from.
+    pub bounding_sphere: (Vec3, f32),
 }
 
 impl RenderScene {
@@ -112,7 +116,19 @@ impl RenderScene {
             .then(|| Distribution1D::new(&power, 0.0, 1.0).expect("light powers are finite and non-negative"));
         let infinite_lights =
             lights.iter().enumerate().filter(|(_, l)| l.is_infinite()).map(|(i, _)| i as u32).collect();
-        Self { geometry, materials, lights, light_distribution, infinite_lights, media, camera_medium, camera }
+        let (c, r) = geometry.bounding_sphere();
+        let bounding_sphere = if r > 0.0 && r.is_finite() && c.is_finite() { (c, r) } else { (Vec3::ZERO, 1.0) };
+        Self {
+            geometry,
+            materials,
+            lights,
+            light_distribution,
+            infinite_lights,
+            media,
+            camera_medium,
+            camera,
+            bounding_sphere,
+        }
     }
 
     /// Probability that the light sampler picks light `i`.

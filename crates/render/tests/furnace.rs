@@ -54,6 +54,9 @@ impl Geometry for OneSphere {
     fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         self.hit_t(o, d, t_max).is_some()
     }
+    fn bounding_sphere(&self) -> (Vec3, f32) {
+        (Vec3::ZERO, self.radius)
+    }
 }
 
 fn scene(material: Material) -> RenderScene {

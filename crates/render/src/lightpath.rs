@@ -1,0 +1,157 @@
+//! The `lightpath` integrator: particle tracing from the lights, each scattering vertex connected to the camera
+//! and splatted onto the film (Arvo & Kirk 1990; Veach 1997 §4.A and §10.2; pbrt-v4's `LightPathIntegrator`).
+//!
+//! A light path starts at a light chosen by power, carries the flux weight `L·|cos θ| / (p_sel·pdf_pos·pdf_dir)`
+//! through BSDF samples in importance mode, and at every non-specular vertex sends one shadow ray to a point on the
+//! lens: the contribution `β·f·|cos|·We/pdf` lands at the raster position the connection hits. Light that reaches
+//! the camera without scattering (emitters seen directly) is left to camera rays, which see it without noise; paths
+//! whose last vertex before the camera is specular (a light seen in a mirror or through glass) cannot be connected
+//! and are missing, as in every light tracer. Dispersion works as in the path tracer: a refraction through a
+//! dispersive surface keeps only the wavelength it followed.
+
+use glam::{Vec2, Vec3};
+use spectral::{SampledSpectrum, SampledWavelengths};
+
+use crate::bxdf::TransportMode;
+use crate::integrator::{next_medium, resolve_surface, RayCounts, Surface};
+use crate::sampler::Sampler;
+use crate::sampling::Frame;
+use crate::scene::RenderScene;
+
+/// Dimensions drawn per bounce of a light path, so that a bounce always uses the same Sobol dimensions.
+const DIMS_PER_BOUNCE: u32 = 8;
+
+/// Longest run of material-less boundary crossings followed before a path is dropped.
+const MAX_CROSSINGS: u32 = 256;
+
+/// The `lightpath` integrator.
+#[derive(Clone, Copy, Debug)]
+pub struct LightPathIntegrator {
+    /// Maximum number of scattering events (pbrt's `maxdepth`, default 5), counting the vertex connected to the
+    /// camera.
+    pub max_depth: u32,
+}
+
+/// The adjoint BSDF's shading-normal correction times the cosine at the outgoing direction: for particle tracing
+/// with shading normals, `|wo·ns|·|wi·ng| / |wo·ng|` replaces `|wi·ns|` (Veach 1997 eq. 5.19), so that light and
+/// importance transport agree on meshes with interpolated normals.
+fn adjoint_cos(wo: Vec3, wi: Vec3, ns: Vec3, ng: Vec3) -> f32 {
+    let den = wo.dot(ng).abs();
+    if den == 0.0 {
+        return 0.0;
+    }
+    wo.dot(ns).abs() * wi.dot(ng).abs() / den
+}
+
+impl LightPathIntegrator {
+    /// Traces one light path with `sampler` at the wavelengths `wl` (which a dispersive refraction reduces to one)
+    /// and calls `splat(raster, contribution, wavelengths)` for every connection to the camera. The contributions
+    /// are per light path: the film divides their sum by the number of light paths per pixel.
+    pub fn trace(
+        &self,
+        scene: &RenderScene,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+        mut splat: impl FnMut(Vec2, SampledSpectrum, &SampledWavelengths),
+    ) {
+        let u_light = sampler.next_1d();
+        let u_pos = Vec2::from(sampler.next_2d());
+        let u_dir = Vec2::from(sampler.next_2d());
+        let Some((li, p_sel)) = scene.sample_light(u_light) else { return };
+        let light = &scene.lights[li as usize];
+        let Some(le) = light.sample_le(u_pos, u_dir, wl, scene.bounding_sphere) else { return };
+        let mut beta = le.flux_weight() * (1.0 / p_sel);
+        if beta.is_black() || !beta.0.iter().all(|v| v.is_finite()) {
+            return;
+        }
+        // Russian roulette compares the throughput with what the path started with (it carries flux, not 1).
+        let beta_start = beta.max_value();
+        let mut o = match le.surface {
+            Some(sp) => geometry::offset_ray_origin(sp.p, sp.p_error, sp.n, le.d),
+            None => le.o,
+        };
+        let mut d = le.d;
+        // Lights sit where the camera does (pbrt's lights carry no medium interface here).
+        let mut medium = scene.camera_medium;
+        let mut depth = 0u32;
+        let mut crossings = 0u32;
+        while depth < self.max_depth {
+            counts.intersect += 1;
+            let Some(hit) = scene.geometry.intersect(o, d, f32::INFINITY) else { break };
+            if let Some(m) = medium {
+                beta *= scene.media[m as usize].transmittance(hit.t, wl);
+            }
+            let mut u = [0.0f32; DIMS_PER_BOUNCE as usize];
+            for v in u.iter_mut() {
+                *v = sampler.next_1d();
+            }
+            let bxdf = match resolve_surface(scene, &hit, wl, u[6], u[7]) {
+                Surface::PassThrough => {
+                    medium = next_medium(&hit, d, medium);
+                    o = hit.spawn_origin(d);
+                    crossings += 1;
+                    if crossings > MAX_CROSSINGS {
+                        break;
+                    }
+                    continue;
+                }
+                Surface::Absorb => break,
+                Surface::Scatter(b) => b,
+            };
+            depth += 1;
+            let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
+            // Towards where the light came from.
+            let w_from = -d;
+            let wo = frame.to_local(w_from);
+            // Connect to the camera.
+            if !bxdf.is_specular() {
+                if let Some(cs) = scene.camera.sample_wi(hit.p, Vec2::new(u[0], u[1])) {
+                    let f = bxdf.f(wo, frame.to_local(cs.wi), TransportMode::Importance);
+                    if !f.is_black() {
+                        let origin = hit.spawn_origin(cs.wi);
+                        let t_max = (cs.p_lens - origin).length() * (1.0 - 1e-4);
+                        counts.shadow += 1;
+                        if !scene.geometry.occluded(origin, cs.wi, t_max) {
+                            let mut c = beta * f * (adjoint_cos(w_from, cs.wi, hit.ns, hit.n) * cs.we / cs.pdf);
+                            if let Some(m) = next_medium(&hit, cs.wi, medium) {
+                                c *= scene.media[m as usize].transmittance(cs.dist, wl);
+                            }
+                            splat(cs.raster, c, wl);
+                        }
+                    }
+                }
+            }
+            if depth == self.max_depth {
+                break;
+            }
+            // Continue the path.
+            let Some(bs) = bxdf.sample_f(wo, u[2], Vec2::new(u[3], u[4]), TransportMode::Importance) else { break };
+            if bs.pdf <= 0.0 || bs.f.is_black() {
+                break;
+            }
+            if let Some(slot) = bs.keep_slot {
+                wl.keep_only(slot);
+            }
+            let wi = frame.from_local(bs.wi);
+            beta *= bs.f * (adjoint_cos(w_from, wi, hit.ns, hit.n) / bs.pdf);
+            if bs.transmission {
+                medium = next_medium(&hit, wi, medium);
+            }
+            o = hit.spawn_origin(wi);
+            d = wi;
+            // Russian roulette after the first bounce.
+            let rr = beta.max_value() / beta_start;
+            if rr < 1.0 && depth > 1 {
+                let q = (1.0 - rr).max(0.0);
+                if u[5] < q {
+                    break;
+                }
+                beta *= 1.0 / (1.0 - q);
+            }
+            if !beta.0.iter().all(|v| v.is_finite()) {
+                break;
+            }
+        }
+    }
+}
