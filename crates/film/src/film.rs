@@ -330,6 +330,34 @@ impl Film {
         true
     }
 
+    /// Adds a finished estimate to pixel (x, y) as one sample of weight `weight`: `xyz` and, for a spectral film,
+    /// `buckets` (spectral radiance per nm, one value per bucket; ignored for an RGB film, must have `nbuckets`
+    /// values otherwise). For integrators such as photon mapping that form a pixel's value themselves. Returns
+    /// whether it was accumulated (non-finite values, a wrong bucket count or a pixel outside are dropped).
+    pub fn add_pixel_estimate(&mut self, x: u32, y: u32, xyz: Xyz, buckets: &[f64], weight: f64) -> bool {
+        let Some(i) = self.index(x, y) else { return false };
+        let nb = self.nbuckets;
+        let ok = xyz.x.is_finite()
+            && xyz.y.is_finite()
+            && xyz.z.is_finite()
+            && weight.is_finite()
+            && (nb == 0 || buckets.len() == nb)
+            && buckets.iter().all(|v| v.is_finite());
+        if !ok {
+            self.rejected[y as usize] += 1;
+            return false;
+        }
+        let s = &mut self.xyz[i];
+        s[0] += weight * xyz.x;
+        s[1] += weight * xyz.y;
+        s[2] += weight * xyz.z;
+        self.weight[i] += weight;
+        for (b, v) in self.buckets[i * nb..(i + 1) * nb].iter_mut().zip(buckets) {
+            *b += weight * v;
+        }
+        true
+    }
+
     /// Records that `n` more light paths were traced (their splats, if any, have been or will be added).
     pub fn add_light_paths(&mut self, n: u64) {
         self.light_paths += n as f64;

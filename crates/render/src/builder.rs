@@ -24,6 +24,7 @@ use crate::lightpath::LightPathIntegrator;
 use crate::material::{ConductorSpec, DielectricIor, Material, Roughness};
 use crate::sampling::Frame;
 use crate::scene::{AbsorbingMedium, Geometry, MediumInterface, RenderScene, SurfaceHit, NO_MATERIAL};
+use crate::sppm::SppmIntegrator;
 use crate::texture::{FloatTexture, RgbImage, RgbKind, SpectrumTexture, UvMapping};
 
 /// Command-line overrides of the scene's settings.
@@ -582,7 +583,38 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
             Integrator::Path(PathIntegrator { max_depth: md })
         }
         "lightpath" => Integrator::LightPath(LightPathIntegrator { max_depth: max_depth()? }),
-        other => return err(&desc.integrator.loc, unsupported("integrator", other, &["path", "volpath", "lightpath"])),
+        "sppm" => {
+            let photons = ip.get_int("photonsperiteration", -1)?;
+            let radius = ip.get_float("radius", 1.0)?;
+            let at = |name: &str| ip.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| desc.integrator.loc.clone());
+            if !(radius.is_finite() && radius > 0.0) {
+                return err(&at("radius"), format!("'radius' must be a positive number, got {radius}"));
+            }
+            if photons == 0 || !(-1..=1 << 32).contains(&photons) {
+                return err(
+                    &at("photonsperiteration"),
+                    format!("'photonsperiteration' must be positive (or -1 for one per pixel), got {photons}"),
+                );
+            }
+            Integrator::Sppm(SppmIntegrator {
+                max_depth: max_depth()?,
+                photons_per_iteration: (photons > 0).then_some(photons as u64),
+                initial_radius: radius as f32,
+            })
+        }
+        other => {
+            return err(
+                &desc.integrator.loc,
+                unsupported("integrator", other, &["path", "volpath", "lightpath", "sppm"]),
+            )
+        }
+    };
+    // Photon mapping renders `iterations` passes (pbrt-v4 ignores the sampler's pixel samples there).
+    let spp = if matches!(integrator, Integrator::Sppm(_)) {
+        let it = p_count(ip, "iterations", 64, &desc.integrator.loc)? as u32;
+        options.spp.unwrap_or(it)
+    } else {
+        spp
     };
 
     // Textures and materials (anonymous first, then named; a name maps to its index).

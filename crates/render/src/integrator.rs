@@ -41,6 +41,8 @@ pub enum Integrator {
     Path(PathIntegrator),
     /// Particle tracing from the lights, splatted onto the film.
     LightPath(crate::lightpath::LightPathIntegrator),
+    /// Stochastic progressive photon mapping; the render's sample count is its number of iterations.
+    Sppm(crate::sppm::SppmIntegrator),
 }
 
 impl Integrator {
@@ -49,6 +51,7 @@ impl Integrator {
         match self {
             Integrator::Path(_) => "path",
             Integrator::LightPath(_) => "lightpath",
+            Integrator::Sppm(_) => "sppm",
         }
     }
 }
@@ -189,7 +192,7 @@ impl PathIntegrator {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn sample_ld(
+    pub(crate) fn sample_ld(
         &self,
         scene: &RenderScene,
         hit: &SurfaceHit,

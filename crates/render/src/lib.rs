@@ -15,4 +15,5 @@ pub mod render;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+pub mod sppm;
 pub mod texture;

@@ -43,6 +43,130 @@ fn adjoint_cos(wo: Vec3, wi: Vec3, ns: Vec3, ng: Vec3) -> f32 {
     wo.dot(ns).abs() * wi.dot(ng).abs() / den
 }
 
+/// A scattering vertex of a light path, as [`walk_light_path`] shows it to its caller.
+pub(crate) struct LightVertex<'a> {
+    /// The surface hit.
+    pub hit: &'a crate::scene::SurfaceHit,
+    /// Shading frame at the hit.
+    pub frame: &'a Frame,
+    /// The BxDF there (at the path's current wavelengths).
+    pub bxdf: &'a crate::bxdf::Bxdf,
+    /// Unit world direction towards where the light came from.
+    pub w_from: Vec3,
+    /// Flux weight of the path arriving at the vertex.
+    pub beta: SampledSpectrum,
+    /// The medium on each side is resolved by the caller with this (the medium the light arrived through).
+    pub medium: Option<u32>,
+    /// Scattering vertex number, 1 for the first surface the light meets.
+    pub depth: u32,
+    /// Two uniform numbers reserved for the caller at this vertex.
+    pub u: Vec2,
+}
+
+/// Traces one light path (light chosen by power, `sample_le`, BSDF sampling in importance mode, Russian roulette)
+/// through up to `max_depth` scattering vertices, calling `visit` at each one whose BxDF is not specular. The
+/// path's wavelengths `wl` are reduced to one by a dispersive refraction.
+pub(crate) fn walk_light_path(
+    scene: &RenderScene,
+    max_depth: u32,
+    wl: &mut SampledWavelengths,
+    sampler: &mut Sampler,
+    counts: &mut RayCounts,
+    mut visit: impl FnMut(&LightVertex, &SampledWavelengths, &mut RayCounts),
+) {
+    let u_light = sampler.next_1d();
+    let u_pos = Vec2::from(sampler.next_2d());
+    let u_dir = Vec2::from(sampler.next_2d());
+    let Some((li, p_sel)) = scene.sample_light(u_light) else { return };
+    let light = &scene.lights[li as usize];
+    let Some(le) = light.sample_le(u_pos, u_dir, wl, scene.bounding_sphere) else { return };
+    let mut beta = le.flux_weight() * (1.0 / p_sel);
+    if beta.is_black() || !beta.0.iter().all(|v| v.is_finite()) {
+        return;
+    }
+    // Russian roulette compares the throughput with what the path started with (it carries flux, not 1).
+    let beta_start = beta.max_value();
+    let mut o = match le.surface {
+        Some(sp) => geometry::offset_ray_origin(sp.p, sp.p_error, sp.n, le.d),
+        None => le.o,
+    };
+    let mut d = le.d;
+    // Lights sit where the camera does (pbrt's lights carry no medium interface here).
+    let mut medium = scene.camera_medium;
+    let mut depth = 0u32;
+    let mut crossings = 0u32;
+    while depth < max_depth {
+        counts.intersect += 1;
+        let Some(hit) = scene.geometry.intersect(o, d, f32::INFINITY) else { break };
+        if let Some(m) = medium {
+            beta *= scene.media[m as usize].transmittance(hit.t, wl);
+        }
+        let mut u = [0.0f32; DIMS_PER_BOUNCE as usize];
+        for v in u.iter_mut() {
+            *v = sampler.next_1d();
+        }
+        let bxdf = match resolve_surface(scene, &hit, wl, u[6], u[7]) {
+            Surface::PassThrough => {
+                medium = next_medium(&hit, d, medium);
+                o = hit.spawn_origin(d);
+                crossings += 1;
+                if crossings > MAX_CROSSINGS {
+                    break;
+                }
+                continue;
+            }
+            Surface::Absorb => break,
+            Surface::Scatter(b) => b,
+        };
+        depth += 1;
+        let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
+        let w_from = -d;
+        let wo = frame.to_local(w_from);
+        if !bxdf.is_specular() {
+            let v = LightVertex {
+                hit: &hit,
+                frame: &frame,
+                bxdf: &bxdf,
+                w_from,
+                beta,
+                medium,
+                depth,
+                u: Vec2::new(u[0], u[1]),
+            };
+            visit(&v, wl, counts);
+        }
+        if depth == max_depth {
+            break;
+        }
+        let Some(bs) = bxdf.sample_f(wo, u[2], Vec2::new(u[3], u[4]), TransportMode::Importance) else { break };
+        if bs.pdf <= 0.0 || bs.f.is_black() {
+            break;
+        }
+        if let Some(slot) = bs.keep_slot {
+            wl.keep_only(slot);
+        }
+        let wi = frame.from_local(bs.wi);
+        beta *= bs.f * (adjoint_cos(w_from, wi, hit.ns, hit.n) / bs.pdf);
+        if bs.transmission {
+            medium = next_medium(&hit, wi, medium);
+        }
+        o = hit.spawn_origin(wi);
+        d = wi;
+        // Russian roulette after the first bounce.
+        let rr = beta.max_value() / beta_start;
+        if rr < 1.0 && depth > 1 {
+            let q = (1.0 - rr).max(0.0);
+            if u[5] < q {
+                break;
+            }
+            beta *= 1.0 / (1.0 - q);
+        }
+        if !beta.0.iter().all(|v| v.is_finite()) {
+            break;
+        }
+    }
+}
+
 impl LightPathIntegrator {
     /// Traces one light path with `sampler` at the wavelengths `wl` (which a dispersive refraction reduces to one)
     /// and calls `splat(raster, contribution, wavelengths)` for every connection to the camera. The contributions
@@ -55,103 +179,24 @@ impl LightPathIntegrator {
         counts: &mut RayCounts,
         mut splat: impl FnMut(Vec2, SampledSpectrum, &SampledWavelengths),
     ) {
-        let u_light = sampler.next_1d();
-        let u_pos = Vec2::from(sampler.next_2d());
-        let u_dir = Vec2::from(sampler.next_2d());
-        let Some((li, p_sel)) = scene.sample_light(u_light) else { return };
-        let light = &scene.lights[li as usize];
-        let Some(le) = light.sample_le(u_pos, u_dir, wl, scene.bounding_sphere) else { return };
-        let mut beta = le.flux_weight() * (1.0 / p_sel);
-        if beta.is_black() || !beta.0.iter().all(|v| v.is_finite()) {
-            return;
-        }
-        // Russian roulette compares the throughput with what the path started with (it carries flux, not 1).
-        let beta_start = beta.max_value();
-        let mut o = match le.surface {
-            Some(sp) => geometry::offset_ray_origin(sp.p, sp.p_error, sp.n, le.d),
-            None => le.o,
-        };
-        let mut d = le.d;
-        // Lights sit where the camera does (pbrt's lights carry no medium interface here).
-        let mut medium = scene.camera_medium;
-        let mut depth = 0u32;
-        let mut crossings = 0u32;
-        while depth < self.max_depth {
-            counts.intersect += 1;
-            let Some(hit) = scene.geometry.intersect(o, d, f32::INFINITY) else { break };
-            if let Some(m) = medium {
-                beta *= scene.media[m as usize].transmittance(hit.t, wl);
+        walk_light_path(scene, self.max_depth, wl, sampler, counts, |v, wl, counts| {
+            let hit = v.hit;
+            let Some(cs) = scene.camera.sample_wi(hit.p, v.u) else { return };
+            let f = v.bxdf.f(v.frame.to_local(v.w_from), v.frame.to_local(cs.wi), TransportMode::Importance);
+            if f.is_black() {
+                return;
             }
-            let mut u = [0.0f32; DIMS_PER_BOUNCE as usize];
-            for v in u.iter_mut() {
-                *v = sampler.next_1d();
+            let origin = hit.spawn_origin(cs.wi);
+            let t_max = (cs.p_lens - origin).length() * (1.0 - 1e-4);
+            counts.shadow += 1;
+            if scene.geometry.occluded(origin, cs.wi, t_max) {
+                return;
             }
-            let bxdf = match resolve_surface(scene, &hit, wl, u[6], u[7]) {
-                Surface::PassThrough => {
-                    medium = next_medium(&hit, d, medium);
-                    o = hit.spawn_origin(d);
-                    crossings += 1;
-                    if crossings > MAX_CROSSINGS {
-                        break;
-                    }
-                    continue;
-                }
-                Surface::Absorb => break,
-                Surface::Scatter(b) => b,
-            };
-            depth += 1;
-            let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
-            // Towards where the light came from.
-            let w_from = -d;
-            let wo = frame.to_local(w_from);
-            // Connect to the camera.
-            if !bxdf.is_specular() {
-                if let Some(cs) = scene.camera.sample_wi(hit.p, Vec2::new(u[0], u[1])) {
-                    let f = bxdf.f(wo, frame.to_local(cs.wi), TransportMode::Importance);
-                    if !f.is_black() {
-                        let origin = hit.spawn_origin(cs.wi);
-                        let t_max = (cs.p_lens - origin).length() * (1.0 - 1e-4);
-                        counts.shadow += 1;
-                        if !scene.geometry.occluded(origin, cs.wi, t_max) {
-                            let mut c = beta * f * (adjoint_cos(w_from, cs.wi, hit.ns, hit.n) * cs.we / cs.pdf);
-                            if let Some(m) = next_medium(&hit, cs.wi, medium) {
-                                c *= scene.media[m as usize].transmittance(cs.dist, wl);
-                            }
-                            splat(cs.raster, c, wl);
-                        }
-                    }
-                }
+            let mut c = v.beta * f * (adjoint_cos(v.w_from, cs.wi, hit.ns, hit.n) * cs.we / cs.pdf);
+            if let Some(m) = next_medium(hit, cs.wi, v.medium) {
+                c *= scene.media[m as usize].transmittance(cs.dist, wl);
             }
-            if depth == self.max_depth {
-                break;
-            }
-            // Continue the path.
-            let Some(bs) = bxdf.sample_f(wo, u[2], Vec2::new(u[3], u[4]), TransportMode::Importance) else { break };
-            if bs.pdf <= 0.0 || bs.f.is_black() {
-                break;
-            }
-            if let Some(slot) = bs.keep_slot {
-                wl.keep_only(slot);
-            }
-            let wi = frame.from_local(bs.wi);
-            beta *= bs.f * (adjoint_cos(w_from, wi, hit.ns, hit.n) / bs.pdf);
-            if bs.transmission {
-                medium = next_medium(&hit, wi, medium);
-            }
-            o = hit.spawn_origin(wi);
-            d = wi;
-            // Russian roulette after the first bounce.
-            let rr = beta.max_value() / beta_start;
-            if rr < 1.0 && depth > 1 {
-                let q = (1.0 - rr).max(0.0);
-                if u[5] < q {
-                    break;
-                }
-                beta *= 1.0 / (1.0 - q);
-            }
-            if !beta.0.iter().all(|v| v.is_finite()) {
-                break;
-            }
-        }
+            splat(cs.raster, c, wl);
+        });
     }
 }

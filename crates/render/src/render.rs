@@ -83,6 +83,8 @@ pub struct RenderStats {
 /// every sample's random numbers depend only on (pixel, sample index, seed), each pixel's camera samples are written
 /// by one thread, and light-path splats are added in a fixed order.
 ///
+/// For `sppm`, `samples` are the photon-mapping iterations (see [`crate::sppm`]).
+///
 /// For `lightpath`, every pixel sample is one camera ray that records only the light it sees directly, plus one
 /// light path whose connections to the camera are splatted.
 pub fn render_film(
@@ -97,6 +99,14 @@ pub fn render_film(
     match integrator {
         Integrator::Path(p) => render_camera_paths(scene, p, wavelengths, film, samples, seed, progress),
         Integrator::LightPath(lp) => render_light_paths(scene, lp, wavelengths, film, samples, seed, progress),
+        Integrator::Sppm(sppm) => {
+            // A fresh progressive state for these iterations; callers that add iterations over time keep an
+            // `SppmState` themselves.
+            let mut state = crate::sppm::SppmState::new(film, sppm);
+            let stats = sppm.run(scene, wavelengths, &mut state, samples, seed, progress);
+            state.write_to(film);
+            Ok(stats)
+        }
     }
 }
 

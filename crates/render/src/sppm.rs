@@ -1,0 +1,487 @@
+//! The `sppm` integrator: stochastic progressive photon mapping (Hachisuka & Jensen 2009), spectral.
+//!
+//! Every iteration
+//! 1. samples one set of wavelengths for the whole iteration (stratified over iterations), so photons and camera
+//!    paths carry the same wavelengths and a photon's flux can be gathered wavelength by wavelength;
+//! 2. traces one camera path per pixel through specular surfaces to its first non-specular surface, adding the
+//!    emission it sees and next-event estimation there (the direct light), and leaves a *visible point*;
+//! 3. traces `photonsperiteration` photons from the lights (chosen by power) in importance mode; every photon that
+//!    arrives at a non-specular surface after at least one bounce adds `β_photon · f(vp)` to each visible point
+//!    within that point's radius (a dispersive refraction leaves a photon with one wavelength, which then adds to
+//!    that wavelength only, with the selection probability divided out);
+//! 4. updates each pixel with Hachisuka & Jensen's progressive rule (α = 2/3): N ← N + αM,
+//!    R ← R·√(N_new/(N + M)), τ ← (τ + Φ)·R_new²/R².
+//!
+//! The pixel's radiance is `L_direct/iterations + τ/(N_emitted·π·R²)`, kept as XYZ and, for a spectral film, per
+//! bucket, so the spectral film is right for photon-mapped light too. Photon contributions are gathered in batches
+//! and added in photon order: the image does not depend on the number of threads.
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use spectral::{SampledSpectrum, SampledWavelengths, WavelengthSampler, Xyz};
+use std::f64::consts::PI;
+
+use crate::bxdf::{Bxdf, TransportMode};
+use crate::integrator::{next_medium, resolve_surface, PathIntegrator, RayCounts, Surface};
+use crate::lightpath::walk_light_path;
+use crate::render::RenderStats;
+use crate::sampler::{hash_words, Sampler};
+use crate::sampling::Frame;
+use crate::scene::RenderScene;
+use film::{Film, SpectralEstimates};
+
+/// pbrt-v4's `sppm` parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct SppmIntegrator {
+    /// Maximum number of scattering events of camera and photon paths (default 5).
+    pub max_depth: u32,
+    /// Photons per iteration; `None` for one per pixel (pbrt-v4's default −1).
+    pub photons_per_iteration: Option<u64>,
+    /// Initial gather radius in scene units (default 1).
+    pub initial_radius: f32,
+}
+
+/// Salt for the photon samplers' seeds.
+const PHOTON_SEED_SALT: u32 = 0x7068_6f74;
+/// Salt for the per-iteration wavelength sample.
+const WAVELENGTH_SEED_SALT: u32 = 0x7761_7665;
+/// Photons traced per batch before their contributions are added (bounds memory).
+const PHOTON_BATCH: u64 = 1 << 16;
+/// The progressive radius reduction parameter α (Hachisuka & Jensen 2009 use 0.7; pbrt-v4 2/3).
+const ALPHA: f64 = 2.0 / 3.0;
+
+/// A camera path's first non-specular vertex in the current iteration.
+#[derive(Clone, Debug)]
+struct VisiblePoint {
+    p: Vec3,
+    frame: Frame,
+    wo: Vec3,
+    bxdf: Bxdf,
+    beta: SampledSpectrum,
+    wl: SampledWavelengths,
+}
+
+/// Per-pixel progressive state.
+#[derive(Clone, Debug)]
+struct PixelState {
+    radius: f64,
+    n: f64,
+    tau_xyz: [f64; 3],
+    ld_xyz: [f64; 3],
+}
+
+/// The progressive state of an SPPM render: iterations can be added until the image is written.
+pub struct SppmState {
+    width: u32,
+    height: u32,
+    nbuckets: usize,
+    bucket_min: f64,
+    bucket_inv_width: f64,
+    pixels: Vec<PixelState>,
+    /// τ per bucket (pixel-major), for spectral films.
+    tau_buckets: Vec<f64>,
+    /// Direct light per bucket (pixel-major), for spectral films.
+    ld_buckets: Vec<f64>,
+    iterations: u32,
+    photons: u64,
+}
+
+impl SppmState {
+    /// A fresh state for `film` with the integrator's initial radius.
+    pub fn new(film: &Film, integrator: &SppmIntegrator) -> Self {
+        let (w, h) = (film.width(), film.height());
+        let npix = w as usize * h as usize;
+        let nb = film.nbuckets();
+        let kind = &film.spec().kind;
+        let centres = kind.bucket_centres();
+        let bucket_width = if nb > 0 { kind.bucket_width() } else { 1.0 };
+        let bucket_min = centres.first().map_or(0.0, |c| c - bucket_width / 2.0);
+        Self {
+            width: w,
+            height: h,
+            nbuckets: nb,
+            bucket_min,
+            bucket_inv_width: 1.0 / bucket_width,
+            pixels: vec![
+                PixelState {
+                    radius: integrator.initial_radius as f64,
+                    n: 0.0,
+                    tau_xyz: [0.0; 3],
+                    ld_xyz: [0.0; 3]
+                };
+                npix
+            ],
+            tau_buckets: vec![0.0; npix * nb],
+            ld_buckets: vec![0.0; npix * nb],
+            iterations: 0,
+            photons: 0,
+        }
+    }
+
+    /// Iterations done so far.
+    pub fn iterations(&self) -> u32 {
+        self.iterations
+    }
+
+    /// Adds `(λ, L/pdf)` estimates to a pixel's bucket row (values per nm).
+    fn bin(&self, row: &mut [f64], est: &SpectralEstimates) {
+        for &(lambda, v) in est.as_slice() {
+            let b = ((lambda as f64 - self.bucket_min) * self.bucket_inv_width).floor();
+            if b >= 0.0 && (b as usize) < self.nbuckets {
+                row[b as usize] += v as f64 * self.bucket_inv_width;
+            }
+        }
+    }
+
+    /// Writes the current estimate into `film` (one sample of weight 1 per pixel).
+    pub fn write_to(&self, film: &mut Film) {
+        let nb = self.nbuckets;
+        let iters = self.iterations.max(1) as f64;
+        let photons = self.photons.max(1) as f64;
+        let mut buckets = vec![0.0; nb];
+        for y in 0..self.height {
+            for x in 0..self.width {
+                let i = (y * self.width + x) as usize;
+                let px = &self.pixels[i];
+                let k = 1.0 / (photons * PI * px.radius * px.radius);
+                let c = |j: usize| px.ld_xyz[j] / iters + px.tau_xyz[j] * k;
+                for (b, v) in buckets.iter_mut().enumerate() {
+                    *v = self.ld_buckets[i * nb + b] / iters + self.tau_buckets[i * nb + b] * k;
+                }
+                film.add_pixel_estimate(x, y, Xyz::new(c(0), c(1), c(2)), &buckets, 1.0);
+            }
+        }
+    }
+}
+
+/// A uniform grid over the visible points, hashed into a table of cell lists (compressed rows).
+struct VisibleGrid {
+    origin: Vec3,
+    inv_cell: f32,
+    table: usize,
+    starts: Vec<u32>,
+    entries: Vec<u32>,
+}
+
+fn cell_hash(c: [i32; 3], table: usize) -> usize {
+    (hash_words(&[c[0] as u32, c[1] as u32, c[2] as u32]) as usize) % table
+}
+
+impl VisibleGrid {
+    /// Inserts every visible point into each cell its gather sphere overlaps; cell size is the largest radius.
+    fn build(points: &[Option<VisiblePoint>], radii: &[f64]) -> Option<Self> {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut max_r = 0.0f32;
+        let mut count = 0usize;
+        for (vp, &r) in points.iter().zip(radii) {
+            if let Some(vp) = vp {
+                lo = lo.min(vp.p - Vec3::splat(r as f32));
+                max_r = max_r.max(r as f32);
+                count += 1;
+            }
+        }
+        if count == 0 || max_r.is_nan() || max_r <= 0.0 || !lo.is_finite() {
+            return None;
+        }
+        let inv_cell = 1.0 / max_r;
+        let table = (2 * count).next_power_of_two();
+        let cell_of = |p: Vec3| {
+            let c = ((p - lo) * inv_cell).floor();
+            [c.x as i32, c.y as i32, c.z as i32]
+        };
+        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(count * 4);
+        for (i, (vp, &r)) in points.iter().zip(radii).enumerate() {
+            let Some(vp) = vp else { continue };
+            let (a, b) = (cell_of(vp.p - Vec3::splat(r as f32)), cell_of(vp.p + Vec3::splat(r as f32)));
+            for z in a[2]..=b[2] {
+                for y in a[1]..=b[1] {
+                    for x in a[0]..=b[0] {
+                        pairs.push((cell_hash([x, y, z], table) as u32, i as u32));
+                    }
+                }
+            }
+        }
+        // Cells that hash alike share a list: sort by slot, drop duplicate points within a slot.
+        pairs.par_sort_unstable();
+        pairs.dedup();
+        let mut starts = vec![0u32; table + 1];
+        for &(slot, _) in &pairs {
+            starts[slot as usize + 1] += 1;
+        }
+        for s in 1..=table {
+            starts[s] += starts[s - 1];
+        }
+        let entries = pairs.into_iter().map(|(_, i)| i).collect();
+        Some(Self { origin: lo, inv_cell, table, starts, entries })
+    }
+
+    /// Candidate visible points for a photon at `p`.
+    fn candidates(&self, p: Vec3) -> &[u32] {
+        let c = ((p - self.origin) * self.inv_cell).floor();
+        let slot = cell_hash([c.x as i32, c.y as i32, c.z as i32], self.table);
+        &self.entries[self.starts[slot] as usize..self.starts[slot + 1] as usize]
+    }
+}
+
+/// A photon's contribution to one visible point.
+struct Gathered {
+    vp: u32,
+    phi: SampledSpectrum,
+}
+
+impl SppmIntegrator {
+    /// Runs iterations `iterations` (their indices seed the random numbers) on `state`; see the module docs.
+    pub fn run(
+        &self,
+        scene: &RenderScene,
+        wavelengths: &WavelengthSampler,
+        state: &mut SppmState,
+        iterations: std::ops::Range<u32>,
+        seed: u32,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> RenderStats {
+        let (w, h) = (state.width, state.height);
+        let npix = w as u64 * h as u64;
+        let photons = self.photons_per_iteration.unwrap_or(npix).max(1);
+        let mut stats = RenderStats::default();
+        for it in iterations {
+            // One wavelength set per iteration, stratified over iterations (van der Corput, Owen-scrambled).
+            let u_wl = sobol_burley::sample(it, 0, hash_words(&[seed, WAVELENGTH_SEED_SALT]));
+            let wl_iter = wavelengths.sample(u_wl as f64);
+
+            // 1. Camera pass: visible points and direct light.
+            let camera: Vec<(Option<VisiblePoint>, SampledSpectrum, SampledWavelengths, RayCounts)> = (0..npix)
+                .into_par_iter()
+                .map(|i| {
+                    let (x, y) = ((i % w as u64) as u32, (i / w as u64) as u32);
+                    let mut counts = RayCounts::default();
+                    let mut wl = wl_iter;
+                    let mut sampler = Sampler::new(x, y, it, seed);
+                    let (vp, ld) = self.camera_path(scene, x, y, &mut wl, &mut sampler, &mut counts);
+                    (vp, ld, wl, counts)
+                })
+                .collect();
+            let mut points = Vec::with_capacity(camera.len());
+            for (i, (vp, ld, wl, counts)) in camera.into_iter().enumerate() {
+                stats.rays += counts.intersect + counts.shadow;
+                if !ld.is_black() {
+                    let xyz = wavelengths.to_xyz(&ld, &wl);
+                    let px = &mut state.pixels[i];
+                    px.ld_xyz[0] += xyz.x;
+                    px.ld_xyz[1] += xyz.y;
+                    px.ld_xyz[2] += xyz.z;
+                    if state.nbuckets > 0 {
+                        let nb = state.nbuckets;
+                        let mut row = std::mem::take(&mut state.ld_buckets);
+                        state.bin(&mut row[i * nb..(i + 1) * nb], &SpectralEstimates::new(&ld, &wl));
+                        state.ld_buckets = row;
+                    }
+                }
+                points.push(vp);
+            }
+            progress(npix / 2);
+
+            // 2. Photon pass, gathered into per-point flux Φ and counts M.
+            let radii: Vec<f64> = state.pixels.iter().map(|p| p.radius).collect();
+            let mut phi = vec![SampledSpectrum::zero(); points.len()];
+            let mut m = vec![0u32; points.len()];
+            if let Some(grid) = VisibleGrid::build(&points, &radii) {
+                let photon_seed = hash_words(&[seed, PHOTON_SEED_SALT]);
+                let mut start = 0u64;
+                while start < photons {
+                    let end = (start + PHOTON_BATCH).min(photons);
+                    let chunk_starts: Vec<u64> = (start..end).step_by(1024).collect();
+                    let chunks: Vec<(Vec<Gathered>, RayCounts)> = chunk_starts
+                        .into_par_iter()
+                        .map(|k0| {
+                            let mut out = Vec::new();
+                            let mut counts = RayCounts::default();
+                            for k in k0..(k0 + 1024).min(end) {
+                                self.photon(
+                                    scene,
+                                    &grid,
+                                    &points,
+                                    &radii,
+                                    &wl_iter,
+                                    k,
+                                    it,
+                                    photon_seed,
+                                    &mut counts,
+                                    &mut out,
+                                );
+                            }
+                            (out, counts)
+                        })
+                        .collect();
+                    for (gathered, counts) in chunks {
+                        stats.rays += counts.intersect + counts.shadow;
+                        for g in gathered {
+                            phi[g.vp as usize] += g.phi;
+                            m[g.vp as usize] += 1;
+                        }
+                    }
+                    start = end;
+                }
+            }
+
+            // 3. Progressive update (Hachisuka & Jensen 2009, eqs. 6–8 with α = 2/3).
+            let nb = state.nbuckets;
+            for (i, vp) in points.iter().enumerate() {
+                let Some(vp) = vp else { continue };
+                if m[i] == 0 {
+                    continue;
+                }
+                let l = vp.beta * phi[i];
+                let xyz = wavelengths.to_xyz(&l, &vp.wl);
+                let est = SpectralEstimates::new(&l, &vp.wl);
+                let px = &state.pixels[i];
+                let n_new = px.n + ALPHA * m[i] as f64;
+                let r_new = px.radius * (n_new / (px.n + m[i] as f64)).sqrt();
+                let shrink = (r_new / px.radius).powi(2);
+                if nb > 0 {
+                    let mut add = vec![0.0; nb];
+                    state.bin(&mut add, &est);
+                    for (t, a) in state.tau_buckets[i * nb..(i + 1) * nb].iter_mut().zip(&add) {
+                        *t = (*t + a) * shrink;
+                    }
+                }
+                let px = &mut state.pixels[i];
+                px.tau_xyz = [
+                    (px.tau_xyz[0] + xyz.x) * shrink,
+                    (px.tau_xyz[1] + xyz.y) * shrink,
+                    (px.tau_xyz[2] + xyz.z) * shrink,
+                ];
+                px.n = n_new;
+                px.radius = r_new;
+            }
+            state.iterations += 1;
+            state.photons += photons;
+            stats.samples += npix;
+            progress(npix - npix / 2);
+        }
+        stats
+    }
+
+    /// Traces the camera path of pixel (x, y): emission seen through specular bounces and direct light at the first
+    /// non-specular surface (both in `ld`), and the visible point there.
+    fn camera_path(
+        &self,
+        scene: &RenderScene,
+        x: u32,
+        y: u32,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+    ) -> (Option<VisiblePoint>, SampledSpectrum) {
+        let film = Vec2::new(x as f32, y as f32) + Vec2::from(sampler.next_2d());
+        let ray = scene.camera.generate_ray(film, Vec2::from(sampler.next_2d()));
+        let (mut o, mut d) = (ray.origin, ray.direction);
+        let mut beta = SampledSpectrum::splat(1.0);
+        let mut ld = SampledSpectrum::zero();
+        let mut medium = scene.camera_medium;
+        let mut depth = 0u32;
+        let mut crossings = 0u32;
+        let nee = PathIntegrator { max_depth: self.max_depth };
+        loop {
+            counts.intersect += 1;
+            let Some(hit) = scene.geometry.intersect(o, d, f32::INFINITY) else {
+                // Only specular bounces led here: the environment is seen directly.
+                for &li in &scene.infinite_lights {
+                    ld += beta * scene.lights[li as usize].le(d, wl);
+                }
+                return (None, ld);
+            };
+            if let Some(m) = medium {
+                beta *= scene.media[m as usize].transmittance(hit.t, wl);
+            }
+            if let Some(li) = hit.area_light {
+                ld += beta * scene.lights[li as usize].l_area(hit.n, -d, wl);
+            }
+            let u: [f32; 8] = std::array::from_fn(|_| sampler.next_1d());
+            let bxdf = match resolve_surface(scene, &hit, wl, u[6], u[7]) {
+                Surface::PassThrough => {
+                    medium = next_medium(&hit, d, medium);
+                    o = hit.spawn_origin(d);
+                    crossings += 1;
+                    if crossings > 256 {
+                        return (None, ld);
+                    }
+                    continue;
+                }
+                Surface::Absorb => return (None, ld),
+                Surface::Scatter(b) => b,
+            };
+            if depth == self.max_depth {
+                return (None, ld);
+            }
+            depth += 1;
+            let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
+            let wo = frame.to_local(-d);
+            if !bxdf.is_specular() {
+                ld += beta * nee.sample_ld(scene, &hit, &frame, &bxdf, wo, wl, u[0], Vec2::new(u[1], u[2]), counts);
+                let vp = VisiblePoint { p: hit.p, frame, wo, bxdf, beta, wl: *wl };
+                return (Some(vp), ld);
+            }
+            let Some(bs) = bxdf.sample_f(wo, u[3], Vec2::new(u[4], u[5]), TransportMode::Radiance) else {
+                return (None, ld);
+            };
+            if bs.pdf <= 0.0 || bs.f.is_black() {
+                return (None, ld);
+            }
+            if let Some(slot) = bs.keep_slot {
+                wl.keep_only(slot);
+            }
+            let wi = frame.from_local(bs.wi);
+            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if bs.transmission {
+                medium = next_medium(&hit, wi, medium);
+            }
+            o = hit.spawn_origin(wi);
+            d = wi;
+        }
+    }
+
+    /// Traces photon `k` of iteration `it` and records what it gives to visible points within their radii.
+    #[allow(clippy::too_many_arguments)]
+    fn photon(
+        &self,
+        scene: &RenderScene,
+        grid: &VisibleGrid,
+        points: &[Option<VisiblePoint>],
+        radii: &[f64],
+        wl_iter: &SampledWavelengths,
+        k: u64,
+        it: u32,
+        seed: u32,
+        counts: &mut RayCounts,
+        out: &mut Vec<Gathered>,
+    ) {
+        let mut sampler = Sampler::new(k as u32, (k >> 32) as u32, it, seed);
+        let mut wl = *wl_iter;
+        walk_light_path(scene, self.max_depth, &mut wl, &mut sampler, counts, |v, wl, _| {
+            // Direct light is the visible points' next-event estimation: photons count from their second vertex.
+            if v.depth == 1 {
+                return;
+            }
+            // A photon reduced to one wavelength by dispersion stands for all of them: undo the selection
+            // probability so that its flux is an estimate at the iteration's density of that wavelength.
+            let mut beta = v.beta;
+            for i in 0..spectral::N_WAVELENGTHS {
+                let (p_iter, p_now) = (wl_iter.pdf()[i], wl.pdf()[i]);
+                beta[i] = if p_now > 0.0 { beta[i] * p_iter / p_now } else { 0.0 };
+            }
+            for &j in grid.candidates(v.hit.p) {
+                let Some(vp) = &points[j as usize] else { continue };
+                let r = radii[j as usize] as f32;
+                if (vp.p - v.hit.p).length_squared() > r * r {
+                    continue;
+                }
+                let f = vp.bxdf.f(vp.wo, vp.frame.to_local(v.w_from), TransportMode::Radiance);
+                let phi = beta * f;
+                if !phi.is_black() {
+                    out.push(Gathered { vp: j, phi });
+                }
+            }
+        });
+    }
+}
