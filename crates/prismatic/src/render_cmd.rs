@@ -167,18 +167,33 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                     .unwrap_or_else(|_| ProgressStyle::default_spinner()),
             );
             let mut pass = 1u32;
+            // Photon mapping keeps its progressive state (radii, photon counts) across passes and writes once.
+            let mut sppm_state = match &built.integrator {
+                render::integrator::Integrator::Sppm(s) => Some((s, render::sppm::SppmState::new(&film, s))),
+                _ => None,
+            };
             while spp_done == 0 || render_start.elapsed() < budget {
                 let pass_start = Instant::now();
                 let progress = |n: u64| {
                     taken.fetch_add(n, Ordering::Relaxed);
                 };
                 let range = spp_done..spp_done + pass;
-                let stats =
-                    render_film(&built.scene, &built.integrator, &wavelengths, &mut film, range, args.seed, &progress)
-                        .map_err(|e| anyhow!("{e}"))?;
+                let stats = match &mut sppm_state {
+                    Some((s, state)) => s.run(&built.scene, &wavelengths, state, range, args.seed, &progress),
+                    None => render_film(
+                        &built.scene,
+                        &built.integrator,
+                        &wavelengths,
+                        &mut film,
+                        range,
+                        args.seed,
+                        &progress,
+                    )
+                    .map_err(|e| anyhow!("{e}"))?,
+                };
                 rays += stats.rays;
                 spp_done += pass;
-                bar.set_message(format!("{spp_done} spp"));
+                bar.set_message(format!("{spp_done} {}", if sppm_state.is_some() { "iterations" } else { "spp" }));
                 bar.tick();
                 // Grow the pass while it stays well inside the remaining time.
                 let left = budget.saturating_sub(render_start.elapsed());
@@ -187,6 +202,9 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                 } else if pass_start.elapsed() > left && pass > 1 {
                     pass /= 2;
                 }
+            }
+            if let Some((_, state)) = &sppm_state {
+                state.write_to(&mut film);
             }
         }
     }
@@ -201,14 +219,16 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     let secs = render_time.as_secs_f64().max(1e-9);
     let peak = peak_rss_bytes().map(|b| format!("{:.1} MB", b as f64 / 1e6)).unwrap_or_else(|| "unknown".into());
     Ok(format!(
-        "wrote {} ({}x{}, {} spp, {} wavelengths)\n\
+        "wrote {} ({}x{}, {} {}, {} wavelengths, {})\n\
          scene setup {:.2} s ({} triangles, {} lights), render {:.2} s\n\
          {:.3} Msamples/s, {:.3} Mrays/s, peak memory {}\n",
         path.display(),
         w,
         h,
         spp_done,
+        if matches!(built.integrator, render::integrator::Integrator::Sppm(_)) { "iterations" } else { "spp" },
         args.wavelengths,
+        built.integrator.name(),
         setup.as_secs_f64(),
         built.triangles,
         built.scene.lights.len(),

@@ -308,31 +308,38 @@ fn existing_output_is_replaced_atomically() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--time` renders in passes that continue each pixel's sample sequence (for `sppm`, the progressive photon map's
+/// iterations), so the result equals a single render of the same number of samples (iterations).
 #[test]
 fn time_budget_renders_progressively_like_a_fixed_spp_render() {
-    let dir = temp_dir("time");
-    std::fs::write(dir.join("scene.pbrt"), SMALL_SCENE).unwrap();
-    let run = prismatic(&dir, &["scene.pbrt", "-o", "timed.exr", "--time", "0.3", "--seed", "5"]);
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    // "wrote timed.exr (8x8, N spp, hero wavelengths)"
-    let summary = String::from_utf8_lossy(&run.stdout);
-    let spp: u32 = summary
-        .split_once("8x8, ")
-        .and_then(|(_, rest)| rest.split_once(" spp"))
-        .and_then(|(n, _)| n.parse().ok())
-        .unwrap_or_else(|| panic!("no spp in {summary}"));
-    assert!(spp >= 1, "{summary}");
-    // Passes continue each pixel's sample sequence, so the result is the render of 0..N in one go.
-    let fixed =
-        prismatic(&dir, &["scene.pbrt", "-o", "fixed.exr", "--spp", &spp.to_string(), "--seed", "5", "--quiet"]);
-    assert!(fixed.status.success(), "{}", String::from_utf8_lossy(&fixed.stderr));
-    let timed = film::read_exr_spectral(&dir.join("timed.exr")).unwrap();
-    let fixed = film::read_exr_spectral(&dir.join("fixed.exr")).unwrap();
-    for (i, (a, b)) in timed.data.iter().zip(&fixed.data).enumerate() {
-        assert!(f32_close(*a, *b), "value {i}: {a} vs {b} ({spp} spp)");
+    for (integrator, unit) in [("path", "spp"), ("sppm", "iterations")] {
+        let dir = temp_dir(&format!("time-{integrator}"));
+        let scene = SMALL_SCENE.replace(
+            r#"Integrator "path" "integer maxdepth" 5"#,
+            &format!(r#"Integrator "{integrator}" "integer maxdepth" 5"#),
+        );
+        std::fs::write(dir.join("scene.pbrt"), scene).unwrap();
+        let run = prismatic(&dir, &["scene.pbrt", "-o", "timed.exr", "--time", "0.3", "--seed", "5"]);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        // "wrote timed.exr (8x8, N spp, hero wavelengths, path)"
+        let summary = String::from_utf8_lossy(&run.stdout);
+        let spp: u32 = summary
+            .split_once("8x8, ")
+            .and_then(|(_, rest)| rest.split_once(&format!(" {unit}")))
+            .and_then(|(n, _)| n.parse().ok())
+            .unwrap_or_else(|| panic!("no {unit} in {summary}"));
+        assert!(spp >= 1, "{summary}");
+        let fixed =
+            prismatic(&dir, &["scene.pbrt", "-o", "fixed.exr", "--spp", &spp.to_string(), "--seed", "5", "--quiet"]);
+        assert!(fixed.status.success(), "{}", String::from_utf8_lossy(&fixed.stderr));
+        let timed = film::read_exr_spectral(&dir.join("timed.exr")).unwrap();
+        let fixed = film::read_exr_spectral(&dir.join("fixed.exr")).unwrap();
+        for (i, (a, b)) in timed.data.iter().zip(&fixed.data).enumerate() {
+            assert!(f32_close(*a, *b), "{integrator}: value {i}: {a} vs {b} ({spp} {unit})");
+        }
+        assert!(timed.data.iter().any(|v| *v > 0.0));
+        let _ = std::fs::remove_dir_all(&dir);
     }
-    assert!(timed.data.iter().any(|v| *v > 0.0));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Finite but huge numbers must not overflow into a panic: they are errors or render normally.
