@@ -10,6 +10,7 @@ use optics::{LAMBDA_C_NM, LAMBDA_D_NM, LAMBDA_F_NM};
 /// Arguments of `prismatic ior`.
 #[derive(Args, Debug)]
 #[command(after_help = "Examples:\n  prismatic ior N-SF11 --nm 486.13 587.56 656.27\n  prismatic ior glass-BK7\n  \
+                        prismatic ior N-SF11 --prism 60 --nm 400 550 700\n  \
                         prismatic ior Au --nm 450 550 650\n  prismatic ior --list")]
 pub struct IorArgs {
     /// Material: a catalogue name (N-BK7, SF11, diamond, water, sapphire e, Au, …) or a pbrt-v4 spectrum name
@@ -21,9 +22,21 @@ pub struct IorArgs {
     #[arg(long, num_args = 1.., value_name = "NM", allow_negative_numbers = true)]
     pub nm: Vec<f64>,
 
+    /// Also print, for a prism of this apex angle (degrees) in air, the minimum deviation at each wavelength and
+    /// the angular spread between the first and last wavelength.
+    #[arg(long, value_name = "DEGREES")]
+    pub prism: Option<f64>,
+
     /// List every catalogue material and pbrt-v4 name instead.
-    #[arg(long, conflicts_with_all = ["material", "nm"])]
+    #[arg(long, conflicts_with_all = ["material", "nm", "prism"])]
     pub list: bool,
+}
+
+/// Minimum deviation of a prism of apex angle `apex` (radians) and index `n` in air: D = 2·asin(n·sin(A/2)) − A
+/// (the symmetric passage; Hecht, *Optics*, eq. 5.55). `None` when no ray gets through (n·sin(A/2) > 1).
+pub fn minimum_deviation(n: f64, apex: f64) -> Option<f64> {
+    let s = n * (apex / 2.0).sin();
+    (s <= 1.0).then(|| 2.0 * s.asin() - apex)
 }
 
 /// Runs the subcommand and returns what to print.
@@ -61,6 +74,32 @@ pub fn run(args: &IorArgs) -> Result<String> {
             let _ = write!(line, "   (outside the data's range {lo:.0}–{hi:.0} nm: extrapolated)");
         }
         let _ = writeln!(out, "{line}");
+    }
+    if let Some(apex_deg) = args.prism {
+        if !(apex_deg.is_finite() && apex_deg > 0.0 && apex_deg < 180.0) {
+            bail!("--prism: the apex angle must be between 0 and 180 degrees, got {apex_deg}");
+        }
+        let apex = apex_deg.to_radians();
+        let _ = writeln!(out, "  {apex_deg}° prism in air, minimum deviation:");
+        let mut first_last = vec![];
+        for &l in &wavelengths {
+            let n = entry.ior.n(l);
+            match minimum_deviation(n, apex) {
+                Some(d) => {
+                    let _ = writeln!(out, "  {l:>10.2}  D = {:>8.3}°", d.to_degrees());
+                    first_last.push(d);
+                }
+                None => {
+                    let _ = writeln!(out, "  {l:>10.2}  no ray passes (n·sin(A/2) > 1)");
+                }
+            }
+        }
+        if let (Some(a), Some(b)) = (first_last.first(), first_last.last()) {
+            if first_last.len() > 1 {
+                let _ =
+                    writeln!(out, "  spread {:.3}° between the first and last wavelength", (a - b).abs().to_degrees());
+            }
+        }
     }
     if let Some(d) = &entry.dispersion {
         let _ = write!(out, "  n_d = {:.6}  V_d = {:.2}", d.nd, d.vd);
@@ -117,7 +156,21 @@ mod tests {
     use super::*;
 
     fn args(material: &str, nm: &[f64]) -> IorArgs {
-        IorArgs { material: Some(material.into()), nm: nm.to_vec(), list: false }
+        IorArgs { material: Some(material.into()), nm: nm.to_vec(), prism: None, list: false }
+    }
+
+    #[test]
+    fn prism_deviation_follows_the_minimum_deviation_formula() {
+        // 60° prism, n = 1.5: D = 2·asin(0.75) − 60° = 37.1808°; n = 2 (sin 30° · 2 = 1): grazing, D = 120°.
+        assert!((minimum_deviation(1.5, 60f64.to_radians()).unwrap().to_degrees() - 37.18075578).abs() < 1e-6);
+        assert!((minimum_deviation(2.0, 60f64.to_radians()).unwrap().to_degrees() - 120.0).abs() < 1e-5);
+        assert!(minimum_deviation(2.5, 60f64.to_radians()).is_none());
+        let mut a = args("N-SF11", &[400.0, 700.0]);
+        a.prism = Some(60.0);
+        let out = run(&a).unwrap();
+        assert!(out.contains("spread"), "{out}");
+        a.prism = Some(f64::NAN);
+        assert!(run(&a).is_err());
     }
 
     #[test]
