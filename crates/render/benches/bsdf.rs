@@ -3,7 +3,7 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::{Vec2, Vec3};
 use render::bxdf::{Bxdf, TransportMode};
-use render::layered::CoatedDiffuse;
+use render::layered::Layered;
 use render::microfacet::TrowbridgeReitz;
 use spectral::SampledSpectrum;
 use std::hint::black_box;
@@ -20,7 +20,14 @@ fn bxdfs() -> Vec<(&'static str, Bxdf)> {
         ("rough dielectric", Bxdf::Dielectric { eta: 1.5, distrib: rough }),
         (
             "coated diffuse",
-            Bxdf::CoatedDiffuse(Box::new(CoatedDiffuse::new(SampledSpectrum::splat(0.5), 1.5, rough, 0.01, 10, 1))),
+            Bxdf::Layered(Box::new(Layered::coated_diffuse(SampledSpectrum::splat(0.5), 1.5, rough, 0.01, 10, 1))),
+        ),
+        (
+            "coated diffuse, scattering layer",
+            Bxdf::Layered(Box::new(
+                Layered::coated_diffuse(SampledSpectrum::splat(0.5), 1.5, rough, 0.1, 10, 1)
+                    .with_medium(SampledSpectrum::splat(0.8), 0.3),
+            )),
         ),
     ]
 }

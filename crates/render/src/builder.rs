@@ -21,7 +21,7 @@ use crate::camera::{Camera, Projection, ScreenWindow};
 use crate::integrator::{Integrator, PathIntegrator};
 use crate::light::{EnvironmentMap, Light};
 use crate::lightpath::LightPathIntegrator;
-use crate::material::{ConductorSpec, DielectricIor, Material, Roughness};
+use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
 use crate::sampling::Frame;
 use crate::scene::{AbsorbingMedium, Geometry, MediumInterface, RenderScene, SurfaceHit, NO_MATERIAL};
 use crate::sppm::SppmIntegrator;
@@ -257,10 +257,56 @@ fn unsupported(what: &str, name: &str, supported: &[&str]) -> String {
 }
 
 fn roughness(t: &Textures, p: &ParamSet) -> Result<Roughness> {
-    let r = t.float_param(p, "roughness", 0.0)?;
-    let u = if p.contains("uroughness") { t.float_param(p, "uroughness", 0.0)? } else { r.clone() };
-    let v = if p.contains("vroughness") { t.float_param(p, "vroughness", 0.0)? } else { r };
+    prefixed_roughness(t, p, "")
+}
+
+/// `{prefix}roughness`, overridden per direction by `{prefix}uroughness`/`{prefix}vroughness`, and the shared
+/// `remaproughness`.
+fn prefixed_roughness(t: &Textures, p: &ParamSet, prefix: &str) -> Result<Roughness> {
+    let name = |n: &str| format!("{prefix}{n}");
+    let r = t.float_param(p, &name("roughness"), 0.0)?;
+    let u = if p.contains(&name("uroughness")) { t.float_param(p, &name("uroughness"), 0.0)? } else { r.clone() };
+    let v = if p.contains(&name("vroughness")) { t.float_param(p, &name("vroughness"), 0.0)? } else { r };
     Ok(Roughness { u, v, remap: p.get_bool("remaproughness", true)? })
+}
+
+/// A conductor's optical constants: `reflectance`, or the spectra `eta_name` and `k_name` (copper by default).
+fn conductor_spec(t: &Textures, p: &ParamSet, loc: &Loc, eta_name: &str, k_name: &str) -> Result<ConductorSpec> {
+    if p.contains("reflectance") {
+        if p.contains(eta_name) || p.contains(k_name) {
+            return err(loc, format!("give either 'reflectance' or '{eta_name}' and '{k_name}', not both"));
+        }
+        return Ok(ConductorSpec::Reflectance(t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.0)?));
+    }
+    let eta = match p.get_spectrum_texture(eta_name, SpectrumKind::Unbounded)? {
+        Some(_) => t.spectrum_param(p, eta_name, SpectrumKind::Unbounded, 1.0)?,
+        None => SpectrumTexture::Constant(named_metal("metal-Cu-eta", loc)?),
+    };
+    let k = match p.get_spectrum_texture(k_name, SpectrumKind::Unbounded)? {
+        Some(_) => t.spectrum_param(p, k_name, SpectrumKind::Unbounded, 0.0)?,
+        None => SpectrumTexture::Constant(named_metal("metal-Cu-k", loc)?),
+    };
+    Ok(ConductorSpec::EtaK { eta, k })
+}
+
+/// The medium of a layered material: `thickness` (> 0, default 0.01), `albedo` (default 0), `g` (in (−1, 1),
+/// default 0), `maxdepth` (default 10) and `nsamples` (default 1), pbrt-v4's names and defaults.
+fn layer_medium(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<LayerMedium> {
+    let at = |name: &str| p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+    let thickness = finite_positive(&at("thickness"), "thickness", p.get_float("thickness", 0.01)?)?;
+    let g = t.float_param(p, "g", 0.0)?;
+    if let FloatTexture::Constant(v) = g {
+        if !(v > -1.0 && v < 1.0) {
+            return err(&at("g"), format!("'g' (Henyey–Greenstein asymmetry) must be in (−1, 1), got {v}"));
+        }
+    }
+    Ok(LayerMedium {
+        thickness: thickness as f32,
+        albedo: t.spectrum_param(p, "albedo", SpectrumKind::Albedo, 0.0)?,
+        g,
+        max_depth: p.get_int("maxdepth", 10)?.clamp(1, 1000) as u32,
+        n_samples: p.get_int("nsamples", 1)?.clamp(1, 1000) as u32,
+    })
 }
 
 /// The index of refraction of a dielectric: pbrt's `eta` (float or spectrum), or Prismatic's extensions `glass`,
@@ -295,13 +341,22 @@ fn dielectric_ior(p: &ParamSet, loc: &Loc, default: f64) -> Result<DielectricIor
         let nd = p.get_float("eta", default)?;
         return Ok(DielectricIor::Model(optics::Ior::abbe(nd, vd).map_err(|e| bad("abbe", e))?));
     }
-    match p.param_type("eta") {
+    named_eta(p, loc, "eta", default)
+}
+
+/// A dielectric index given as a float or a spectrum under `name`.
+fn named_eta(p: &ParamSet, loc: &Loc, name: &str, default: f64) -> Result<DielectricIor> {
+    match p.param_type(name) {
         Some(ParamType::Float) | None => {
-            let n = p.get_float("eta", default)?;
-            Ok(DielectricIor::Model(optics::Ior::constant(n).map_err(|e| bad("eta", e))?))
+            let n = p.get_float(name, default)?;
+            let ior = optics::Ior::constant(n).map_err(|e| {
+                let l = p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+                SceneError::at(l, format!("'{name}': {e}"))
+            })?;
+            Ok(DielectricIor::Model(ior))
         }
         _ => {
-            let s = p.get_spectrum("eta", SpectrumKind::Unbounded)?.unwrap_or(Spectrum::Constant(default));
+            let s = p.get_spectrum(name, SpectrumKind::Unbounded)?.unwrap_or(Spectrum::Constant(default));
             Ok(DielectricIor::Spectrum(s))
         }
     }
@@ -312,38 +367,23 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>) -> Result<Ma
     Ok(match e.name.as_str() {
         "diffuse" => Material::Diffuse { reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.5)? },
         "conductor" => {
-            let spec = if p.contains("reflectance") {
-                ConductorSpec::Reflectance(t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.0)?)
-            } else {
-                let eta = match p.get_spectrum_texture("eta", SpectrumKind::Unbounded)? {
-                    Some(_) => t.spectrum_param(p, "eta", SpectrumKind::Unbounded, 1.0)?,
-                    None => SpectrumTexture::Constant(named_metal("metal-Cu-eta", &e.loc)?),
-                };
-                let k = match p.get_spectrum_texture("k", SpectrumKind::Unbounded)? {
-                    Some(_) => t.spectrum_param(p, "k", SpectrumKind::Unbounded, 0.0)?,
-                    None => SpectrumTexture::Constant(named_metal("metal-Cu-k", &e.loc)?),
-                };
-                ConductorSpec::EtaK { eta, k }
-            };
-            Material::Conductor { spec, roughness: roughness(t, p)? }
+            Material::Conductor { spec: conductor_spec(t, p, &e.loc, "eta", "k")?, roughness: roughness(t, p)? }
         }
         "dielectric" => Material::Dielectric { ior: dielectric_ior(p, &e.loc, 1.5)?, roughness: roughness(t, p)? },
         "thindielectric" => Material::ThinDielectric { ior: dielectric_ior(p, &e.loc, 1.5)? },
-        "coateddiffuse" => {
-            let albedo = p.get_spectrum("albedo", SpectrumKind::Albedo)?;
-            if albedo.as_ref().is_some_and(|a| a.max_value() > 0.0) {
-                return err(&e.loc, "coateddiffuse with a scattering layer ('albedo' > 0) is not supported yet");
-            }
-            p.get_float("g", 0.0)?;
-            Material::CoatedDiffuse {
-                reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.5)?,
-                roughness: roughness(t, p)?,
-                thickness: finite_positive(&e.loc, "thickness", p.get_float("thickness", 0.01)?)? as f32,
-                ior: dielectric_ior(p, &e.loc, 1.5)?,
-                max_depth: p.get_int("maxdepth", 10)?.clamp(1, 1000) as u32,
-                n_samples: p.get_int("nsamples", 1)?.clamp(1, 1000) as u32,
-            }
-        }
+        "coateddiffuse" => Material::CoatedDiffuse {
+            reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.5)?,
+            roughness: roughness(t, p)?,
+            ior: dielectric_ior(p, &e.loc, 1.5)?,
+            medium: layer_medium(t, p, &e.loc)?,
+        },
+        "coatedconductor" => Material::CoatedConductor {
+            conductor: conductor_spec(t, p, &e.loc, "conductor.eta", "conductor.k")?,
+            conductor_roughness: prefixed_roughness(t, p, "conductor.")?,
+            interface_roughness: prefixed_roughness(t, p, "interface.")?,
+            interface_ior: named_eta(p, &e.loc, "interface.eta", 1.5)?,
+            medium: layer_medium(t, p, &e.loc)?,
+        },
         "mix" => {
             let Some(m) = p.get_strings("materials") else {
                 return err(&e.loc, "mix needs 'string materials' [two names]");
@@ -366,7 +406,16 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>) -> Result<Ma
                 unsupported(
                     "material",
                     other,
-                    &["diffuse", "conductor", "dielectric", "thindielectric", "coateddiffuse", "mix", "interface"],
+                    &[
+                        "diffuse",
+                        "conductor",
+                        "dielectric",
+                        "thindielectric",
+                        "coateddiffuse",
+                        "coatedconductor",
+                        "mix",
+                        "interface",
+                    ],
                 ),
             )
         }

@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use spectral::{SampledSpectrum, N_WAVELENGTHS};
 use std::f32::consts::FRAC_1_PI;
 
-use crate::layered::CoatedDiffuse;
+use crate::layered::Layered;
 use crate::microfacet::TrowbridgeReitz;
 use crate::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 
@@ -136,8 +136,9 @@ pub enum Bxdf {
         /// Which slots are active.
         active: [bool; N_WAVELENGTHS],
     },
-    /// A diffuse base under a dielectric coating, evaluated by a stochastic random walk between the layers.
-    CoatedDiffuse(Box<CoatedDiffuse>),
+    /// A diffuse or conductor base under a dielectric coating with a medium between them, evaluated by a
+    /// stochastic random walk between the layers (`coateddiffuse`, `coatedconductor`).
+    Layered(Box<Layered>),
     /// A thin slab: reflection plus straight-through transmission with inter-reflection summed; the Fresnel
     /// term is evaluated per wavelength because directions do not depend on η.
     ThinDielectric {
@@ -151,19 +152,21 @@ impl Bxdf {
     pub fn is_specular(&self) -> bool {
         match self {
             Bxdf::Diffuse { .. } => false,
-            Bxdf::Conductor { distrib, .. } | Bxdf::Dielectric { distrib, .. } => distrib.effectively_smooth(),
+            Bxdf::Conductor { distrib, .. } => distrib.effectively_smooth(),
+            // An index-matched interface passes light straight through whatever its roughness.
+            Bxdf::Dielectric { eta, distrib } => *eta == 1.0 || distrib.effectively_smooth(),
             Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => true,
-            Bxdf::CoatedDiffuse(_) => false,
+            Bxdf::Layered(_) => false,
         }
     }
 
-    /// A colour for albedo AOVs (denoiser guides): the diffuse albedo, a coated base's albedo, a conductor's
+    /// A colour for albedo AOVs (denoiser guides): the diffuse albedo, a coated base's hint, a conductor's
     /// normal-incidence reflectance, and 1 for transparent dielectrics.
     pub fn albedo_hint(&self) -> SampledSpectrum {
         match self {
             Bxdf::Diffuse { r } => *r,
             Bxdf::Conductor { eta, k, .. } => fresnel_conductor(1.0, eta, k),
-            Bxdf::CoatedDiffuse(c) => c.base_albedo(),
+            Bxdf::Layered(c) => c.base_albedo(),
             Bxdf::Dielectric { .. } | Bxdf::DispersiveDielectric { .. } | Bxdf::ThinDielectric { .. } => {
                 SampledSpectrum::splat(1.0)
             }
@@ -199,7 +202,7 @@ impl Bxdf {
                 SampledSpectrum::splat(rough_dielectric_f(*eta, distrib, wo, wi, mode))
             }
             Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => SampledSpectrum::zero(),
-            Bxdf::CoatedDiffuse(c) => c.f(wo, wi, mode),
+            Bxdf::Layered(c) => c.f(wo, wi, mode),
         }
     }
 
@@ -237,7 +240,7 @@ impl Bxdf {
                 rough_dielectric_pdf(*eta, distrib, wo, wi, lobes)
             }
             Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => 0.0,
-            Bxdf::CoatedDiffuse(c) => c.pdf(wo, wi, mode),
+            Bxdf::Layered(c) => c.pdf(wo, wi, mode),
         }
     }
 
@@ -286,7 +289,7 @@ impl Bxdf {
                 Some(BsdfSample::reflection(f, wi, pdf, false))
             }
             Bxdf::Dielectric { eta, distrib } => sample_dielectric(*eta, distrib, wo, uc, u, mode, lobes),
-            Bxdf::CoatedDiffuse(c) => c.sample_f(wo, uc, u, mode),
+            Bxdf::Layered(c) => c.sample_f(wo, uc, u, mode),
             Bxdf::DispersiveDielectric { eta, active } => sample_dispersive(eta, active, wo, uc, mode, lobes),
             Bxdf::ThinDielectric { eta } => {
                 let mut r = SampledSpectrum::zero();

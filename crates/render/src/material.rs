@@ -4,7 +4,7 @@ use optics::Ior;
 use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
 
 use crate::bxdf::Bxdf;
-use crate::layered::CoatedDiffuse;
+use crate::layered::Layered;
 use crate::microfacet::TrowbridgeReitz;
 use crate::texture::{FloatTexture, SpectrumTexture, TextureEvalContext};
 
@@ -76,6 +76,46 @@ pub enum ConductorSpec {
     Reflectance(SpectrumTexture),
 }
 
+/// The medium between a layered material's coat and base, and how its random walks are run.
+#[derive(Clone, Debug)]
+pub struct LayerMedium {
+    /// Optical depth of the layer (unit extinction, so thickness in mean free paths).
+    pub thickness: f32,
+    /// Single-scattering albedo of the medium (0: purely absorbing).
+    pub albedo: SpectrumTexture,
+    /// Henyey–Greenstein asymmetry, in (−1, 1).
+    pub g: FloatTexture,
+    /// Maximum random-walk depth.
+    pub max_depth: u32,
+    /// Walks per evaluation.
+    pub n_samples: u32,
+}
+
+impl LayerMedium {
+    fn apply(&self, layered: Layered, ctx: &TextureEvalContext, wl: &SampledWavelengths) -> Layered {
+        let albedo = clamp01(self.albedo.eval(ctx, wl));
+        if albedo.is_black() {
+            layered
+        } else {
+            layered.with_medium(albedo, self.g.eval(ctx))
+        }
+    }
+}
+
+impl ConductorSpec {
+    /// η and k at the path's wavelengths.
+    pub fn eta_k(&self, ctx: &TextureEvalContext, wl: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
+        match self {
+            ConductorSpec::EtaK { eta, k } => (eta.eval(ctx, wl), k.eval(ctx, wl)),
+            ConductorSpec::Reflectance(r) => {
+                let r = clamp01(r.eval(ctx, wl)).map(|v| v.min(0.9999));
+                // Normal-incidence reflectance of η = 1, k: r = k²/(4 + k²), solved for k (pbrt-v4 §9.4).
+                (SampledSpectrum::splat(1.0), r.map(|v| 2.0 * v.sqrt() / (1.0 - v).sqrt()))
+            }
+        }
+    }
+}
+
 /// A material.
 #[derive(Clone, Debug)]
 pub enum Material {
@@ -109,14 +149,23 @@ pub enum Material {
         reflectance: SpectrumTexture,
         /// Coat roughness.
         roughness: Roughness,
-        /// Thickness of the absorbing layer.
-        thickness: f32,
         /// Coat index.
         ior: DielectricIor,
-        /// Maximum random-walk depth.
-        max_depth: u32,
-        /// Walks per evaluation.
-        n_samples: u32,
+        /// The layer between coat and base.
+        medium: LayerMedium,
+    },
+    /// A conductor under a dielectric coat.
+    CoatedConductor {
+        /// The conductor's optical constants (relative to the coat).
+        conductor: ConductorSpec,
+        /// The conductor's roughness.
+        conductor_roughness: Roughness,
+        /// Coat roughness.
+        interface_roughness: Roughness,
+        /// Coat index.
+        interface_ior: DielectricIor,
+        /// The layer between coat and base.
+        medium: LayerMedium,
     },
     /// Chooses one of two materials per shading point with probability `amount` for the second.
     Mix {
@@ -136,13 +185,7 @@ impl Material {
         match self {
             Material::Diffuse { reflectance } => Some(Bxdf::Diffuse { r: clamp01(reflectance.eval(ctx, wl)) }),
             Material::Conductor { spec, roughness } => {
-                let (eta, k) = match spec {
-                    ConductorSpec::EtaK { eta, k } => (eta.eval(ctx, wl), k.eval(ctx, wl)),
-                    ConductorSpec::Reflectance(r) => {
-                        let r = clamp01(r.eval(ctx, wl)).map(|v| v.min(0.9999));
-                        (SampledSpectrum::splat(1.0), r.map(|v| 2.0 * v.sqrt() / (1.0 - v).sqrt()))
-                    }
-                };
+                let (eta, k) = spec.eta_k(ctx, wl);
                 Some(Bxdf::Conductor { eta, k, distrib: roughness.distribution(ctx) })
             }
             Material::Dielectric { ior, roughness } => {
@@ -167,16 +210,39 @@ impl Material {
                 }
                 Some(Bxdf::ThinDielectric { eta })
             }
-            Material::CoatedDiffuse { reflectance, roughness, thickness, ior, max_depth, n_samples } => {
+            Material::CoatedDiffuse { reflectance, roughness, ior, medium } => {
                 let eta = single_eta(ior, wl, u);
-                Some(Bxdf::CoatedDiffuse(Box::new(CoatedDiffuse::new(
+                let layered = Layered::coated_diffuse(
                     clamp01(reflectance.eval(ctx, wl)),
                     eta,
                     roughness.distribution(ctx),
-                    *thickness,
-                    *max_depth,
-                    *n_samples,
-                ))))
+                    medium.thickness,
+                    medium.max_depth,
+                    medium.n_samples,
+                );
+                Some(Bxdf::Layered(Box::new(medium.apply(layered, ctx, wl))))
+            }
+            Material::CoatedConductor {
+                conductor,
+                conductor_roughness,
+                interface_roughness,
+                interface_ior,
+                medium,
+            } => {
+                let eta = single_eta(interface_ior, wl, u);
+                let (ce, ck) = conductor.eta_k(ctx, wl);
+                // The base sits inside the coat: its index relative to the coat is (η + ik)/η_coat (pbrt-v4 §9.4).
+                let layered = Layered::coated_conductor(
+                    eta,
+                    interface_roughness.distribution(ctx),
+                    ce * (1.0 / eta),
+                    ck * (1.0 / eta),
+                    conductor_roughness.distribution(ctx),
+                    medium.thickness,
+                    medium.max_depth,
+                    medium.n_samples,
+                );
+                Some(Bxdf::Layered(Box::new(medium.apply(layered, ctx, wl))))
             }
             Material::Mix { .. } | Material::Interface => None,
         }
