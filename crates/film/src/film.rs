@@ -22,6 +22,7 @@
 
 use crate::{FilmError, Filter};
 use rayon::prelude::*;
+use spectral::color::{mul_mat_vec, white_balance_matrix, Mat3};
 use spectral::{RgbColorSpace, SampledSpectrum, SampledWavelengths, Xyz, N_WAVELENGTHS};
 use std::path::PathBuf;
 
@@ -130,6 +131,45 @@ impl FilmKind {
     }
 }
 
+/// pbrt-v4's `cie1931` pixel sensor: it records CIE 1931 XYZ scaled by the imaging ratio, and optionally
+/// white-balances the image from the chromaticity of a scene illuminant to the output colour space's white.
+///
+/// pbrt-v4 (`PixelSensor::Create`) sets the imaging ratio to exposure time × ISO / 100, the exposure time being
+/// the camera's `shutterclose` − `shutteropen` (defaults 1 and 0) and `iso` defaulting to 100, so that by default
+/// the ratio is exactly 1. The ratio scales the colour of every sample (before the `maxcomponentvalue` clamp) but
+/// not the spectral buckets, as in pbrt-v4's spectral film.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PixelSensor {
+    /// Factor applied to every sample's XYZ (pbrt-v4's `imagingRatio`; 1 by default).
+    pub imaging_ratio: f64,
+    /// Chromaticity of the illuminant to white-balance from (pbrt-v4's `whitebalance` temperature, converted by
+    /// [`spectral::daylight::white_balance_chromaticity`]); `None` for no white balance, the `cie1931` default.
+    pub white_balance_from: Option<[f64; 2]>,
+}
+
+impl Default for PixelSensor {
+    /// Imaging ratio 1, no white balance: pbrt-v4's default sensor.
+    fn default() -> Self {
+        Self { imaging_ratio: 1.0, white_balance_from: None }
+    }
+}
+
+impl PixelSensor {
+    /// pbrt-v4's imaging ratio for an exposure time (s) and an ISO speed: t · ISO / 100.
+    pub fn imaging_ratio(exposure_time: f64, iso: f64) -> f64 {
+        exposure_time * iso / 100.0 // pbrt-v4 PixelSensor::Create: imagingRatio = exposureTime · ISO / 100
+    }
+
+    /// The XYZ → XYZ matrix applied to the accumulated pixels on output: the Bradford von Kries adaptation from
+    /// the white-balance illuminant to `color_space`'s white, or the identity without white balance.
+    pub fn output_matrix(&self, color_space: &RgbColorSpace) -> Mat3 {
+        match self.white_balance_from {
+            Some(from) => white_balance_matrix(from, color_space.white),
+            None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        }
+    }
+}
+
 /// Everything that defines a film: pbrt-v4's `Film` directive plus the pixel filter.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FilmSpec {
@@ -147,6 +187,11 @@ pub struct FilmSpec {
     pub filter: Filter,
     /// Whether to accumulate the albedo and normal AOVs (written as EXR layers `albedo` and `N`). Off by default.
     pub aovs: bool,
+    /// The pixel sensor: imaging ratio and white balance (pbrt-v4 default: ratio 1, no white balance).
+    pub sensor: PixelSensor,
+    /// `maxcomponentvalue`: a sample whose largest XYZ component (after the imaging ratio) exceeds it is scaled
+    /// down to it, colour and spectral buckets alike (pbrt-v4 default: infinity, no clamp).
+    pub max_component_value: f64,
 }
 
 impl Default for FilmSpec {
@@ -167,15 +212,33 @@ impl FilmSpec {
             color_space: RgbColorSpace::srgb(),
             filter: Filter::default(),
             aovs: false,
+            sensor: PixelSensor::default(),
+            max_component_value: f64::INFINITY,
         }
     }
 
-    /// Checks the resolution (`xresolution`, `yresolution` ≥ 1), the spectral parameters and the filter.
+    /// Checks the resolution (`xresolution`, `yresolution` ≥ 1), `maxcomponentvalue` (> 0), the imaging ratio
+    /// (finite, > 0), the spectral parameters and the filter.
     pub fn validate(&self) -> Result<(), FilmError> {
         for (name, value) in [("xresolution", self.width), ("yresolution", self.height)] {
             if value < 1 {
                 return Err(FilmError::InvalidParameter { name, value: value as f64, expected: "at least 1" });
             }
+        }
+        if self.max_component_value.is_nan() || self.max_component_value <= 0.0 {
+            return Err(FilmError::InvalidParameter {
+                name: "maxcomponentvalue",
+                value: self.max_component_value,
+                expected: "a number above 0 (or infinity for no clamp)",
+            });
+        }
+        let ratio = self.sensor.imaging_ratio;
+        if !(ratio.is_finite() && ratio > 0.0) {
+            return Err(FilmError::InvalidParameter {
+                name: "imaging ratio (exposure time × iso / 100)",
+                value: ratio,
+                expected: "a finite number above 0",
+            });
         }
         self.kind.validate()?;
         self.filter.validate()
@@ -187,6 +250,8 @@ impl FilmSpec {
 pub struct Film {
     spec: FilmSpec,
     nbuckets: usize,
+    /// XYZ → output XYZ (the sensor's white balance, or the identity).
+    output_matrix: Mat3,
     /// Weighted XYZ sums, one per pixel, row-major from the top row.
     xyz: Vec<[f64; 3]>,
     /// Filter-weight sums, one per pixel.
@@ -234,6 +299,7 @@ impl Film {
         let naov = if spec.aovs { npix } else { 0 };
         Ok(Self {
             nbuckets,
+            output_matrix: spec.sensor.output_matrix(&spec.color_space),
             xyz: zeroed(npix, [0.0; 3]).ok_or_else(too_large)?,
             weight: zeroed(npix, 0.0).ok_or_else(too_large)?,
             buckets: zeroed(nb, 0.0).ok_or_else(too_large)?,
@@ -300,10 +366,15 @@ impl Film {
             self.splat_xyz = vec![[0.0; 3]; npix];
             self.splat_buckets = vec![0.0; npix * self.nbuckets];
         }
+        let bins = Binning::new(&self.spec);
+        // The sensor's imaging ratio and the maxcomponentvalue clamp apply to splats as to camera samples.
+        let xyz = xyz.scaled(bins.imaging_ratio);
+        let m = xyz.x.max(xyz.y).max(xyz.z);
+        let clamp = if m > bins.max_component { bins.max_component / m } else { 1.0 };
+        let xyz = xyz.scaled(clamp);
         let filter = &self.spec.filter;
         let [rx, ry] = filter.radius();
         let norm = 1.0 / filter.integral();
-        let bins = Binning::new(&self.spec.kind);
         let (w, h) = (self.spec.width as i64, self.spec.height as i64);
         // Pixels whose centres (x + 0.5, y + 0.5) lie within the filter's support around `raster`.
         let x0 = ((raster[0] - 0.5 - rx).ceil() as i64).max(0);
@@ -323,7 +394,7 @@ impl Film {
                 s[2] += f * xyz.z;
                 if bins.nbuckets > 0 {
                     let nb = bins.nbuckets;
-                    add_to_buckets(&bins, &mut self.splat_buckets[i * nb..(i + 1) * nb], spectral, f);
+                    add_to_buckets(&bins, &mut self.splat_buckets[i * nb..(i + 1) * nb], spectral, f * clamp);
                 }
             }
         }
@@ -347,6 +418,8 @@ impl Film {
             self.rejected[y as usize] += 1;
             return false;
         }
+        // The sensor's imaging ratio applies as to camera samples (the estimate is final: no clamp).
+        let xyz = xyz.scaled(self.spec.sensor.imaging_ratio);
         let s = &mut self.xyz[i];
         s[0] += weight * xyz.x;
         s[1] += weight * xyz.y;
@@ -385,7 +458,7 @@ impl Film {
         let w = self.spec.width as usize;
         let nb = self.nbuckets;
         let aov = self.spec.aovs;
-        let bins = Binning::new(&self.spec.kind);
+        let bins = Binning::new(&self.spec);
         let (mut xyz, mut weight, mut buckets) = (&mut self.xyz[..], &mut self.weight[..], &mut self.buckets[..]);
         let (mut albedo, mut normal, mut count) = (&mut self.albedo[..], &mut self.normal[..], &mut self.aov_count[..]);
         let mut rows = Vec::with_capacity(self.spec.height as usize);
@@ -434,7 +507,7 @@ impl Film {
     /// Adds one camera sample to pixel (x, y): see [`FilmRow::add_sample`]. Returns whether it was accumulated.
     pub fn add_sample(&mut self, x: u32, y: u32, xyz: Xyz, weight: f64, spectral: &[(f32, f32)]) -> bool {
         let Some(i) = self.index(x, y) else { return false };
-        let bins = Binning::new(&self.spec.kind);
+        let bins = Binning::new(&self.spec);
         let nb = self.nbuckets;
         accumulate(
             &bins,
@@ -473,6 +546,9 @@ impl Film {
         if self.spec.aovs != other.spec.aovs {
             return Err(FilmError::Mismatch("one film has AOVs and the other has not".into()));
         }
+        if (&self.spec.sensor, self.spec.max_component_value) != (&other.spec.sensor, other.spec.max_component_value) {
+            return Err(FilmError::Mismatch("the films' sensors or 'maxcomponentvalue' differ".into()));
+        }
         let add3 = |a: &mut [f64; 3], b: &[f64; 3]| {
             for c in 0..3 {
                 a[c] += b[c];
@@ -503,7 +579,8 @@ impl Film {
         self.index(x, y).map_or(0.0, |i| self.weight[i])
     }
 
-    /// The pixel's XYZ: weighted sum over weight sum (zero for a pixel without weight, or outside the film).
+    /// The pixel's output XYZ: weighted sum over weight sum, white-balanced by the sensor (zero for a pixel without
+    /// weight, or outside the film).
     pub fn pixel_xyz(&self, x: u32, y: u32) -> Xyz {
         self.index(x, y).map_or(Xyz::default(), |i| self.xyz_at(i))
     }
@@ -513,11 +590,13 @@ impl Film {
         let s = self.xyz[i];
         let camera = if w == 0.0 { [0.0; 3] } else { [s[0] / w, s[1] / w, s[2] / w] };
         let k = self.splat_scale();
-        if k == 0.0 {
-            return Xyz::new(camera[0], camera[1], camera[2]);
-        }
-        let p = self.splat_xyz[i];
-        Xyz::new(camera[0] + k * p[0], camera[1] + k * p[1], camera[2] + k * p[2])
+        let sum = if k == 0.0 {
+            camera
+        } else {
+            let p = self.splat_xyz[i];
+            [camera[0] + k * p[0], camera[1] + k * p[1], camera[2] + k * p[2]]
+        };
+        Xyz::from_array(mul_mat_vec(&self.output_matrix, sum))
     }
 
     /// Bucket `b` of pixel `i`: camera part plus splat part.
@@ -602,23 +681,27 @@ pub struct AovImages {
     pub normal: Vec<[f32; 3]>,
 }
 
-/// How wavelengths map to buckets; copied into each row.
+/// How samples are scaled (imaging ratio, clamp) and how wavelengths map to buckets; copied into each row.
 #[derive(Clone, Copy, Debug)]
 struct Binning {
     nbuckets: usize,
     lambda_min: f64,
     lambda_max: f64,
     inv_width: f64,
+    imaging_ratio: f64,
+    max_component: f64,
 }
 
 impl Binning {
-    fn new(kind: &FilmKind) -> Self {
-        match *kind {
-            FilmKind::Rgb => Self { nbuckets: 0, lambda_min: 0.0, lambda_max: 0.0, inv_width: 0.0 },
+    fn new(spec: &FilmSpec) -> Self {
+        let (imaging_ratio, max_component) = (spec.sensor.imaging_ratio, spec.max_component_value);
+        let (nbuckets, lambda_min, lambda_max, inv_width) = match spec.kind {
+            FilmKind::Rgb => (0, 0.0, 0.0, 0.0),
             FilmKind::Spectral { nbuckets, lambda_min, lambda_max } => {
-                Self { nbuckets, lambda_min, lambda_max, inv_width: nbuckets as f64 / (lambda_max - lambda_min) }
+                (nbuckets, lambda_min, lambda_max, nbuckets as f64 / (lambda_max - lambda_min))
             }
-        }
+        };
+        Self { nbuckets, lambda_min, lambda_max, inv_width, imaging_ratio, max_component }
     }
 }
 
@@ -642,12 +725,17 @@ fn accumulate(
         *rejected += 1;
         return false;
     }
-    xyz_sum[0] += weight * xyz.x;
-    xyz_sum[1] += weight * xyz.y;
-    xyz_sum[2] += weight * xyz.z;
+    // The sensor's response: XYZ times the imaging ratio (pbrt-v4 PixelSensor::ToSensorRGB for the cie1931 sensor).
+    let xyz = xyz.scaled(bins.imaging_ratio);
+    // pbrt-v4 RGBFilm::AddSample: a sample whose largest component m exceeds maxcomponentvalue is scaled by max/m.
+    let m = xyz.x.max(xyz.y).max(xyz.z);
+    let clamp = if m > bins.max_component { bins.max_component / m } else { 1.0 };
+    xyz_sum[0] += weight * clamp * xyz.x;
+    xyz_sum[1] += weight * clamp * xyz.y;
+    xyz_sum[2] += weight * clamp * xyz.z;
     *weight_sum += weight;
     if bins.nbuckets > 0 {
-        add_to_buckets(bins, buckets, spectral, weight);
+        add_to_buckets(bins, buckets, spectral, weight * clamp);
     }
     true
 }

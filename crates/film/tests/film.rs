@@ -278,4 +278,105 @@ fn splats_are_scaled_by_pixels_per_light_path_and_spread_by_the_filter() {
     b.add_light_paths(12);
     a.merge(&b).unwrap();
     assert_eq!(a.pixel_xyz(0, 0).y, 4.0);
+    // The sensor's imaging ratio (ISO 200: ×2) scales splats as it scales camera samples.
+    let mut iso = spectral_spec(4, 3, 2, 400.0, 600.0);
+    iso.filter = Filter::new_box([0.5, 0.5]).unwrap();
+    iso.sensor = film::PixelSensor { imaging_ratio: 2.0, white_balance_from: None };
+    let mut c = Film::new(iso).unwrap();
+    c.add_splat([0.5, 0.5], Xyz::new(0.0, 6.0, 0.0), &[]);
+    c.add_light_paths(12);
+    assert_eq!(c.pixel_xyz(0, 0).y, 12.0);
+}
+
+#[test]
+fn imaging_ratio_scales_colour_exactly_but_not_buckets() {
+    // ISO 200 at exposure 1 s: imaging ratio 1 · 200 / 100 = 2, so every pixel's XYZ doubles exactly (a power of two
+    // scales floating-point sums without rounding); the spectral buckets are radiance and stay as they are.
+    assert_eq!(film::PixelSensor::imaging_ratio(1.0, 200.0), 2.0);
+    assert_eq!(film::PixelSensor::imaging_ratio(0.5, 100.0), 0.5);
+    let base = spectral_spec(4, 3, 8, 400.0, 720.0);
+    let mut doubled = base.clone();
+    doubled.sensor.imaging_ratio = film::PixelSensor::imaging_ratio(1.0, 200.0);
+    let (mut a, mut b) = (Film::new(base).unwrap(), Film::new(doubled).unwrap());
+    let mut rng = Pcg64::seed_from_u64(11);
+    for y in 0..3 {
+        for x in 0..4 {
+            for _ in 0..5 {
+                let xyz = Xyz::new(uniform(&mut rng), uniform(&mut rng), uniform(&mut rng));
+                let w = uniform(&mut rng);
+                let pairs = [(450.0 + 200.0 * uniform(&mut rng) as f32, uniform(&mut rng) as f32)];
+                a.add_sample(x, y, xyz, w, &pairs);
+                b.add_sample(x, y, xyz, w, &pairs);
+            }
+            let (pa, pb) = (a.pixel_xyz(x, y), b.pixel_xyz(x, y));
+            assert_eq!((2.0 * pa.x, 2.0 * pa.y, 2.0 * pa.z), (pb.x, pb.y, pb.z));
+            assert_eq!(a.pixel_spectrum(x, y), b.pixel_spectrum(x, y));
+        }
+    }
+    let (ia, ib) = (a.to_rgb_image(), b.to_rgb_image());
+    for (p, q) in ia.iter().zip(&ib) {
+        for c in 0..3 {
+            assert_eq!(2.0 * p[c], q[c]);
+        }
+    }
+}
+
+#[test]
+fn max_component_value_clamps_each_sample() {
+    // Clamp at 1: a sample (0.5, 4, 2) has largest component 4, so it is scaled by 1/4 → (0.125, 1, 0.5), and its
+    // bucket value with it; a sample under the limit is untouched. The clamp applies after the imaging ratio.
+    let mut spec = spectral_spec(2, 1, 1, 400.0, 500.0);
+    spec.max_component_value = 1.0;
+    let mut film = Film::new(spec.clone()).unwrap();
+    film.add_sample(0, 0, Xyz::new(0.5, 4.0, 2.0), 1.0, &[(450.0, 8.0)]);
+    film.add_sample(1, 0, Xyz::new(0.2, 0.9, 0.4), 1.0, &[(450.0, 8.0)]);
+    assert_eq!(film.pixel_xyz(0, 0), Xyz::new(0.125, 1.0, 0.5));
+    assert_eq!(film.pixel_spectrum(0, 0), vec![8.0 / 4.0 / 100.0]);
+    assert_eq!(film.pixel_xyz(1, 0), Xyz::new(0.2, 0.9, 0.4));
+    spec.sensor.imaging_ratio = 2.0;
+    let mut film = Film::new(spec.clone()).unwrap();
+    film.add_sample(0, 0, Xyz::new(0.2, 0.9, 0.4), 1.0, &[]);
+    let p = film.pixel_xyz(0, 0); // (0.4, 1.8, 0.8) scaled by 1/1.8
+    assert!((p.x - 0.4 / 1.8).abs() < 1e-15 && p.y == 1.0 && (p.z - 0.8 / 1.8).abs() < 1e-15, "{p:?}");
+    // Bad values name the parameter.
+    for bad in [0.0, -1.0, f64::NAN] {
+        spec.max_component_value = bad;
+        let e = Film::new(spec.clone()).unwrap_err().to_string();
+        assert!(e.contains("maxcomponentvalue"), "{e}");
+    }
+}
+
+#[test]
+fn white_balance_maps_the_illuminant_to_the_output_white() {
+    // A white surface under CIE D50, XYZ normalised to Y = 1 (colour-science 0.4.7: sd_to_XYZ of SDS_ILLUMINANTS
+    // ['D50'] linearly interpolated to 1 nm, 360–830 nm: (0.96424065, 1, 0.82512776)). `whitebalance 5000` is
+    // (pbrt-v4) daylight at 5000 · 1.4388/1.4380 K, whose chromaticity we compute as (0.345669019, 0.358489925).
+    // colour-science's chromatic_adaptation_VonKries(XYZ, xyY_to_XYZ([0.345669019, 0.358489925, 1]),
+    // xyY_to_XYZ([0.3127, 0.3290, 1]), transform='Bradford') gives XYZ (0.95045272, 0.99999747, 1.08890548), which
+    // is sRGB (0.99991271, 1.00009119, 0.99991383): white to within 1e-3.
+    let d50 = Observer::Cie1931.spectrum_to_xyz(&spectral::named::illuminant("stdillum-D50").unwrap());
+    for (got, want) in d50.to_array().iter().zip([0.964_240_65, 1.0, 0.825_127_76]) {
+        assert!((got - want).abs() < 1e-6, "{d50:?}");
+    }
+    let mut spec = FilmSpec::new(1, 1, "wb.exr");
+    spec.sensor.white_balance_from = Some(spectral::daylight::white_balance_chromaticity(5000.0).unwrap());
+    let mut film = Film::new(spec).unwrap();
+    film.add_sample(0, 0, d50, 1.0, &[]);
+    let out = film.pixel_xyz(0, 0).to_array();
+    let wb = spectral::daylight::white_balance_chromaticity(5000.0).unwrap();
+    assert!((wb[0] - 0.345_669_019).abs() < 1e-9 && (wb[1] - 0.358_489_925).abs() < 1e-9, "{wb:?}");
+    for (got, want) in out.iter().zip([0.950_452_72, 0.999_997_47, 1.088_905_48]) {
+        assert!((got - want).abs() < 1e-7, "{out:?}");
+    }
+    let rgb = film.to_rgb_image()[0];
+    for (got, want) in rgb.iter().zip([0.999_912_71, 1.000_091_19, 0.999_913_83]) {
+        // colour-science's sRGB matrix and ours (derived from the primaries) differ in the 4th decimal.
+        assert!((*got as f64 - want).abs() < 3e-4, "{rgb:?}");
+        assert!((*got as f64 - 1.0).abs() < 1e-3, "{rgb:?}");
+    }
+    // Without white balance the same surface is visibly warm in sRGB (red above blue by more than 0.2).
+    let mut plain = Film::new(FilmSpec::new(1, 1, "p.exr")).unwrap();
+    plain.add_sample(0, 0, d50, 1.0, &[]);
+    let rgb = plain.to_rgb_image()[0];
+    assert!(rgb[0] - rgb[2] > 0.2, "{rgb:?}");
 }

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use film::{FilmKind, FilmSpec, Filter};
+use film::{FilmKind, FilmSpec, Filter, PixelSensor};
 use geometry::mesh::BilinearMeshData;
 use geometry::subdiv::loop_subdivide;
 use geometry::{GeometryScene, Instance, MeshData, Object, Shape, Transform, TriangleMesh};
@@ -604,8 +604,10 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     let scene_filename = PathBuf::from(fp.get_string("filename", "pbrt.exr")?);
     let filename = options.output.clone().unwrap_or(scene_filename);
     let filter = make_filter(&desc.filter)?;
-    let film =
-        FilmSpec { width: w, height: h, filename, kind, color_space: RgbColorSpace::srgb(), filter, aovs: false };
+    let mut film = FilmSpec::new(w, h, filename);
+    (film.kind, film.filter) = (kind, filter);
+    film.sensor = make_sensor(desc)?;
+    film.max_component_value = fp.get_float("maxcomponentvalue", f64::INFINITY)?;
     film.validate().map_err(|e| SceneError::at(desc.film.loc.clone(), e.to_string()))?;
 
     // Sampler and integrator.
@@ -803,6 +805,50 @@ fn p_count(p: &ParamSet, name: &str, default: i64, loc: &Loc) -> Result<usize> {
         return err(&l, format!("'{name}' must be a positive integer, got {v}"));
     }
     Ok(v as usize)
+}
+
+/// Where parameter `name` was written, or the directive's location if it was not.
+fn param_loc(p: &ParamSet, name: &str, directive: &Loc) -> Loc {
+    p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| directive.clone())
+}
+
+/// pbrt-v4's pixel sensor from the film's `sensor`, `iso` and `whitebalance` and the camera's shutter interval.
+///
+/// pbrt-v4 takes the exposure time as the camera's `shutterclose` − `shutteropen` (defaults 1 and 0, so 1 s) and
+/// `iso` defaults to 100, making the imaging ratio t · ISO / 100 exactly 1 by default; `whitebalance` (K) defaults
+/// to 0, no white balance, for the `cie1931` sensor. The measured camera sensors pbrt-v4 ships ("canon_eos_100d",
+/// …) need response curves we do not have, so any other `sensor` is an error.
+fn make_sensor(desc: &SceneDescription) -> Result<PixelSensor> {
+    let (fp, floc) = (&desc.film.params, &desc.film.loc);
+    let sensor = fp.get_string("sensor", "cie1931")?;
+    if sensor != "cie1931" {
+        return err(
+            &param_loc(fp, "sensor", floc),
+            format!("'sensor' \"{sensor}\" is not supported: only \"cie1931\" (measured camera sensors need response data we do not have)"),
+        );
+    }
+    let cp = &desc.camera.entity.params;
+    let (open, close) = (cp.get_float("shutteropen", 0.0)?, cp.get_float("shutterclose", 1.0)?);
+    let exposure = close - open;
+    if !(exposure.is_finite() && exposure > 0.0) {
+        return err(
+            &param_loc(cp, "shutterclose", &desc.camera.entity.loc),
+            format!("'shutterclose' ({close}) must be later than 'shutteropen' ({open}): the shutter never opens"),
+        );
+    }
+    let iso = fp.get_float("iso", 100.0)?;
+    if !(iso.is_finite() && iso > 0.0) {
+        return err(&param_loc(fp, "iso", floc), format!("'iso' must be a positive number, got {iso}"));
+    }
+    let temperature = fp.get_float("whitebalance", 0.0)?;
+    let white_balance_from = if temperature == 0.0 {
+        None
+    } else {
+        let xy = spectral::daylight::white_balance_chromaticity(temperature)
+            .map_err(|e| SceneError::at(param_loc(fp, "whitebalance", floc), e.to_string()))?;
+        Some(xy)
+    };
+    Ok(PixelSensor { imaging_ratio: PixelSensor::imaging_ratio(exposure, iso), white_balance_from })
 }
 
 fn make_filter(e: &Entity) -> Result<Filter> {

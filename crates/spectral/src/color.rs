@@ -168,13 +168,19 @@ pub const D65_WHITE: [f64; 2] = [0.3127, 0.3290];
 /// Bradford cone response matrix (Lam 1985, as used in ICC v4).
 const BRADFORD: Mat3 = [[0.8951, 0.2664, -0.1614], [-0.7502, 1.7135, 0.0367], [0.0389, -0.0685, 1.0296]];
 
-/// Chromatic adaptation of `xyz` from white `from` to white `to` (chromaticities) by the Bradford transform.
-pub fn bradford_adapt(xyz: Xyz, from: [f64; 2], to: [f64; 2]) -> Xyz {
+/// The XYZ → XYZ matrix of a von Kries chromatic adaptation in Bradford cone space from white `from` to white `to`
+/// (chromaticities, both taken at Y = 1): M⁻¹ · diag(ρ_d/ρ_s, γ_d/γ_s, β_d/β_s) · M with M the Bradford matrix
+/// (von Kries 1902; Lam 1985 for M). It maps the XYZ of `from` at any luminance to that of `to` at the same Y.
+pub fn white_balance_matrix(from: [f64; 2], to: [f64; 2]) -> Mat3 {
     let ws = mul_mat_vec(&BRADFORD, Xyz::from_xy_y(from, 1.0).to_array());
     let wd = mul_mat_vec(&BRADFORD, Xyz::from_xy_y(to, 1.0).to_array());
-    let lms = mul_mat_vec(&BRADFORD, xyz.to_array());
-    let adapted = [lms[0] * wd[0] / ws[0], lms[1] * wd[1] / ws[1], lms[2] * wd[2] / ws[2]];
-    Xyz::from_array(mul_mat_vec(&invert(&BRADFORD).expect("Bradford is invertible"), adapted))
+    let gain = [[wd[0] / ws[0], 0.0, 0.0], [0.0, wd[1] / ws[1], 0.0], [0.0, 0.0, wd[2] / ws[2]]];
+    mul_mat(&invert(&BRADFORD).expect("Bradford is invertible"), &mul_mat(&gain, &BRADFORD))
+}
+
+/// Chromatic adaptation of `xyz` from white `from` to white `to` (chromaticities) by the Bradford transform.
+pub fn bradford_adapt(xyz: Xyz, from: [f64; 2], to: [f64; 2]) -> Xyz {
+    Xyz::from_array(mul_mat_vec(&white_balance_matrix(from, to), xyz.to_array()))
 }
 
 /// The sRGB transfer function (IEC 61966-2-1): linear → encoded, for values in [0, 1] (clamped).
@@ -289,6 +295,18 @@ mod tests {
         let a = bradford_adapt(d65, D65_WHITE, d50);
         let xy = a.chromaticity();
         assert!(close(xy[0], d50[0], 1e-9) && close(xy[1], d50[1], 1e-9));
+    }
+
+    #[test]
+    fn white_balance_matrix_matches_colour_science() {
+        // colour-science 0.4.7: chromatic_adaptation_VonKries([0.2, 0.3, 0.4], xyY_to_XYZ([0.3457, 0.3585, 1]),
+        // xyY_to_XYZ([0.3127, 0.3290, 1]), transform='Bradford').
+        let m = white_balance_matrix([0.3457, 0.3585], D65_WHITE);
+        let got = mul_mat_vec(&m, [0.2, 0.3, 0.4]);
+        let want = [0.209_468_85, 0.305_741_25, 0.528_456_88];
+        for c in 0..3 {
+            assert!(close(got[c], want[c], 1e-6), "{got:?}");
+        }
     }
 
     #[test]

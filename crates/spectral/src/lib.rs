@@ -21,6 +21,7 @@
 pub mod blackbody;
 pub mod cmf;
 pub mod color;
+pub mod daylight;
 pub mod distribution;
 pub mod lab;
 pub mod named;

@@ -62,6 +62,7 @@ embedded_table!(cie1964, "cie1964_10deg_xyz.csv");
 embedded_table!(stiles_burch, "stiles_burch_1959_10deg_rgb.csv");
 embedded_table!(illuminants, "cie_illuminants.csv");
 embedded_table!(fluorescent, "cie_fluorescent_illuminants.csv");
+embedded_table!(daylight_basis, "cie_daylight_basis.csv");
 
 #[cfg(test)]
 mod tests {
@@ -74,6 +75,7 @@ mod tests {
         assert_eq!(stiles_burch().rows.len(), 89);
         assert_eq!(illuminants().rows.len(), 107);
         assert_eq!(fluorescent().columns.len(), 13);
+        assert_eq!(daylight_basis().rows.len(), 107);
         // Column sums of the 1931 observer quoted in the data README.
         let t = cie1931();
         let sums: Vec<f64> = ["x_bar", "y_bar", "z_bar"].iter().map(|c| t.column(c).iter().sum()).collect();

@@ -1,0 +1,100 @@
+//! pbrt-v4's pixel-sensor parameters end to end: `iso` and the camera's shutter interval scale the image by the
+//! imaging ratio t · ISO / 100, `whitebalance` and `maxcomponentvalue` reach the film, and unsupported sensors or
+//! bad values are errors naming the parameter with file:line:column.
+
+use std::path::Path;
+
+use film::Film;
+use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::render::render_film;
+use spectral::{Observer, WavelengthSampler, WavelengthStrategy};
+
+fn scene(film_params: &str, camera_params: &str) -> String {
+    format!(
+        "LookAt 0 0 -5  0 0 0  0 1 0\n\
+         Camera \"orthographic\" \"float screenwindow\" [ -1 1 -1 1 ] {camera_params}\n\
+         Film \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 4 {film_params}\n\
+         PixelFilter \"box\"\n\
+         WorldBegin\n\
+         LightSource \"infinite\" \"rgb L\" [ 0.3 0.6 0.9 ]\n\
+         Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.2 0.7 ]\n\
+         Shape \"sphere\" \"float radius\" 0.8\n"
+    )
+}
+
+fn build(text: &str) -> Result<BuiltScene, String> {
+    let desc = pbrt::parse_str(text, Path::new("sensor.pbrt")).map_err(|e| e.to_string())?;
+    build_scene(&desc, &BuildOptions::default()).map_err(|e| e.to_string())
+}
+
+fn build_err(text: &str) -> String {
+    match build(text) {
+        Ok(_) => panic!("expected an error for\n{text}"),
+        Err(e) => e,
+    }
+}
+
+fn render(built: &BuiltScene) -> Film {
+    let mut film = Film::new(built.film.clone()).unwrap();
+    let wavelengths = WavelengthSampler::new(WavelengthStrategy::Hero, Observer::Cie1931);
+    render_film(&built.scene, &built.integrator, &wavelengths, &mut film, 0..8, 7, &|_| {}).unwrap();
+    film
+}
+
+#[test]
+fn iso_and_shutter_scale_the_image_by_the_imaging_ratio() {
+    let base = build(&scene("", "")).unwrap();
+    assert_eq!(base.film.sensor.imaging_ratio, 1.0); // pbrt-v4 defaults: 1 s, ISO 100
+    let reference = render(&base);
+    // ISO 200 → ratio 2; ISO 100 with the shutter open 0.25 s (0.5 to 0.75) → ratio 0.25. Both are powers of two,
+    // so the same samples give exactly scaled pixels.
+    for (film, camera, k) in [
+        ("\"float iso\" 200", "", 2.0),
+        ("\"float iso\" 100", "\"float shutteropen\" 0.5 \"float shutterclose\" 0.75", 0.25),
+        ("\"float iso\" 400", "\"float shutterclose\" 0.5", 2.0),
+    ] {
+        let built = build(&scene(film, camera)).unwrap();
+        assert!(built.warnings.is_empty(), "{:#?}", built.warnings); // the parameters are used
+        assert_eq!(built.film.sensor.imaging_ratio, k);
+        let scaled = render(&built);
+        let (a, b) = (reference.to_rgb_image(), scaled.to_rgb_image());
+        assert!(a.iter().any(|p| p[0] > 0.01)); // something was rendered
+        for (p, q) in a.iter().zip(&b) {
+            for c in 0..3 {
+                assert_eq!(p[c] * k as f32, q[c], "{film} {camera}");
+            }
+        }
+    }
+}
+
+#[test]
+fn white_balance_and_max_component_value_reach_the_film() {
+    let built = build(&scene("\"float whitebalance\" 5000 \"float maxcomponentvalue\" 10", "")).unwrap();
+    assert!(built.warnings.is_empty(), "{:#?}", built.warnings);
+    let want = spectral::daylight::white_balance_chromaticity(5000.0).unwrap();
+    assert_eq!(built.film.sensor.white_balance_from, Some(want));
+    assert_eq!(built.film.max_component_value, 10.0);
+    // whitebalance 0 (the cie1931 default) means none; so does leaving it out.
+    let none = build(&scene("\"float whitebalance\" 0", "")).unwrap();
+    assert_eq!(none.film.sensor.white_balance_from, None);
+    assert_eq!(build(&scene("", "")).unwrap().film.max_component_value, f64::INFINITY);
+}
+
+#[test]
+fn unsupported_sensors_and_bad_values_are_errors_naming_the_parameter() {
+    let e = build_err(&scene("\"string sensor\" \"canon_eos_100d\"", ""));
+    assert!(e.contains("'sensor'") && e.contains("canon_eos_100d") && e.contains("cie1931"), "{e}");
+    assert!(e.contains("sensor.pbrt:3:"), "{e}"); // file:line:column of the parameter
+    assert!(build(&scene("\"string sensor\" \"cie1931\"", "")).is_ok());
+    for (film, camera, name) in [
+        ("\"float iso\" 0", "", "'iso'"),
+        ("\"float iso\" -100", "", "'iso'"),
+        ("\"float whitebalance\" -10", "", "whitebalance"),
+        ("\"float whitebalance\" 40000", "", "whitebalance"),
+        ("\"float maxcomponentvalue\" 0", "", "maxcomponentvalue"),
+        ("", "\"float shutteropen\" 1 \"float shutterclose\" 1", "'shutterclose'"),
+    ] {
+        let e = build_err(&scene(film, camera));
+        assert!(e.contains(name) && e.contains("sensor.pbrt:"), "{film} {camera}: {e}");
+    }
+}
