@@ -200,7 +200,7 @@ const MALFORMED: &[(&str, u32, u32, &str)] = &[
     ("Film \"rgb\"", 1, 6, "end of input before WorldBegin"),
     ("WorldBegin\n  WorldBegin\n", 2, 3, "WorldBegin given twice"),
     // Found by the scene builder.
-    ("Integrator \"bdpt\"\nWorldBegin\n", 1, 1, "integrator 'bdpt' is not supported"),
+    ("Integrator \"mlt\"\nWorldBegin\n", 1, 1, "integrator 'mlt' is not supported"),
     ("WorldBegin\nMaterial \"dielectric\" \"string glass\" \"N-XYZ\"\nShape \"sphere\"\n", 2, 23, "N-XYZ"),
     ("Film \"rgb\" \"integer xresolution\" 0\nWorldBegin\n", 1, 12, "xresolution"),
 ];

@@ -634,6 +634,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
             Integrator::Path(PathIntegrator { max_depth: md })
         }
         "lightpath" => Integrator::LightPath(LightPathIntegrator { max_depth: max_depth()? }),
+        "bdpt" => Integrator::Bdpt(crate::bdpt::BdptIntegrator { max_depth: max_depth()? }),
         "sppm" => {
             let photons = ip.get_int("photonsperiteration", -1)?;
             let radius = ip.get_float("radius", 1.0)?;
@@ -656,7 +657,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
         other => {
             return err(
                 &desc.integrator.loc,
-                unsupported("integrator", other, &["path", "volpath", "lightpath", "sppm"]),
+                unsupported("integrator", other, &["path", "volpath", "lightpath", "sppm", "bdpt"]),
             )
         }
     };
@@ -776,7 +777,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
 
     // Camera.
     let camera = make_camera(desc, (w, h))?;
-    if matches!(integrator, Integrator::LightPath(_)) && !camera.supports_light_tracing() {
+    if matches!(integrator, Integrator::LightPath(_) | Integrator::Bdpt(_)) && !camera.supports_light_tracing() {
         return err(
             &desc.camera.entity.loc,
             format!("integrator \"{}\" needs a perspective camera (an orthographic camera cannot be reached by light paths)", integrator.name()),

@@ -143,6 +143,11 @@ impl Camera {
         matches!(self.projection, Projection::Perspective { .. })
     }
 
+    /// True for a thin lens (finite aperture), false for a pinhole.
+    pub fn lens_area_is_finite(&self) -> bool {
+        self.lens_radius > 0.0
+    }
+
     /// Unit viewing axis (camera +z) in world space.
     pub fn forward(&self) -> Vec3 {
         self.world_from_camera.vector(DVec3::Z).normalize().as_vec3()

@@ -43,6 +43,8 @@ pub enum Integrator {
     LightPath(crate::lightpath::LightPathIntegrator),
     /// Stochastic progressive photon mapping; the render's sample count is its number of iterations.
     Sppm(crate::sppm::SppmIntegrator),
+    /// Bidirectional path tracing with MIS over all connection strategies.
+    Bdpt(crate::bdpt::BdptIntegrator),
 }
 
 impl Integrator {
@@ -52,6 +54,7 @@ impl Integrator {
             Integrator::Path(_) => "path",
             Integrator::LightPath(_) => "lightpath",
             Integrator::Sppm(_) => "sppm",
+            Integrator::Bdpt(_) => "bdpt",
         }
     }
 }

@@ -2,6 +2,7 @@
 //!
 //! Knows nothing of file formats: it consumes the plain scene description and writes into a film.
 
+pub mod bdpt;
 pub mod builder;
 pub mod bxdf;
 pub mod camera;

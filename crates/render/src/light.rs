@@ -33,6 +33,8 @@ pub struct LightLiSample {
     pub p: Vec3,
     /// True for delta distributions (point, spot, distant), which BSDF sampling can never hit.
     pub delta: bool,
+    /// Unit surface normal at the sampled point for area lights (zero for other lights).
+    pub n: Vec3,
 }
 
 /// A ray of light leaving a light source, for light tracing and photon mapping.
@@ -161,6 +163,7 @@ impl Light {
                     dist: d2.sqrt(),
                     p: *p,
                     delta: true,
+                    n: Vec3::ZERO,
                 })
             }
             Light::Spot { p, frame, i, cos_falloff_start, cos_falloff_end } => {
@@ -179,6 +182,7 @@ impl Light {
                     dist: d2.sqrt(),
                     p: *p,
                     delta: true,
+                    n: Vec3::ZERO,
                 })
             }
             Light::Distant { w, l, .. } => Some(LightLiSample {
@@ -188,6 +192,7 @@ impl Light {
                 dist: f32::INFINITY,
                 p: Vec3::ZERO,
                 delta: true,
+                n: Vec3::ZERO,
             }),
             Light::UniformInfinite { l, .. } => {
                 let wi = sample_uniform_sphere(u);
@@ -198,6 +203,7 @@ impl Light {
                     dist: f32::INFINITY,
                     p: Vec3::ZERO,
                     delta: false,
+                    n: Vec3::ZERO,
                 })
             }
             Light::ImageInfinite { map, scale, .. } => {
@@ -213,6 +219,7 @@ impl Light {
                     dist: f32::INFINITY,
                     p: Vec3::ZERO,
                     delta: false,
+                    n: Vec3::ZERO,
                 })
             }
             Light::DiffuseArea { shape, element, l, two_sided } => {
@@ -231,7 +238,7 @@ impl Light {
                 if !facing && !two_sided {
                     return None;
                 }
-                Some(LightLiSample { l: l.sample(wl), wi, pdf, dist, p, delta: false })
+                Some(LightLiSample { l: l.sample(wl), wi, pdf, dist, p, delta: false, n })
             }
         }
     }
@@ -326,6 +333,44 @@ impl Light {
             }
         };
         (s.pdf_pos > 0.0 && s.pdf_dir > 0.0 && s.pdf_pos.is_finite() && s.pdf_dir.is_finite()).then_some(s)
+    }
+
+    /// True for lights whose position is a delta (point and spot lights): no ray can hit them.
+    pub fn is_delta_position(&self) -> bool {
+        matches!(self, Light::Point { .. } | Light::Spot { .. })
+    }
+
+    /// True for lights whose direction is a delta (distant lights).
+    pub fn is_delta_direction(&self) -> bool {
+        matches!(self, Light::Distant { .. })
+    }
+
+    /// Densities with which [`Light::sample_le`] emits a ray leaving the light in unit direction `w`: per unit area
+    /// of the origin (0 for a point light's delta position; the disk's 1/(πR²) for lights at infinity) and per
+    /// steradian of the direction (0 for a distant light's delta direction). `n` is the emitting surface's normal
+    /// at the origin for area lights (ignored otherwise); `scene_radius` the radius of the scene's bounding sphere.
+    pub fn pdf_le(&self, n: Vec3, w: Vec3, scene_radius: f32) -> (f32, f32) {
+        let disk = 1.0 / (PI * scene_radius.max(1e-6) * scene_radius.max(1e-6));
+        match self {
+            Light::Point { .. } => (0.0, 1.0 / (4.0 * PI)),
+            Light::Spot { frame, cos_falloff_end, .. } => {
+                let inside = frame.z.dot(w) >= *cos_falloff_end;
+                (0.0, if inside { 1.0 / (2.0 * PI * (1.0 - cos_falloff_end)) } else { 0.0 })
+            }
+            Light::Distant { .. } => (disk, 0.0),
+            Light::UniformInfinite { .. } | Light::ImageInfinite { .. } => (disk, self.pdf_li_infinite(-w)),
+            Light::DiffuseArea { shape, element, two_sided, .. } => {
+                let area = shape.area(*element as usize);
+                let pos = if area > 0.0 { 1.0 / area } else { 0.0 };
+                let cos = n.dot(w);
+                let dir = if *two_sided {
+                    0.5 * crate::sampling::cosine_hemisphere_pdf(cos.abs())
+                } else {
+                    crate::sampling::cosine_hemisphere_pdf(cos)
+                };
+                (pos, dir)
+            }
+        }
     }
 
     /// Solid-angle density that [`Light::sample_li`] would give for direction `wi` from `from` (area lights).

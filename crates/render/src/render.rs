@@ -9,6 +9,7 @@ use std::ops::Range;
 use film::{Film, FilmError, FilterSampler};
 use rayon::prelude::*;
 
+use crate::bdpt::BdptIntegrator;
 use crate::integrator::{Integrator, PathIntegrator, RayCounts};
 use crate::lightpath::LightPathIntegrator;
 use crate::sampler::Sampler;
@@ -99,6 +100,7 @@ pub fn render_film(
     match integrator {
         Integrator::Path(p) => render_camera_paths(scene, p, wavelengths, film, samples, seed, progress),
         Integrator::LightPath(lp) => render_light_paths(scene, lp, wavelengths, film, samples, seed, progress),
+        Integrator::Bdpt(b) => render_bdpt(scene, b, wavelengths, film, samples, seed, progress),
         Integrator::Sppm(sppm) => {
             // A fresh progressive state for these iterations; callers that add iterations over time keep an
             // `SppmState` themselves.
@@ -120,6 +122,68 @@ struct SplatRecord {
     spectral: SpectralEstimates,
 }
 
+/// A camera sample's contribution to its own pixel, from a splatting integrator.
+struct CameraRecord {
+    x: u32,
+    xyz: Xyz,
+    weight: f32,
+    spectral: SpectralEstimates,
+}
+
+/// What one pixel sample of a splatting integrator produced.
+#[derive(Default)]
+struct SampleRecords {
+    camera: Vec<CameraRecord>,
+    splats: Vec<SplatRecord>,
+}
+
+/// Runs `per_sample(x, y, s, counts, records)` for every pixel sample, rows in parallel in batches small enough to
+/// hold their records in memory, then adds the camera samples and splats in row order: the same sums in the same
+/// order for any number of threads. Counts `samples` light paths per pixel for the splats' scale.
+fn render_splatting(
+    film: &mut Film,
+    samples: Range<u32>,
+    progress: &(dyn Fn(u64) + Sync),
+    per_sample: &(dyn Fn(u32, u32, u32, &mut RayCounts, &mut SampleRecords) + Sync),
+) -> RenderStats {
+    let (w, h) = (film.width(), film.height());
+    let spp = (samples.end - samples.start) as u64;
+    let paths_per_row = (w as u64 * spp).max(1);
+    let batch_rows = ((1u64 << 16) / paths_per_row).clamp(1, h as u64) as u32;
+    let mut stats = RenderStats::default();
+    let mut y0 = 0;
+    while y0 < h {
+        let y1 = (y0 + batch_rows).min(h);
+        let rows: Vec<(SampleRecords, RayCounts)> = (y0..y1)
+            .into_par_iter()
+            .map(|y| {
+                let mut records = SampleRecords::default();
+                let mut counts = RayCounts::default();
+                for x in 0..w {
+                    for s in samples.clone() {
+                        per_sample(x, y, s, &mut counts, &mut records);
+                    }
+                }
+                progress(paths_per_row);
+                (records, counts)
+            })
+            .collect();
+        for (y, (records, counts)) in (y0..y1).zip(rows) {
+            for c in &records.camera {
+                film.add_sample(c.x, y, c.xyz, c.weight as f64, c.spectral.as_slice());
+            }
+            for sp in &records.splats {
+                film.add_splat(sp.raster, sp.xyz, sp.spectral.as_slice());
+            }
+            stats.rays += counts.intersect + counts.shadow;
+        }
+        y0 = y1;
+    }
+    film.add_light_paths(w as u64 * h as u64 * spp);
+    stats.samples = w as u64 * h as u64 * spp;
+    stats
+}
+
 /// Camera rays for directly visible light, and one light path per pixel sample, splatted.
 fn render_light_paths(
     scene: &RenderScene,
@@ -133,49 +197,80 @@ fn render_light_paths(
     // Emitters seen directly: a path tracer that stops at the first surface.
     let direct = PathIntegrator { max_depth: 0 };
     let mut stats = render_camera_paths(scene, &direct, wavelengths, film, samples.clone(), seed, &|_| {})?;
-    stats.samples = 0;
-    let (w, h) = (film.width(), film.height());
     let light_seed = crate::sampler::hash_words(&[seed, LIGHT_PATH_SEED_SALT]);
-    // Rows of light paths are traced in parallel in batches small enough to hold their splats in memory, then the
-    // splats are added in row order: the same sums in the same order for any number of threads.
-    let paths_per_row = (w as u64 * (samples.end - samples.start) as u64).max(1);
-    let batch_rows = ((1u64 << 16) / paths_per_row).clamp(1, h as u64) as u32;
-    let mut y0 = 0;
-    while y0 < h {
-        let y1 = (y0 + batch_rows).min(h);
-        let rows: Vec<(Vec<SplatRecord>, RayCounts)> = (y0..y1)
-            .into_par_iter()
-            .map(|y| {
-                let mut splats = Vec::new();
-                let mut counts = RayCounts::default();
-                for x in 0..w {
-                    for s in samples.clone() {
-                        let mut sampler = Sampler::new(x, y, s, light_seed);
-                        let mut wl = wavelengths.sample(sampler.next_1d() as f64);
-                        integrator.trace(scene, &mut wl, &mut sampler, &mut counts, |raster, l, wl| {
-                            splats.push(SplatRecord {
-                                raster: [raster.x as f64, raster.y as f64],
-                                xyz: wavelengths.to_xyz(&l, wl),
-                                spectral: SpectralEstimates::new(&l, wl),
-                            });
-                        });
-                    }
-                }
-                progress(paths_per_row);
-                (splats, counts)
-            })
-            .collect();
-        for (splats, counts) in rows {
-            for sp in &splats {
-                film.add_splat(sp.raster, sp.xyz, sp.spectral.as_slice());
-            }
-            stats.rays += counts.intersect + counts.shadow;
-        }
-        y0 = y1;
-    }
-    film.add_light_paths(w as u64 * h as u64 * (samples.end - samples.start) as u64);
-    stats.samples = w as u64 * h as u64 * (samples.end - samples.start) as u64;
+    let per_sample = |x: u32, y: u32, s: u32, counts: &mut RayCounts, records: &mut SampleRecords| {
+        let mut sampler = Sampler::new(x, y, s, light_seed);
+        let mut wl = wavelengths.sample(sampler.next_1d() as f64);
+        integrator.trace(scene, &mut wl, &mut sampler, counts, |raster, l, wl| {
+            records.splats.push(SplatRecord {
+                raster: [raster.x as f64, raster.y as f64],
+                xyz: wavelengths.to_xyz(&l, wl),
+                spectral: SpectralEstimates::new(&l, wl),
+            });
+        });
+    };
+    let light = render_splatting(film, samples, progress, &per_sample);
+    stats.rays += light.rays;
+    stats.samples = light.samples;
     Ok(stats)
+}
+
+/// Salts of the bidirectional path tracer's second and third samplers.
+const BDPT_CONNECT_SEED_SALT: u32 = 0x636f_6e6e;
+
+/// Bidirectional path tracing: per pixel sample a camera sample for the pixel and splats for t = 1 connections.
+fn render_bdpt(
+    scene: &RenderScene,
+    integrator: &BdptIntegrator,
+    wavelengths: &WavelengthSampler,
+    film: &mut Film,
+    samples: Range<u32>,
+    seed: u32,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RenderStats, FilmError> {
+    let filter_sampler = FilterSampler::new(&film.spec().filter)?;
+    let light_seed = crate::sampler::hash_words(&[seed, LIGHT_PATH_SEED_SALT]);
+    let connect_seed = crate::sampler::hash_words(&[seed, BDPT_CONNECT_SEED_SALT]);
+    let per_sample = |x: u32, y: u32, s: u32, counts: &mut RayCounts, records: &mut SampleRecords| {
+        let mut sampler = Sampler::new(x, y, s, seed);
+        let mut wl = wavelengths.sample(sampler.next_1d() as f64);
+        let f = filter_sampler.sample({
+            let [a, b] = sampler.next_2d();
+            [a as f64, b as f64]
+        });
+        let lens = Vec2::from(sampler.next_2d());
+        let film_p = Vec2::new(x as f32 + 0.5 + f.offset[0] as f32, y as f32 + 0.5 + f.offset[1] as f32);
+        let ray = scene.camera.generate_ray(film_p, lens);
+        let mut light_sampler = Sampler::new(x, y, s, light_seed);
+        let mut connect_sampler = Sampler::new(x, y, s, connect_seed);
+        let mut splats = Vec::new();
+        let l = integrator.li(
+            scene,
+            ray.origin,
+            ray.direction,
+            &mut wl,
+            [&mut sampler, &mut light_sampler, &mut connect_sampler],
+            counts,
+            |raster, c, wl| splats.push((raster, c, *wl)),
+        );
+        // Splats are converted with the wavelengths they were made at (a later dispersive event on the other
+        // subpath may have reduced the set since).
+        for (raster, c, swl) in splats {
+            records.splats.push(SplatRecord {
+                raster: [raster.x as f64, raster.y as f64],
+                xyz: wavelengths.to_xyz(&c, &swl),
+                spectral: SpectralEstimates::new(&c, &swl),
+            });
+        }
+        let l = if l.0.iter().all(|v| v.is_finite()) { l } else { spectral::SampledSpectrum::zero() };
+        records.camera.push(CameraRecord {
+            x,
+            xyz: wavelengths.to_xyz(&l, &wl),
+            weight: f.weight as f32,
+            spectral: SpectralEstimates::new(&l, &wl),
+        });
+    };
+    Ok(render_splatting(film, samples, progress, &per_sample))
 }
 
 /// Path tracing from the camera: see [`render_film`].

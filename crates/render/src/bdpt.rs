@@ -1,0 +1,789 @@
+//! The `bdpt` integrator: bidirectional path tracing with multiple importance sampling over every connection
+//! strategy (Veach & Guibas 1995; Veach 1997 ch. 10; pbrt-v4 §16.3 describes the same algorithm).
+//!
+//! Each pixel sample traces a camera subpath and a light subpath and joins every prefix pair (s light vertices,
+//! t camera vertices): s = 0 is a camera path that hits an emitter, t = 1 connects a light subpath vertex to the
+//! lens (splatted, like the light tracer), s = 1 samples a point on a light (next-event estimation), and the rest
+//! join two surface vertices with a shadow ray. Every strategy is weighted by the balance heuristic over all the
+//! strategies that could have produced the same path, computed from the area densities of each vertex sampled
+//! forwards and backwards. Delta lights (point, spot, distant) and specular BSDFs take part as in Veach: a
+//! strategy that would need to hit a delta distribution has density zero and is left out of the weights.
+//!
+//! Spectral: both subpaths carry the pixel sample's wavelengths; the camera subpath is traced first, and a
+//! dispersive refraction on either side reduces them to one (the reduction is an unbiased random choice, so
+//! strategies evaluated afterwards at the reduced wavelengths stay unbiased). Absorbing media attenuate every
+//! segment by Beer–Lambert.
+
+use glam::{Vec2, Vec3};
+use spectral::{SampledSpectrum, SampledWavelengths};
+use std::f32::consts::PI;
+
+use crate::bxdf::{Bxdf, TransportMode};
+use crate::integrator::{next_medium, resolve_surface, RayCounts, Surface};
+use crate::sampler::Sampler;
+use crate::sampling::Frame;
+use crate::scene::{MediumInterface, RenderScene, SurfaceHit};
+
+/// pbrt-v4's `bdpt` parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct BdptIntegrator {
+    /// Maximum number of scattering events of a full path (default 5).
+    pub max_depth: u32,
+}
+
+/// Dimensions drawn per bounce of either subpath.
+const DIMS_PER_BOUNCE: usize = 7;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// The camera (lens point).
+    Camera,
+    /// A point on a light, or the start of a light subpath (index into the scene's lights).
+    Light(u32),
+    /// A camera subpath that escaped to the infinite lights.
+    Escape,
+    /// A scattering surface.
+    Surface,
+}
+
+/// A subpath vertex (Veach 1997 §10.2; the fields pbrt-v4's `Vertex` keeps).
+#[derive(Clone, Debug)]
+struct Vertex {
+    kind: Kind,
+    p: Vec3,
+    p_error: Vec3,
+    /// Geometric normal (zero where there is no surface: point lights, pinhole camera, lights at infinity).
+    ng: Vec3,
+    /// Shading normal.
+    ns: Vec3,
+    frame: Frame,
+    bxdf: Option<Bxdf>,
+    /// Unit direction towards the previous vertex of the subpath (surfaces).
+    wo: Vec3,
+    /// Throughput of the subpath up to and including this vertex.
+    beta: SampledSpectrum,
+    /// Scattering here was a delta event.
+    delta: bool,
+    /// Area density of sampling this vertex from the previous one (solid angle for a vertex at infinity).
+    pdf_fwd: f32,
+    /// Area density of sampling this vertex from the next one (the path traced the other way).
+    pdf_rev: f32,
+    /// The area light on this surface.
+    area_light: Option<u32>,
+    media: Option<MediumInterface>,
+    /// The medium the subpath arrived through.
+    medium: Option<u32>,
+    /// For an escaped camera ray, its direction (towards infinity).
+    w_escape: Vec3,
+    mode: TransportMode,
+}
+
+impl Vertex {
+    fn endpoint(kind: Kind, p: Vec3, ng: Vec3, beta: SampledSpectrum, pdf_fwd: f32, medium: Option<u32>) -> Self {
+        Vertex {
+            kind,
+            p,
+            p_error: Vec3::ZERO,
+            ng,
+            ns: ng,
+            frame: Frame::from_z(if ng == Vec3::ZERO { Vec3::Z } else { ng }),
+            bxdf: None,
+            wo: Vec3::ZERO,
+            beta,
+            delta: false,
+            pdf_fwd,
+            pdf_rev: 0.0,
+            area_light: None,
+            media: None,
+            medium,
+            w_escape: Vec3::ZERO,
+            mode: TransportMode::Radiance,
+        }
+    }
+
+    fn on_surface(&self) -> bool {
+        self.ng != Vec3::ZERO
+    }
+
+    fn light_index(&self) -> Option<u32> {
+        match self.kind {
+            Kind::Light(l) => Some(l),
+            Kind::Surface => self.area_light,
+            _ => None,
+        }
+    }
+
+    fn is_light(&self) -> bool {
+        self.kind == Kind::Escape || self.light_index().is_some()
+    }
+
+    fn is_infinite_light(&self, scene: &RenderScene) -> bool {
+        match self.kind {
+            Kind::Escape => true,
+            Kind::Light(l) => {
+                let light = &scene.lights[l as usize];
+                light.is_infinite() || light.is_delta_direction()
+            }
+            _ => false,
+        }
+    }
+
+    fn is_delta_light(&self, scene: &RenderScene) -> bool {
+        match self.kind {
+            Kind::Light(l) => {
+                let light = &scene.lights[l as usize];
+                light.is_delta_position() || light.is_delta_direction()
+            }
+            _ => false,
+        }
+    }
+
+    fn is_connectible(&self, scene: &RenderScene) -> bool {
+        match self.kind {
+            Kind::Camera => true,
+            Kind::Light(l) => !scene.lights[l as usize].is_delta_direction(),
+            Kind::Escape => false,
+            Kind::Surface => self.bxdf.as_ref().is_some_and(|b| !b.is_specular()),
+        }
+    }
+
+    /// The medium on the side of this vertex that direction `w` leaves through.
+    fn medium_towards(&self, w: Vec3) -> Option<u32> {
+        match self.media {
+            Some(mi) => {
+                if w.dot(self.ng) < 0.0 {
+                    mi.inside
+                } else {
+                    mi.outside
+                }
+            }
+            None => self.medium,
+        }
+    }
+
+    /// A solid-angle density at this vertex turned into an area density at `next` (pbrt-v4 eq. 16.? : cos/d²).
+    fn convert_density(&self, pdf: f32, next: &Vertex, scene: &RenderScene) -> f32 {
+        if next.is_infinite_light(scene) {
+            return pdf;
+        }
+        let w = next.p - self.p;
+        let d2 = w.length_squared();
+        if d2 == 0.0 {
+            return 0.0;
+        }
+        let mut pdf = pdf / d2;
+        if next.on_surface() {
+            pdf *= next.ng.dot(w / d2.sqrt()).abs();
+        }
+        pdf
+    }
+
+    /// BSDF value for light arriving from `next` and leaving towards the previous vertex (or the reverse, in
+    /// importance mode), with the adjoint shading-normal correction (Veach 1997 eq. 5.19) in importance mode.
+    fn f(&self, next: &Vertex) -> SampledSpectrum {
+        let Some(bxdf) = &self.bxdf else { return SampledSpectrum::zero() };
+        let Some(wi) = (next.p - self.p).try_normalize() else { return SampledSpectrum::zero() };
+        let f = bxdf.f(self.frame.to_local(self.wo), self.frame.to_local(wi), self.mode);
+        if self.mode == TransportMode::Importance {
+            f * correct_shading_normal(self.wo, wi, self.ns, self.ng)
+        } else {
+            f
+        }
+    }
+
+    /// Area density at `next` of sampling it from this vertex, having come from `prev`.
+    fn pdf(&self, scene: &RenderScene, prev: Option<&Vertex>, next: &Vertex) -> f32 {
+        if matches!(self.kind, Kind::Light(_) | Kind::Escape) {
+            return self.pdf_light(scene, next);
+        }
+        let wn = if next.kind == Kind::Escape { next.w_escape } else { next.p - self.p };
+        let Some(wn) = wn.try_normalize() else { return 0.0 };
+        let pdf = match self.kind {
+            Kind::Camera => scene.camera.pdf_we(self.p, wn).1,
+            _ => {
+                let (Some(bxdf), Some(prev)) = (&self.bxdf, prev) else { return 0.0 };
+                let Some(wp) = (prev.p - self.p).try_normalize() else { return 0.0 };
+                bxdf.pdf(self.frame.to_local(wp), self.frame.to_local(wn), self.mode)
+            }
+        };
+        self.convert_density(pdf, next, scene)
+    }
+
+    /// Area density at `v` of a light path leaving this light vertex towards it (`sample_le`'s direction).
+    fn pdf_light(&self, scene: &RenderScene, v: &Vertex) -> f32 {
+        let w = v.p - self.p;
+        let d2 = w.length_squared();
+        if d2 == 0.0 {
+            return 0.0;
+        }
+        let w = w / d2.sqrt();
+        let mut pdf = if self.is_infinite_light(scene) {
+            // Lights at infinity emit from a disk of the scene's radius: planar density.
+            let r = scene.bounding_sphere.1;
+            1.0 / (PI * r * r)
+        } else {
+            let Some(l) = self.light_index() else { return 0.0 };
+            scene.lights[l as usize].pdf_le(self.ng, w, scene.bounding_sphere.1).1 / d2
+        };
+        if v.on_surface() {
+            pdf *= v.ng.dot(w).abs();
+        }
+        pdf
+    }
+
+    /// Density of choosing this light vertex as the start of a light subpath (light selection times position;
+    /// for lights at infinity, the direction towards `v`).
+    fn pdf_light_origin(&self, scene: &RenderScene, v: &Vertex) -> f32 {
+        let Some(w) = (v.p - self.p).try_normalize() else { return 0.0 };
+        if self.is_infinite_light(scene) {
+            return scene
+                .infinite_lights
+                .iter()
+                .map(|&l| scene.light_probability(l) * scene.lights[l as usize].pdf_li_infinite(-w))
+                .sum();
+        }
+        let Some(l) = self.light_index() else { return 0.0 };
+        scene.light_probability(l) * scene.lights[l as usize].pdf_le(self.ng, w, scene.bounding_sphere.1).0
+    }
+
+    /// Radiance emitted from this vertex towards `v`.
+    fn le(&self, scene: &RenderScene, v: &Vertex, wl: &SampledWavelengths) -> SampledSpectrum {
+        match self.kind {
+            Kind::Escape => {
+                let mut l = SampledSpectrum::zero();
+                for &i in &scene.infinite_lights {
+                    l += scene.lights[i as usize].le(self.w_escape, wl);
+                }
+                l
+            }
+            Kind::Surface => match (self.area_light, (v.p - self.p).try_normalize()) {
+                (Some(li), Some(w)) => scene.lights[li as usize].l_area(self.ng, w, wl),
+                _ => SampledSpectrum::zero(),
+            },
+            _ => SampledSpectrum::zero(),
+        }
+    }
+
+    fn surface_point(&self) -> geometry::SurfacePoint {
+        geometry::SurfacePoint { p: self.p, p_error: self.p_error, n: self.ng }
+    }
+}
+
+/// |wo·ns|·|wi·ng| / (|wo·ng|·|wi·ns|): the factor that makes shading normals symmetric for importance transport.
+fn correct_shading_normal(wo: Vec3, wi: Vec3, ns: Vec3, ng: Vec3) -> f32 {
+    let den = wo.dot(ng).abs() * wi.dot(ns).abs();
+    if den == 0.0 {
+        0.0
+    } else {
+        wo.dot(ns).abs() * wi.dot(ng).abs() / den
+    }
+}
+
+/// Visibility and transmittance between two vertices (1 or Beer–Lambert if unoccluded, 0 if occluded).
+fn transmittance(
+    scene: &RenderScene,
+    a: &Vertex,
+    b: &Vertex,
+    wl: &SampledWavelengths,
+    counts: &mut RayCounts,
+) -> Option<SampledSpectrum> {
+    let (ray, t_max) = geometry::spawn_ray_to(&a.surface_point(), &b.surface_point());
+    counts.shadow += 1;
+    if scene.geometry.occluded(ray.o, ray.d, t_max) {
+        return None;
+    }
+    let w = b.p - a.p;
+    let mut tr = SampledSpectrum::splat(1.0);
+    if let Some(m) = a.medium_towards(w) {
+        tr *= scene.media[m as usize].transmittance(w.length(), wl);
+    }
+    Some(tr)
+}
+
+/// The geometry term with visibility: |cos|·|cos|/d² (shading normals) times the transmittance.
+fn g(scene: &RenderScene, a: &Vertex, b: &Vertex, wl: &SampledWavelengths, counts: &mut RayCounts) -> SampledSpectrum {
+    let d = a.p - b.p;
+    let d2 = d.length_squared();
+    if d2 == 0.0 {
+        return SampledSpectrum::zero();
+    }
+    let dn = d / d2.sqrt();
+    let mut g = 1.0 / d2;
+    if a.on_surface() {
+        g *= a.ns.dot(dn).abs();
+    }
+    if b.on_surface() {
+        g *= b.ns.dot(dn).abs();
+    }
+    if g == 0.0 {
+        return SampledSpectrum::zero();
+    }
+    match transmittance(scene, a, b, wl, counts) {
+        Some(tr) => tr * g,
+        None => SampledSpectrum::zero(),
+    }
+}
+
+impl BdptIntegrator {
+    /// One pixel sample: the camera ray `(o, d)` from raster position `film`, subpaths drawn from the three
+    /// samplers (camera subpath, light subpath, connections), at wavelengths `wl`. Returns the radiance for the
+    /// pixel; connections to the lens (t = 1) go to `splat(raster, contribution, wavelengths)` instead.
+    #[allow(clippy::too_many_arguments)]
+    pub fn li(
+        &self,
+        scene: &RenderScene,
+        o: Vec3,
+        d: Vec3,
+        wl: &mut SampledWavelengths,
+        samplers: [&mut Sampler; 3],
+        counts: &mut RayCounts,
+        mut splat: impl FnMut(Vec2, SampledSpectrum, &SampledWavelengths),
+    ) -> SampledSpectrum {
+        let [camera_sampler, light_sampler, connect_sampler] = samplers;
+        let camera = self.camera_subpath(scene, o, d, wl, camera_sampler, counts);
+        let light = self.light_subpath(scene, wl, light_sampler, counts);
+        let mut l = SampledSpectrum::zero();
+        for t in 1..=camera.len() {
+            for s in 0..=light.len() {
+                let depth = s as i64 + t as i64 - 2;
+                if (s == 1 && t == 1) || depth < 0 || depth > self.max_depth as i64 {
+                    continue;
+                }
+                let u = [connect_sampler.next_1d(), connect_sampler.next_1d(), connect_sampler.next_1d()];
+                let (c, raster) = self.connect(scene, &light, &camera, s, t, wl, u, counts);
+                if c.is_black() || !c.0.iter().all(|v| v.is_finite()) {
+                    continue;
+                }
+                match raster {
+                    Some(r) => splat(r, c, wl),
+                    None => l += c,
+                }
+            }
+        }
+        l
+    }
+
+    fn camera_subpath(
+        &self,
+        scene: &RenderScene,
+        o: Vec3,
+        d: Vec3,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+    ) -> Vec<Vertex> {
+        let mut path = Vec::with_capacity(self.max_depth as usize + 2);
+        let (pdf_pos, pdf_dir) = scene.camera.pdf_we(o, d);
+        let cam =
+            Vertex::endpoint(Kind::Camera, o, Vec3::ZERO, SampledSpectrum::splat(1.0), pdf_pos, scene.camera_medium);
+        path.push(cam);
+        if pdf_dir <= 0.0 {
+            return path;
+        }
+        self.random_walk(
+            scene,
+            o,
+            d,
+            SampledSpectrum::splat(1.0),
+            pdf_dir,
+            self.max_depth as usize + 1,
+            TransportMode::Radiance,
+            scene.camera_medium,
+            wl,
+            sampler,
+            counts,
+            &mut path,
+        );
+        path
+    }
+
+    fn light_subpath(
+        &self,
+        scene: &RenderScene,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+    ) -> Vec<Vertex> {
+        let mut path = Vec::with_capacity(self.max_depth as usize + 1);
+        let u_light = sampler.next_1d();
+        let u_pos = Vec2::from(sampler.next_2d());
+        let u_dir = Vec2::from(sampler.next_2d());
+        let Some((li, p_sel)) = scene.sample_light(u_light) else { return path };
+        let light = &scene.lights[li as usize];
+        let Some(le) = light.sample_le(u_pos, u_dir, wl, scene.bounding_sphere) else { return path };
+        if le.l.is_black() {
+            return path;
+        }
+        let ng = le.surface.map_or(Vec3::ZERO, |s| s.n);
+        let mut v0 = Vertex::endpoint(Kind::Light(li), le.o, ng, le.l, p_sel * le.pdf_pos, scene.camera_medium);
+        v0.p_error = le.surface.map_or(Vec3::ZERO, |s| s.p_error);
+        v0.mode = TransportMode::Importance;
+        let infinite = light.is_infinite() || light.is_delta_direction();
+        if infinite {
+            // pbrt-v4's convention for lights at infinity: the start vertex carries the directional density.
+            v0.ng = Vec3::ZERO;
+        }
+        path.push(v0);
+        let beta = le.flux_weight() * (1.0 / p_sel);
+        let o = match le.surface {
+            Some(sp) => geometry::offset_ray_origin(sp.p, sp.p_error, sp.n, le.d),
+            None => le.o,
+        };
+        self.random_walk(
+            scene,
+            o,
+            le.d,
+            beta,
+            le.pdf_dir,
+            self.max_depth as usize,
+            TransportMode::Importance,
+            scene.camera_medium,
+            wl,
+            sampler,
+            counts,
+            &mut path,
+        );
+        if infinite {
+            // The first surface vertex was sampled by position on the disk (planar density, cosine at the
+            // vertex), and the start vertex's own density is that of the direction.
+            if path.len() > 1 {
+                let cos = if path[1].on_surface() { path[1].ng.dot(le.d).abs() } else { 1.0 };
+                path[1].pdf_fwd = le.pdf_pos * cos;
+            }
+            path[0].pdf_fwd = if light.is_delta_direction() {
+                p_sel
+            } else {
+                scene
+                    .infinite_lights
+                    .iter()
+                    .map(|&l| scene.light_probability(l) * scene.lights[l as usize].pdf_li_infinite(-le.d))
+                    .sum()
+            };
+        }
+        path
+    }
+
+    /// Extends `path` by up to `max_vertices` scattering vertices from the ray `(o, d)` sampled with solid-angle
+    /// density `pdf_dir` (pbrt-v4's `RandomWalk`, without Russian roulette so that densities stay exact).
+    #[allow(clippy::too_many_arguments)]
+    fn random_walk(
+        &self,
+        scene: &RenderScene,
+        mut o: Vec3,
+        mut d: Vec3,
+        mut beta: SampledSpectrum,
+        pdf_dir: f32,
+        max_vertices: usize,
+        mode: TransportMode,
+        mut medium: Option<u32>,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+        path: &mut Vec<Vertex>,
+    ) {
+        if max_vertices == 0 {
+            return;
+        }
+        let mut pdf_fwd = pdf_dir;
+        let mut added = 0usize;
+        let mut crossings = 0u32;
+        loop {
+            counts.intersect += 1;
+            let hit: Option<SurfaceHit> = scene.geometry.intersect(o, d, f32::INFINITY);
+            let Some(hit) = hit else {
+                if mode == TransportMode::Radiance && !scene.infinite_lights.is_empty() {
+                    let prev = path.last().expect("the subpath has its endpoint");
+                    let mut v = Vertex::endpoint(Kind::Escape, prev.p + d, Vec3::ZERO, beta, pdf_fwd, medium);
+                    v.w_escape = d;
+                    path.push(v);
+                }
+                break;
+            };
+            if let Some(m) = medium {
+                beta *= scene.media[m as usize].transmittance(hit.t, wl);
+            }
+            let u: [f32; DIMS_PER_BOUNCE] = std::array::from_fn(|_| sampler.next_1d());
+            let bxdf = match resolve_surface(scene, &hit, wl, u[5], u[6]) {
+                Surface::PassThrough => {
+                    medium = next_medium(&hit, d, medium);
+                    o = hit.spawn_origin(d);
+                    crossings += 1;
+                    if crossings > 256 {
+                        break;
+                    }
+                    continue;
+                }
+                Surface::Absorb => None,
+                Surface::Scatter(b) => Some(b),
+            };
+            let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
+            let mut v = Vertex {
+                kind: Kind::Surface,
+                p: hit.p,
+                p_error: hit.p_error,
+                ng: hit.n,
+                ns: hit.ns,
+                frame,
+                bxdf,
+                wo: -d,
+                beta,
+                delta: false,
+                pdf_fwd: 0.0,
+                pdf_rev: 0.0,
+                area_light: hit.area_light,
+                media: hit.media,
+                medium,
+                w_escape: Vec3::ZERO,
+                mode,
+            };
+            v.pdf_fwd = path.last().expect("the subpath has its endpoint").convert_density(pdf_fwd, &v, scene);
+            path.push(v);
+            added += 1;
+            let v = path.last().expect("just pushed");
+            let Some(bxdf) = &v.bxdf else { break };
+            if added >= max_vertices {
+                break;
+            }
+            let wo = frame.to_local(-d);
+            let Some(bs) = bxdf.sample_f(wo, u[0], Vec2::new(u[1], u[2]), mode) else { break };
+            if bs.pdf <= 0.0 || bs.f.is_black() {
+                break;
+            }
+            if let Some(slot) = bs.keep_slot {
+                wl.keep_only(slot);
+            }
+            let wi = frame.from_local(bs.wi);
+            let (mut fwd, mut rev) = if bs.pdf_is_proportional {
+                (bxdf.pdf(wo, bs.wi, mode), bxdf.pdf(bs.wi, wo, mode))
+            } else {
+                (bs.pdf, bxdf.pdf(bs.wi, wo, mode))
+            };
+            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if mode == TransportMode::Importance {
+                beta *= correct_shading_normal(-d, wi, hit.ns, hit.n);
+            }
+            let n = path.len();
+            if bs.specular {
+                path[n - 1].delta = true;
+                fwd = 0.0;
+                rev = 0.0;
+            }
+            pdf_fwd = fwd;
+            // The previous vertex's reverse density: sampled from this one, towards it.
+            let rev_area = path[n - 1].convert_density(rev, &path[n - 2], scene);
+            path[n - 2].pdf_rev = rev_area;
+            if bs.transmission {
+                medium = next_medium(&hit, wi, medium);
+            }
+            o = hit.spawn_origin(wi);
+            d = wi;
+            if !beta.0.iter().all(|v| v.is_finite()) || beta.is_black() {
+                break;
+            }
+        }
+    }
+
+    /// The contribution of strategy (s, t), MIS-weighted, and the raster position for t = 1.
+    #[allow(clippy::too_many_arguments)]
+    fn connect(
+        &self,
+        scene: &RenderScene,
+        light: &[Vertex],
+        camera: &[Vertex],
+        s: usize,
+        t: usize,
+        wl: &SampledWavelengths,
+        u: [f32; 3],
+        counts: &mut RayCounts,
+    ) -> (SampledSpectrum, Option<Vec2>) {
+        let zero = (SampledSpectrum::zero(), None);
+        // An escaped camera ray can only be an emitter seen directly (s = 0).
+        if t > 1 && s != 0 && camera[t - 1].kind == Kind::Escape {
+            return zero;
+        }
+        let mut sampled: Option<Vertex> = None;
+        let mut raster = None;
+        let l = if s == 0 {
+            let pt = &camera[t - 1];
+            if !pt.is_light() {
+                return zero;
+            }
+            pt.le(scene, &camera[t - 2], wl) * pt.beta
+        } else if t == 1 {
+            let qs = &light[s - 1];
+            if !qs.is_connectible(scene) {
+                return zero;
+            }
+            let Some(cs) = scene.camera.sample_wi(qs.p, Vec2::new(u[0], u[1])) else { return zero };
+            let cam_n = if scene.camera.lens_area_is_finite() { scene.camera.forward() } else { Vec3::ZERO };
+            let mut v = Vertex::endpoint(
+                Kind::Camera,
+                cs.p_lens,
+                cam_n,
+                SampledSpectrum::splat(cs.we / cs.pdf),
+                0.0,
+                scene.camera_medium,
+            );
+            v.ns = cam_n;
+            let mut c = qs.beta * qs.f(&v) * v.beta;
+            if qs.on_surface() {
+                c *= qs.ns.dot(cs.wi).abs();
+            }
+            if c.is_black() {
+                return zero;
+            }
+            let Some(tr) = transmittance(scene, qs, &v, wl, counts) else { return zero };
+            raster = Some(cs.raster);
+            sampled = Some(v);
+            c * tr
+        } else if s == 1 {
+            let pt = &camera[t - 1];
+            if !pt.is_connectible(scene) {
+                return zero;
+            }
+            let Some((li, p_sel)) = scene.sample_light(u[0]) else { return zero };
+            let light_ref = &scene.lights[li as usize];
+            let ctx = crate::light::LightSampleContext { p: pt.p, n: pt.ng };
+            let Some(ls) = light_ref.sample_li(&ctx, Vec2::new(u[1], u[2]), wl) else { return zero };
+            if ls.pdf <= 0.0 || ls.l.is_black() {
+                return zero;
+            }
+            let far = ls.dist.is_infinite();
+            let p = if far { pt.p + ls.wi * (2.0 * scene.bounding_sphere.1) } else { ls.p };
+            let mut v = Vertex::endpoint(
+                Kind::Light(li),
+                p,
+                if far { Vec3::ZERO } else { ls.n },
+                ls.l * (1.0 / (p_sel * ls.pdf)),
+                0.0,
+                scene.camera_medium,
+            );
+            v.mode = TransportMode::Importance;
+            v.pdf_fwd = v.pdf_light_origin(scene, pt);
+            let mut c = pt.beta * pt.f(&v) * v.beta;
+            if pt.on_surface() {
+                c *= pt.ns.dot(ls.wi).abs();
+            }
+            if c.is_black() {
+                return zero;
+            }
+            // Shadow ray to the light point (or to infinity).
+            let origin = geometry::offset_ray_origin(pt.p, pt.p_error, pt.ng, ls.wi);
+            let t_max = if far { f32::INFINITY } else { (ls.p - origin).length() * (1.0 - 1e-4) };
+            counts.shadow += 1;
+            if scene.geometry.occluded(origin, ls.wi, t_max) {
+                return zero;
+            }
+            if let (Some(m), false) = (pt.medium_towards(ls.wi), far) {
+                c *= scene.media[m as usize].transmittance(ls.dist, wl);
+            }
+            sampled = Some(v);
+            c
+        } else {
+            let (qs, pt) = (&light[s - 1], &camera[t - 1]);
+            if !qs.is_connectible(scene) || !pt.is_connectible(scene) {
+                return zero;
+            }
+            let c = qs.beta * qs.f(pt) * pt.f(qs) * pt.beta;
+            if c.is_black() {
+                return zero;
+            }
+            c * g(scene, qs, pt, wl, counts)
+        };
+        if l.is_black() {
+            return zero;
+        }
+        let w = self.mis_weight(scene, light, camera, sampled.as_ref(), s, t);
+        (l * w, raster)
+    }
+
+    /// The balance-heuristic weight of strategy (s, t) against every other strategy that could have produced the
+    /// same path (Veach 1997 §10.2.1, computed with density ratios as pbrt-v4 does). `sampled` replaces the
+    /// camera endpoint when t = 1 and the light endpoint when s = 1.
+    fn mis_weight(
+        &self,
+        scene: &RenderScene,
+        light: &[Vertex],
+        camera: &[Vertex],
+        sampled: Option<&Vertex>,
+        s: usize,
+        t: usize,
+    ) -> f32 {
+        if s + t == 2 {
+            return 1.0;
+        }
+        let remap = |f: f32| if f != 0.0 { f } else { 1.0 };
+        // The path's vertices for this strategy, with the endpoints of the connection replaced where sampled.
+        let qs: Option<&Vertex> = if s == 0 {
+            None
+        } else if s == 1 {
+            Some(sampled.unwrap_or(&light[0]))
+        } else {
+            Some(&light[s - 1])
+        };
+        let pt: &Vertex = if t == 1 { sampled.unwrap_or(&camera[0]) } else { &camera[t - 1] };
+        let qs_minus = if s >= 2 { Some(&light[s - 2]) } else { None };
+        let pt_minus = if t >= 2 { Some(&camera[t - 2]) } else { None };
+
+        // Densities of the camera subpath (index i < t) and light subpath (i < s) with the four vertices around
+        // the connection updated for this strategy.
+        let mut cam: Vec<(f32, f32, bool)> = camera[..t].iter().map(|v| (v.pdf_fwd, v.pdf_rev, v.delta)).collect();
+        let mut lig: Vec<(f32, f32, bool)> = light[..s].iter().map(|v| (v.pdf_fwd, v.pdf_rev, v.delta)).collect();
+        if t == 1 {
+            cam[0] = (pt.pdf_fwd, pt.pdf_rev, pt.delta);
+        }
+        if s == 1 {
+            let q = qs.expect("s = 1 has a light vertex");
+            lig[0] = (q.pdf_fwd, q.pdf_rev, q.delta);
+        }
+        // pt's reverse density: sampled from qs (or as the origin of a light subpath when s = 0).
+        cam[t - 1].1 = match qs {
+            Some(q) => q.pdf(scene, qs_minus, pt),
+            None => pt.pdf_light_origin(scene, pt_minus.expect("s = 0 needs t ≥ 2")),
+        };
+        if let Some(pm) = pt_minus {
+            cam[t - 2].1 = match qs {
+                Some(q) => pt.pdf(scene, Some(q), pm),
+                None => pt.pdf_light(scene, pm),
+            };
+        }
+        if let Some(q) = qs {
+            lig[s - 1].1 = pt.pdf(scene, pt_minus, q);
+            if let Some(qm) = qs_minus {
+                lig[s - 2].1 = q.pdf(scene, Some(pt), qm);
+            }
+        }
+        // The connection's endpoints are not delta events for this strategy.
+        cam[t - 1].2 = false;
+        if s > 0 {
+            lig[s - 1].2 = false;
+        }
+        let mut sum = 0.0f32;
+        let mut ri = 1.0f32;
+        for i in (1..t).rev() {
+            ri *= remap(cam[i].1) / remap(cam[i].0);
+            if !cam[i].2 && !cam[i - 1].2 {
+                sum += ri;
+            }
+        }
+        let light_start_delta = match s {
+            0 => false,
+            1 => qs.is_some_and(|q| q.is_delta_light(scene)),
+            _ => light[0].is_delta_light(scene),
+        };
+        ri = 1.0;
+        for i in (0..s).rev() {
+            ri *= remap(lig[i].1) / remap(lig[i].0);
+            let delta_before = if i > 0 { lig[i - 1].2 } else { light_start_delta };
+            if !lig[i].2 && !delta_before {
+                sum += ri;
+            }
+        }
+        let w = 1.0 / (1.0 + sum);
+        if w.is_finite() {
+            w
+        } else {
+            0.0
+        }
+    }
+}
