@@ -352,53 +352,83 @@ impl Film {
     /// splat sums count once [`Film::add_light_paths`] says how many light paths were traced. Returns whether the
     /// splat was accumulated (non-finite values are dropped and counted).
     pub fn add_splat(&mut self, raster: [f64; 2], xyz: Xyz, spectral: &[(f32, f32)]) -> bool {
-        let finite = xyz.x.is_finite()
-            && xyz.y.is_finite()
-            && xyz.z.is_finite()
-            && raster.iter().all(|v| v.is_finite())
-            && spectral.iter().all(|(l, v)| v.is_finite() && !l.is_nan());
-        if !finite {
-            self.rejected_splats += 1;
-            return false;
+        let mut estimates = SpectralEstimates::default();
+        for &(l, v) in spectral.iter().take(N_WAVELENGTHS) {
+            estimates.pairs[estimates.len] = (l, v);
+            estimates.len += 1;
         }
+        self.add_splats(&[Splat { raster, xyz, spectral: estimates }]) == 1
+    }
+
+    /// Adds many splats (see [`Film::add_splat`]), rows of the film in parallel. Each pixel receives its splats in
+    /// the order given, so the sums do not depend on the number of threads. Returns how many were accumulated.
+    pub fn add_splats(&mut self, splats: &[Splat]) -> usize {
         let npix = self.weight.len();
         if self.splat_xyz.is_empty() {
             self.splat_xyz = vec![[0.0; 3]; npix];
             self.splat_buckets = vec![0.0; npix * self.nbuckets];
         }
         let bins = Binning::new(&self.spec);
-        // The sensor's imaging ratio and the maxcomponentvalue clamp apply to splats as to camera samples.
-        let xyz = xyz.scaled(bins.imaging_ratio);
-        let m = xyz.x.max(xyz.y).max(xyz.z);
-        let clamp = if m > bins.max_component { bins.max_component / m } else { 1.0 };
-        let xyz = xyz.scaled(clamp);
         let filter = &self.spec.filter;
         let [rx, ry] = filter.radius();
         let norm = 1.0 / filter.integral();
         let (w, h) = (self.spec.width as i64, self.spec.height as i64);
-        // Pixels whose centres (x + 0.5, y + 0.5) lie within the filter's support around `raster`.
-        let x0 = ((raster[0] - 0.5 - rx).ceil() as i64).max(0);
-        let x1 = ((raster[0] - 0.5 + rx).floor() as i64).min(w - 1);
-        let y0 = ((raster[1] - 0.5 - ry).ceil() as i64).max(0);
-        let y1 = ((raster[1] - 0.5 + ry).floor() as i64).min(h - 1);
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let f = filter.evaluate([x as f64 + 0.5 - raster[0], y as f64 + 0.5 - raster[1]]) * norm;
-                if f == 0.0 {
-                    continue;
-                }
-                let i = (y * w + x) as usize;
-                let s = &mut self.splat_xyz[i];
-                s[0] += f * xyz.x;
-                s[1] += f * xyz.y;
-                s[2] += f * xyz.z;
-                if bins.nbuckets > 0 {
-                    let nb = bins.nbuckets;
-                    add_to_buckets(&bins, &mut self.splat_buckets[i * nb..(i + 1) * nb], spectral, f * clamp);
-                }
+        // Validate and scale (the sensor's imaging ratio and the maxcomponentvalue clamp apply to splats as to
+        // camera samples), and list each splat under the rows its filter footprint covers.
+        let mut prepared = Vec::with_capacity(splats.len());
+        let mut rows: Vec<Vec<u32>> = vec![Vec::new(); h as usize];
+        for sp in splats {
+            let finite = sp.xyz.x.is_finite()
+                && sp.xyz.y.is_finite()
+                && sp.xyz.z.is_finite()
+                && sp.raster.iter().all(|v| v.is_finite())
+                && sp.spectral.as_slice().iter().all(|(l, v)| v.is_finite() && !l.is_nan());
+            if !finite {
+                self.rejected_splats += 1;
+                continue;
+            }
+            let xyz = sp.xyz.scaled(bins.imaging_ratio);
+            let m = xyz.x.max(xyz.y).max(xyz.z);
+            let clamp = if m > bins.max_component { bins.max_component / m } else { 1.0 };
+            let y0 = ((sp.raster[1] - 0.5 - ry).ceil() as i64).max(0);
+            let y1 = ((sp.raster[1] - 0.5 + ry).floor() as i64).min(h - 1);
+            let k = prepared.len() as u32;
+            prepared.push((sp, xyz.scaled(clamp), clamp));
+            for y in y0..=y1 {
+                rows[y as usize].push(k);
             }
         }
-        true
+        let nb = self.nbuckets;
+        let xyz_rows: Vec<&mut [[f64; 3]]> = self.splat_xyz.chunks_mut(w as usize).collect();
+        let bucket_rows: Vec<&mut [f64]> = if nb > 0 {
+            self.splat_buckets.chunks_mut(w as usize * nb).collect()
+        } else {
+            (0..h).map(|_| <&mut [f64]>::default()).collect()
+        };
+        xyz_rows.into_par_iter().zip(bucket_rows).zip(rows.par_iter()).enumerate().for_each(
+            |(y, ((xyz_row, bucket_row), list))| {
+                for &k in list {
+                    let (sp, xyz, clamp) = &prepared[k as usize];
+                    let x0 = ((sp.raster[0] - 0.5 - rx).ceil() as i64).max(0);
+                    let x1 = ((sp.raster[0] - 0.5 + rx).floor() as i64).min(w - 1);
+                    for x in x0..=x1 {
+                        let f = filter.evaluate([x as f64 + 0.5 - sp.raster[0], y as f64 + 0.5 - sp.raster[1]]) * norm;
+                        if f == 0.0 {
+                            continue;
+                        }
+                        let s = &mut xyz_row[x as usize];
+                        s[0] += f * xyz.x;
+                        s[1] += f * xyz.y;
+                        s[2] += f * xyz.z;
+                        if nb > 0 {
+                            let b = &mut bucket_row[x as usize * nb..(x as usize + 1) * nb];
+                            add_to_buckets(&bins, b, sp.spectral.as_slice(), f * clamp);
+                        }
+                    }
+                }
+            },
+        );
+        prepared.len()
     }
 
     /// Adds a finished estimate to pixel (x, y) as one sample of weight `weight`: `xyz` and, for a spectral film,
@@ -831,6 +861,17 @@ impl FilmRow<'_> {
         }
         accumulate_aov(&mut self.albedo[x], &mut self.normal[x], &mut self.aov_count[x], albedo, normal)
     }
+}
+
+/// A light-path contribution to splat: raster position (pixels, y down), XYZ and per-wavelength estimates.
+#[derive(Clone, Copy, Debug)]
+pub struct Splat {
+    /// Where it lands on the film.
+    pub raster: [f64; 2],
+    /// Its colour.
+    pub xyz: Xyz,
+    /// Its `(λ, L/pdf)` pairs for spectral films.
+    pub spectral: SpectralEstimates,
 }
 
 /// The `(λ nm, L/pdf)` pairs of a path's active wavelengths, as [`FilmRow::add_sample`] takes them; built without

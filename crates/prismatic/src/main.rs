@@ -3,6 +3,7 @@
 //! A thin layer: it parses arguments, calls the library crates and prints. Errors are reported as one message and a
 //! non-zero exit status, never a panic.
 
+mod compare_cmd;
 mod ior_cmd;
 mod render_cmd;
 mod spectrum_cmd;
@@ -27,6 +28,8 @@ enum Command {
     Spectrum(spectrum_cmd::SpectrumArgs),
     /// Render a pbrt-v4 scene to EXR, PNG or PFM (spectral path tracing with dispersion).
     Render(render_cmd::RenderArgs),
+    /// Compare two renders: means and (relative) RMS difference, for noise and convergence measurements.
+    Compare(compare_cmd::CompareArgs),
 }
 
 fn main() -> ExitCode {
@@ -35,6 +38,7 @@ fn main() -> ExitCode {
         Command::Ior(args) => ior_cmd::run(&args),
         Command::Spectrum(args) => spectrum_cmd::run(&args),
         Command::Render(args) => render_cmd::run(&args),
+        Command::Compare(args) => compare_cmd::run(&args),
     };
     match result {
         Ok(text) => {

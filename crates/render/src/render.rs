@@ -1,6 +1,6 @@
 //! The per-pixel driver: camera samples through the integrator into colour and spectral contributions.
 
-use film::SpectralEstimates;
+use film::{SpectralEstimates, Splat};
 use glam::Vec2;
 use glam::Vec3;
 use spectral::{Spectrum, WavelengthSampler, Xyz};
@@ -115,13 +115,6 @@ pub fn render_film(
 /// Salt that makes a light path's random numbers independent of its pixel sample's camera ray.
 const LIGHT_PATH_SEED_SALT: u32 = 0x6c69_6768;
 
-/// One light-path contribution waiting to be splatted.
-struct SplatRecord {
-    raster: [f64; 2],
-    xyz: Xyz,
-    spectral: SpectralEstimates,
-}
-
 /// A camera sample's contribution to its own pixel, from a splatting integrator.
 struct CameraRecord {
     x: u32,
@@ -134,7 +127,7 @@ struct CameraRecord {
 #[derive(Default)]
 struct SampleRecords {
     camera: Vec<CameraRecord>,
-    splats: Vec<SplatRecord>,
+    splats: Vec<Splat>,
 }
 
 /// Runs `per_sample(x, y, s, counts, records)` for every pixel sample, rows in parallel in batches small enough to
@@ -148,36 +141,45 @@ fn render_splatting(
 ) -> RenderStats {
     let (w, h) = (film.width(), film.height());
     let spp = (samples.end - samples.start) as u64;
-    let paths_per_row = (w as u64 * spp).max(1);
-    let batch_rows = ((1u64 << 16) / paths_per_row).clamp(1, h as u64) as u32;
+    // Batches of at least 32 rows (work for every thread) and at most ~128k pixel samples (memory for their
+    // records): the sample range is split into chunks when the rows are wide or the sample count high. Batching
+    // depends only on the film size and the sample range, never on the thread count.
+    const BATCH_PATHS: u64 = 1 << 17;
+    let batch_rows = 32u32.min(h).max(1);
+    let chunk = (BATCH_PATHS / (w as u64 * batch_rows as u64).max(1)).clamp(1, spp.max(1)) as u32;
     let mut stats = RenderStats::default();
-    let mut y0 = 0;
-    while y0 < h {
-        let y1 = (y0 + batch_rows).min(h);
-        let rows: Vec<(SampleRecords, RayCounts)> = (y0..y1)
-            .into_par_iter()
-            .map(|y| {
-                let mut records = SampleRecords::default();
-                let mut counts = RayCounts::default();
-                for x in 0..w {
-                    for s in samples.clone() {
-                        per_sample(x, y, s, &mut counts, &mut records);
+    let mut s0 = samples.start;
+    while s0 < samples.end {
+        let s1 = (s0 + chunk).min(samples.end);
+        let mut y0 = 0;
+        while y0 < h {
+            let y1 = (y0 + batch_rows).min(h);
+            let rows: Vec<(SampleRecords, RayCounts)> = (y0..y1)
+                .into_par_iter()
+                .map(|y| {
+                    let mut records = SampleRecords::default();
+                    let mut counts = RayCounts::default();
+                    for x in 0..w {
+                        for s in s0..s1 {
+                            per_sample(x, y, s, &mut counts, &mut records);
+                        }
                     }
+                    progress(w as u64 * (s1 - s0) as u64);
+                    (records, counts)
+                })
+                .collect();
+            let mut splats = Vec::new();
+            for (y, (records, counts)) in (y0..y1).zip(rows) {
+                for c in &records.camera {
+                    film.add_sample(c.x, y, c.xyz, c.weight as f64, c.spectral.as_slice());
                 }
-                progress(paths_per_row);
-                (records, counts)
-            })
-            .collect();
-        for (y, (records, counts)) in (y0..y1).zip(rows) {
-            for c in &records.camera {
-                film.add_sample(c.x, y, c.xyz, c.weight as f64, c.spectral.as_slice());
+                splats.extend(records.splats);
+                stats.rays += counts.intersect + counts.shadow;
             }
-            for sp in &records.splats {
-                film.add_splat(sp.raster, sp.xyz, sp.spectral.as_slice());
-            }
-            stats.rays += counts.intersect + counts.shadow;
+            film.add_splats(&splats);
+            y0 = y1;
         }
-        y0 = y1;
+        s0 = s1;
     }
     film.add_light_paths(w as u64 * h as u64 * spp);
     stats.samples = w as u64 * h as u64 * spp;
@@ -202,7 +204,7 @@ fn render_light_paths(
         let mut sampler = Sampler::new(x, y, s, light_seed);
         let mut wl = wavelengths.sample(sampler.next_1d() as f64);
         integrator.trace(scene, &mut wl, &mut sampler, counts, |raster, l, wl| {
-            records.splats.push(SplatRecord {
+            records.splats.push(Splat {
                 raster: [raster.x as f64, raster.y as f64],
                 xyz: wavelengths.to_xyz(&l, wl),
                 spectral: SpectralEstimates::new(&l, wl),
@@ -256,7 +258,7 @@ fn render_bdpt(
         // Splats are converted with the wavelengths they were made at (a later dispersive event on the other
         // subpath may have reduced the set since).
         for (raster, c, swl) in splats {
-            records.splats.push(SplatRecord {
+            records.splats.push(Splat {
                 raster: [raster.x as f64, raster.y as f64],
                 xyz: wavelengths.to_xyz(&c, &swl),
                 spectral: SpectralEstimates::new(&c, &swl),
