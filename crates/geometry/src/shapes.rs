@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 use glam::{DMat3, DVec3, Vec2, Vec3};
 
+use crate::bilinear::BilinearMesh;
 use crate::bounds::Bounds3;
 use crate::mesh::TriangleMesh;
 use crate::ray::{gamma, Ray};
@@ -703,11 +704,14 @@ impl Disk {
 // ---------------------------------------------------------------------------------------------------------------
 // Shape: what an object is made of
 
-/// A shape, the unit a scene is built from. A mesh holds many primitives (its triangles); spheres and disks one.
+/// A shape, the unit a scene is built from. A mesh holds many primitives (its triangles or patches); spheres and
+/// disks one.
 #[derive(Clone, Debug)]
 pub enum Shape {
     /// A triangle mesh; primitive `k` of the shape is triangle `k`.
     Mesh(Arc<TriangleMesh>),
+    /// A bilinear patch mesh; primitive `k` of the shape is patch `k`.
+    Bilinear(Arc<BilinearMesh>),
     /// A sphere.
     Sphere(Sphere),
     /// A disk.
@@ -715,10 +719,11 @@ pub enum Shape {
 }
 
 impl Shape {
-    /// Number of primitives (triangles for a mesh, 1 otherwise).
+    /// Number of primitives (triangles or patches for a mesh, 1 otherwise).
     pub fn primitive_count(&self) -> usize {
         match self {
             Shape::Mesh(m) => m.triangle_count(),
+            Shape::Bilinear(m) => m.patch_count(),
             Shape::Sphere(_) | Shape::Disk(_) => 1,
         }
     }
@@ -727,6 +732,7 @@ impl Shape {
     pub fn bounds(&self) -> Bounds3 {
         match self {
             Shape::Mesh(m) => m.bounds(),
+            Shape::Bilinear(m) => m.bounds(),
             Shape::Sphere(s) => s.bounds(),
             Shape::Disk(d) => d.bounds(),
         }
@@ -736,24 +742,27 @@ impl Shape {
     pub fn element_bounds(&self, element: usize) -> Bounds3 {
         match self {
             Shape::Mesh(m) => Bounds3::from_points(m.triangle_positions(element)),
+            Shape::Bilinear(m) => m.patch_bounds(element),
             _ => self.bounds(),
         }
     }
 
-    /// Area of primitive `element` (a triangle, or the whole sphere or disk).
+    /// Area of primitive `element` (a triangle, a patch, or the whole sphere or disk).
     pub fn area(&self, element: usize) -> f32 {
         match self {
             Shape::Mesh(m) => m.triangle_area(element),
+            Shape::Bilinear(m) => m.patch_area(element),
             Shape::Sphere(s) => s.area(),
             Shape::Disk(d) => d.area(),
         }
     }
 
-    /// A uniformly distributed point on primitive `element`, pdf per unit area (= 1/area). `None` for a
-    /// degenerate triangle.
+    /// A point on primitive `element` with its pdf per unit area: uniform (1/area) except on a non-planar
+    /// bilinear patch (see [`BilinearMesh::sample_area`]). `None` for a degenerate triangle or patch point.
     pub fn sample_area(&self, element: usize, u: Vec2) -> Option<ShapeSample> {
         match self {
             Shape::Mesh(m) => sample_triangle_area(m, element, u),
+            Shape::Bilinear(m) => m.sample_area(element, u),
             Shape::Sphere(s) => Some(s.sample_area(u)),
             Shape::Disk(d) => Some(d.sample_area(u)),
         }
@@ -778,6 +787,10 @@ impl Shape {
                 Some((_, p)) => area_pdf_to_solid_angle(ref_p, &d.geom(p), 1.0 / d.area()),
                 None => 0.0,
             },
+            Shape::Bilinear(m) => match m.intersect(element, ref_p, wi, f32::INFINITY) {
+                Some((_, uv)) => area_pdf_to_solid_angle(ref_p, &m.geom(element, uv), m.pdf_area(element, uv)),
+                None => 0.0,
+            },
             Shape::Mesh(m) => {
                 let [p0, p1, p2] = m.triangle_positions(element);
                 match intersect_triangle(&TriRay::new(ref_p, wi), p0, p1, p2, f32::INFINITY) {
@@ -797,6 +810,7 @@ impl Shape {
                 let [p0, p1, p2] = m.triangle_positions(element);
                 intersect_triangle(&TriRay::new(ray.o, ray.d), p0, p1, p2, t_max).map(|h| h.0)
             }
+            Shape::Bilinear(m) => m.intersect(element, ray.o, ray.d, t_max).map(|h| h.0),
             Shape::Sphere(s) => s.intersect_t(ray, t_max).map(|h| h.0),
             Shape::Disk(d) => d.intersect_t(ray, t_max).map(|h| h.0),
         }

@@ -207,6 +207,13 @@ const MALFORMED: &[(&str, u32, u32, &str)] = &[
     ("WorldBegin\nShape \"sphere\" \"float zmin\" 2 \"float zmax\" 3\n", 2, 16, "after clamping"),
     ("WorldBegin\nShape \"sphere\" \"float phimax\" 400\n", 2, 16, "'phimax'"),
     ("WorldBegin\nShape \"sphere\" \"float radius\" -1\n", 2, 16, "'radius'"),
+    (
+        "WorldBegin\nShape \"bilinearmesh\" \"point3 P\" [ 0 0 0 1 0 0 0 1 0 1 1 0 ] \"integer indices\" [ 0 1 2 ]\n",
+        2,
+        1,
+        "not a multiple of 4",
+    ),
+    ("WorldBegin\nShape \"bilinearmesh\" \"point3 P\" [ 0 0 0 1 0 0 0 1 0 ]\n", 2, 1, "exactly 4 vertices"),
 ];
 
 #[test]

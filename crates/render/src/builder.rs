@@ -8,7 +8,7 @@ use std::sync::Arc;
 use film::{FilmKind, FilmSpec, Filter};
 use geometry::mesh::BilinearMeshData;
 use geometry::subdiv::loop_subdivide;
-use geometry::{GeometryScene, Instance, MeshData, Object, Shape, Transform, TriangleMesh};
+use geometry::{BilinearMesh, GeometryScene, Instance, MeshData, Object, Shape, Transform, TriangleMesh};
 use glam::{DVec3, Vec2, Vec3};
 use scene::{
     Entity, FloatParam, Loc, MaterialRef, ParamSet, ParamType, SceneDescription, SceneError, ShapeEntity, SpectrumKind,
@@ -490,7 +490,10 @@ fn make_shape(se: &ShapeEntity) -> Result<Option<Shape>> {
             let uvs =
                 p.get_point2s("uv")?.map(|v| v.into_iter().map(|a| Vec2::new(a[0] as f32, a[1] as f32)).collect());
             let bl = BilinearMeshData { positions: to_vec3s(pos), normals, uvs, indices };
-            mesh(bl.to_triangles().map_err(|e| geo_err(loc, e))?)
+            if bl.indices.is_empty() {
+                return Ok(None);
+            }
+            Ok(Some(Shape::Bilinear(Arc::new(BilinearMesh::new(&rfo, bl, ro).map_err(|e| geo_err(loc, e))?))))
         }
         "sphere" => {
             // Each error names its parameter at the parameter's own location when given.
