@@ -1,5 +1,5 @@
-//! Shapes: analytic spheres and disks, triangles of meshes; their intersection, surface geometry, error bounds and
-//! sampling (pbrt-v4 book ch. 6).
+//! Shapes: analytic spheres (full or partial) and disks, triangles of meshes; their intersection, surface geometry,
+//! error bounds and sampling (pbrt-v4 book ch. 6). Bilinear patches live in [`crate::bilinear`].
 //!
 //! Spheres and disks are intersected in object space in f64 (so the `t > 0` decision for a ray leaving the surface
 //! is exact enough), triangles in render space with the watertight algorithm of Woop, Benthin and Wald (2013) and

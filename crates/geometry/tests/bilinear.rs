@@ -134,31 +134,44 @@ fn planar_patch_and_transform() {
 }
 
 #[test]
-fn shared_edge_is_watertight() {
-    // Two non-planar patches sharing the edge x = 1 from (1,0,0) to (1,1,1): the saddle and a twisted neighbour.
-    let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE, Vec3::new(2.0, 0.0, 0.3), Vec3::new(2.0, 1.0, -0.5)];
-    let m = patches(positions, vec![0, 1, 2, 3, 1, 4, 3, 5], &Transform::IDENTITY, false);
-    let scene = GeometryScene::from_shapes(vec![Shape::Bilinear(m)]).unwrap();
+fn shared_edges_are_watertight() {
+    // Pairs of non-planar patches (the saddle and a twisted neighbour) sharing the edge from (1,0,0) to (1,1,1)
+    // (u = 1 of the first, u = 0 of the second) or from (0,1,0) to (1,1,1) (v = 1 of the first, v = 0 of the
+    // second); `edge(s)` is the point of the shared edge at parameter s.
+    type Edge = fn(f32) -> Vec3;
+    let u_edge: (Vec<Vec3>, Vec<u32>, Edge) = (
+        vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE, Vec3::new(2.0, 0.0, 0.3), Vec3::new(2.0, 1.0, -0.5)],
+        vec![0, 1, 2, 3, 1, 4, 3, 5],
+        |s| Vec3::new(1.0, s, s),
+    );
+    let v_edge: (Vec<Vec3>, Vec<u32>, Edge) = (
+        vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE, Vec3::new(0.0, 2.0, 0.4), Vec3::new(1.0, 2.0, -0.3)],
+        vec![0, 1, 2, 3, 2, 3, 4, 5],
+        |s| Vec3::new(s, 1.0, s),
+    );
     let mut rng = Pcg32::seed_from_u64(5);
     // The patches meet at a crease, so a ray passing a rounding error beside the edge on the convex side may
     // rightly miss both: every coordinate here is a multiple of 2⁻¹⁰ of modest size, so `o`, `d = target − o` and
     // `o + d = target` are exact in f32 and each ray passes exactly through its point of the edge.
     let grid = |rng: &mut Pcg32, lo: i32, hi: i32| (lo + (rng.next_u32() % (hi - lo) as u32) as i32) as f32 / 1024.0;
-    for i in 0..20_000 {
-        let s = grid(&mut rng, 10, 1014);
-        let target = Vec3::new(1.0, s, s);
-        let o =
-            target + Vec3::new(grid(&mut rng, -4096, 4096), grid(&mut rng, -4096, 4096), grid(&mut rng, -4096, 4096));
-        let d = target - o;
-        if d.length() < 0.1 {
-            continue;
+    for (positions, indices, edge) in [u_edge, v_edge] {
+        let m = patches(positions, indices, &Transform::IDENTITY, false);
+        let scene = GeometryScene::from_shapes(vec![Shape::Bilinear(m)]).unwrap();
+        for i in 0..20_000 {
+            let target = edge(grid(&mut rng, 10, 1014));
+            let o = target
+                + Vec3::new(grid(&mut rng, -4096, 4096), grid(&mut rng, -4096, 4096), grid(&mut rng, -4096, 4096));
+            let d = target - o;
+            if d.length() < 0.1 {
+                continue;
+            }
+            assert_eq!(o + d, target);
+            // The ray reaches the edge at t = 1; nothing may let it through.
+            let h = scene.intersect(&Ray::new(o, d), f32::INFINITY);
+            let h = h.unwrap_or_else(|| panic!("ray {i} through the shared edge at {target} hits neither patch"));
+            assert!(h.t <= 1.0 + 1e-4, "ray {i}: t = {}", h.t);
+            assert!(scene.occluded(&Ray::new(o, d), 1.0 + 1e-4), "ray {i}");
         }
-        assert_eq!(o + d, target);
-        let h = scene.intersect(&Ray::new(o, d), f32::INFINITY);
-        // The ray reaches the edge at t = 1; nothing may let it through.
-        let h = h.unwrap_or_else(|| panic!("ray {i} through the shared edge at s = {s} hits neither patch"));
-        assert!(h.t <= 1.0 + 1e-4, "ray {i}: t = {}", h.t);
-        assert!(scene.occluded(&Ray::new(o, d), 1.0 + 1e-4), "ray {i}");
     }
 }
 
