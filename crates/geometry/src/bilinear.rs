@@ -39,6 +39,12 @@ pub struct BilinearMesh {
 /// least one of them.
 const PARAM_EPS: f64 = 1e-9;
 
+/// Hits nearer than this fraction of the distance from the ray origin to the farthest corner are rejected. A ray
+/// spawned from a point lying exactly on the patch (zero error bound across it, as on an axis-aligned plane) would
+/// otherwise re-hit it at a `t` of pure f64 rounding (~1e-16 relative); 1e-9 is far above that rounding and far
+/// below the f32 resolution of the scene (2⁻²⁴ ≈ 6e-8 relative), so no distinguishable hit is lost.
+const T_EPS: f64 = 1e-9;
+
 /// Bilinear interpolation of four corner values at `(u, v)`.
 #[inline]
 fn bilerp<T>(c: [T; 4], u: f64, v: f64) -> T
@@ -98,6 +104,8 @@ pub fn intersect_patch(o: DVec3, d: DVec3, c: [DVec3; 4], t_max: f64) -> Option<
     }
     let mut best: Option<(f64, f64, f64)> = None;
     let mut t_lim = t_max;
+    let reach = [q00, q10, q01, q11].iter().fold(0.0f64, |m, q| m.max(q.length()));
+    let t_min = T_EPS * reach / d.length();
     for u in roots {
         if !(-PARAM_EPS..=1.0 + PARAM_EPS).contains(&u) {
             continue;
@@ -117,7 +125,7 @@ pub fn intersect_patch(o: DVec3, d: DVec3, c: [DVec3; 4], t_max: f64) -> Option<
             continue;
         }
         let t = e.cross(a).dot(n) / nn;
-        if t > 0.0 && t < t_lim {
+        if t > t_min && t < t_lim {
             t_lim = t;
             best = Some((t, u, v.clamp(0.0, 1.0)));
         }

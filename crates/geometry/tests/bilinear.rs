@@ -361,3 +361,23 @@ fn spawned_rays_do_not_rehit_the_patch() {
         assert!(spawned > 5000, "{spawned}");
     }
 }
+
+#[test]
+fn spawned_rays_leave_a_large_flat_patch() {
+    // A 100 × 100 floor in z = 0: its points have exactly z = 0, so their error bound across the surface is zero and
+    // spawned rays start exactly on it; neither shadow rays nor scattered rays may re-hit it.
+    let corners = [(-50.0, -50.0), (50.0, -50.0), (-50.0, 50.0), (50.0, 50.0)].map(|(x, y)| Vec3::new(x, y, 0.0));
+    let m = patches(corners.to_vec(), vec![0, 1, 2, 3], &Transform::IDENTITY, false);
+    let scene = GeometryScene::from_shapes(vec![Shape::Bilinear(m)]).unwrap();
+    let mut rng = Pcg32::seed_from_u64(2);
+    for i in 0..10_000 {
+        let o = Vec3::new(uniform(&mut rng) * 20.0 - 10.0, uniform(&mut rng) * 20.0 - 10.0, 0.5);
+        let h = scene.intersect(&Ray::new(o, -Vec3::Z), f32::INFINITY).unwrap();
+        assert!((h.t - 0.5).abs() < 1e-6 && h.p.z == 0.0, "ray {i}: {} {}", h.t, h.p);
+        let target = vec3(&mut rng, -5.0, 5.0) * Vec3::new(1.0, 1.0, 0.0) + Vec3::Z * (uniform(&mut rng) - 0.5);
+        let (r, t_max) = h.spawn_ray_to_point(target);
+        assert!(scene.intersect(&r, t_max).is_none(), "ray {i}: shadow ray to {target} re-hits");
+        let w = unit_vector(&mut rng);
+        assert!(scene.intersect(&h.spawn_ray(w), f32::INFINITY).is_none(), "ray {i}: {w} re-hits");
+    }
+}
