@@ -7,14 +7,14 @@
 //!
 //! Traversal uses `obvhs`'s `traverse!` loop with our own node test (an SSE-width slab test through glam's `Vec4`
 //! with no minimum-`t` epsilon, and pbrt's `1 + 2γ(3)` widening of the far distance), our watertight triangle test
-//! and f64 sphere and disk tests, so hits are found down to `t → 0⁺` and rays spawned with
+//! and f64 sphere, disk and bilinear-patch tests, so hits are found down to `t → 0⁺` and rays spawned with
 //! [`crate::spawn_ray`] never re-hit their surface.
 //!
 //! ## IDs in a [`Hit`]
 //! - `instance`: index into the `instances` given to [`GeometryScene::build`].
 //! - `object`: the instance's object, an index into the `objects` given to [`GeometryScene::build`].
 //! - `shape`: index into that object's `shapes`.
-//! - `element`: the primitive within the shape (triangle index for a mesh; 0 for a sphere or disk).
+//! - `element`: the primitive within the shape (triangle or patch index for a mesh; 0 for a sphere or disk).
 //! - `primitive`: index into the object's flattened primitive list, in which the shapes' primitives follow each
 //!   other in order: `primitive = primitive_range(object, shape).start + element`.
 
@@ -57,8 +57,8 @@ pub struct Hit {
     /// Conservative absolute error bound of each coordinate of `p` (used by [`Hit::spawn_ray`]).
     pub p_error: Vec3,
     /// Unit geometric normal, oriented as pbrt-v4 orients it (independent of the ray; the side an area light emits
-    /// to): see [`TriangleMesh`] for triangles; outward for spheres and +z (object space) for disks, negated under
-    /// `ReverseOrientation`.
+    /// to): see [`TriangleMesh`] for triangles and [`crate::BilinearMesh`] for bilinear patches; outward for spheres
+    /// and +z (object space) for disks, negated under `ReverseOrientation`.
     pub n: Vec3,
     /// Unit shading normal: the interpolated vertex normal for meshes that have normals, else `n`. Always on the
     /// same side as `n`.
@@ -77,7 +77,7 @@ pub struct Hit {
     pub primitive: u32,
     /// Index of the shape within the object.
     pub shape: u32,
-    /// Primitive within the shape (triangle index for meshes, 0 otherwise).
+    /// Primitive within the shape (triangle or patch index for meshes, 0 otherwise).
     pub element: u32,
 }
 
@@ -127,7 +127,7 @@ pub struct Instance {
     pub render_from_instance: Transform,
 }
 
-/// Bit marking a BVH slot that holds a sphere or disk rather than a triangle.
+/// Bit marking a BVH slot that holds a sphere, disk or bilinear patch rather than a triangle.
 const ANALYTIC: u32 = 1 << 31;
 
 /// Bottom-level structure of one object.
@@ -138,7 +138,7 @@ struct Blas {
     bvh: CwBvh,
     /// Triangle vertices per BVH slot (zeros for analytic slots).
     slot_tris: Vec<[Vec3; 3]>,
-    /// Flattened primitive index per BVH slot, `| ANALYTIC` for spheres and disks.
+    /// Flattened primitive index per BVH slot, `| ANALYTIC` for spheres, disks and bilinear patches.
     slot_prim: Vec<u32>,
     bounds: Bounds3,
 }
@@ -350,14 +350,24 @@ impl Blas {
                 }
             } else {
                 let prim = prim & !ANALYTIC;
-                let (s, _) = self.locate(prim);
-                let hit = match &self.shapes[s as usize] {
-                    Shape::Sphere(sp) => sp.intersect_t(&ray, best.t),
-                    Shape::Disk(dk) => dk.intersect_t(&ray, best.t),
-                    Shape::Mesh(_) => None,
-                };
-                if let Some((t, p_obj)) = hit {
-                    *best = Closest { t, instance, prim, b: [0.0; 3], p_obj };
+                let (s, e) = self.locate(prim);
+                match &self.shapes[s as usize] {
+                    Shape::Sphere(sp) => {
+                        if let Some((t, p_obj)) = sp.intersect_t(&ray, best.t) {
+                            *best = Closest { t, instance, prim, b: [0.0; 3], p_obj };
+                        }
+                    }
+                    Shape::Disk(dk) => {
+                        if let Some((t, p_obj)) = dk.intersect_t(&ray, best.t) {
+                            *best = Closest { t, instance, prim, b: [0.0; 3], p_obj };
+                        }
+                    }
+                    Shape::Bilinear(m) => {
+                        if let Some((t, uv)) = m.intersect(e as usize, o, d, best.t) {
+                            *best = Closest { t, instance, prim, b: [uv.x, uv.y, 0.0], p_obj: DVec3::ZERO };
+                        }
+                    }
+                    Shape::Mesh(_) => {}
                 }
             }
         });
@@ -384,10 +394,11 @@ impl Blas {
                     let [p0, p1, p2] = self.slot_tris[slot];
                     intersect_triangle(&tri_ray, p0, p1, p2, t_max).is_some()
                 } else {
-                    let (s, _) = self.locate(prim & !ANALYTIC);
+                    let (s, e) = self.locate(prim & !ANALYTIC);
                     match &self.shapes[s as usize] {
                         Shape::Sphere(sp) => sp.intersect_t(&ray, t_max).is_some(),
                         Shape::Disk(dk) => dk.intersect_t(&ray, t_max).is_some(),
+                        Shape::Bilinear(m) => m.intersect(e as usize, o, d, t_max).is_some(),
                         Shape::Mesh(_) => false,
                     }
                 };
@@ -554,6 +565,7 @@ impl GeometryScene {
         let (shape, element) = blas.locate(c.prim);
         let g = match &blas.shapes[shape as usize] {
             Shape::Mesh(m) => triangle_geom(m, element as usize, c.b),
+            Shape::Bilinear(m) => m.geom(element as usize, Vec2::new(c.b[0], c.b[1])),
             Shape::Sphere(s) => s.geom(c.p_obj),
             Shape::Disk(d) => d.geom(c.p_obj),
         };
@@ -684,6 +696,12 @@ impl GeometryScene {
                         Shape::Disk(dk) => {
                             if let Some((t, p_obj)) = dk.intersect_t(&r, best.t) {
                                 best = Closest { t, instance: i as u32, prim, b: [0.0; 3], p_obj };
+                            }
+                        }
+                        Shape::Bilinear(m) => {
+                            if let Some((t, uv)) = m.intersect(e, o, d, best.t) {
+                                best =
+                                    Closest { t, instance: i as u32, prim, b: [uv.x, uv.y, 0.0], p_obj: DVec3::ZERO };
                             }
                         }
                     }

@@ -4,7 +4,8 @@
 //!
 //! - [`ray`]: [`Ray`], floating-point error bounds and robust ray spawning ([`spawn_ray`], [`spawn_ray_to`]).
 //! - [`mesh`]: [`TriangleMesh`] in render space from object-space [`MeshData`]; PLY loading ([`ply`]), Loop
-//!   subdivision ([`subdiv`]) and bilinear-patch meshes split into triangles.
+//!   subdivision ([`subdiv`]).
+//! - [`bilinear`]: [`BilinearMesh`], bilinear patches intersected exactly (Reshetov 2019), and their sampling.
 //! - [`shapes`]: [`Sphere`], [`Disk`], triangle intersection, and area / solid-angle sampling ([`ShapeSample`]).
 //! - [`accel`]: the [`Accel`] trait and [`GeometryScene`], a two-level BVH (compressed wide BVH from `obvhs`) with
 //!   instancing.
@@ -13,6 +14,7 @@
 #![warn(missing_docs)]
 
 pub mod accel;
+pub mod bilinear;
 pub mod bounds;
 pub mod mesh;
 pub mod ply;
@@ -22,9 +24,10 @@ pub mod subdiv;
 pub mod transform;
 
 pub use accel::{Accel, GeometryScene, Hit, Instance, Object, Shape};
+pub use bilinear::BilinearMesh;
 pub use bounds::Bounds3;
 pub use glam::{DMat4, DVec3, Vec2, Vec3, Vec3A};
-pub use mesh::{MeshData, TriangleMesh};
+pub use mesh::{BilinearMeshData, MeshData, TriangleMesh};
 pub use ray::{offset_ray_origin, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
 pub use shapes::{Disk, ShapeSample, Sphere};
 pub use transform::Transform;

@@ -1,4 +1,5 @@
-//! Triangle meshes in render space, built from object-space data and a transform; bilinear-patch meshes.
+//! Triangle meshes in render space, built from object-space data and a transform; bilinear-patch mesh data (the
+//! shape itself is [`crate::bilinear::BilinearMesh`]).
 
 use glam::{Vec2, Vec3};
 
@@ -232,57 +233,45 @@ pub struct BilinearMeshData {
 }
 
 impl BilinearMeshData {
-    /// Splits every patch into the two triangles `(p00, p10, p11)` and `(p00, p11, p01)`, whose geometric normals
-    /// point the way pbrt's patch normal `cross(∂p/∂u, ∂p/∂v)` does. Triangle `2k` and `2k + 1` come from patch `k`.
-    ///
-    /// Planar patches (the usual case: quads) are represented exactly; a non-planar patch is approximated by its two
-    /// triangles (no exact ray–bilinear-patch intersection yet). Without uvs each patch gets its own four vertices
-    /// with pbrt's default patch uvs (0,0), (1,0), (0,1), (1,1).
-    pub fn to_triangles(&self) -> Result<MeshData, GeometryError> {
+    /// Checks the data: indices a multiple of 4 and in range, optional arrays of the right length, every value
+    /// finite. The error names the first problem found.
+    pub fn validate(&self) -> Result<(), GeometryError> {
         if self.indices.len() % 4 != 0 {
             return Err(GeometryError::InvalidMesh(format!(
                 "bilinear mesh: {} vertex indices is not a multiple of 4",
                 self.indices.len()
             )));
         }
+        let err = |m: String| Err(GeometryError::InvalidMesh(format!("bilinear mesh: {m}")));
         let n = self.positions.len();
-        if let Some(&v) = self.indices.iter().find(|&&v| v as usize >= n) {
-            return Err(GeometryError::InvalidMesh(format!(
-                "bilinear mesh: vertex index {v} is out of range: the mesh has {n} vertices"
-            )));
+        if let Some((i, &v)) = self.indices.iter().enumerate().find(|(_, &v)| v as usize >= n) {
+            return err(format!("vertex index {v} (entry {i}) is out of range: the mesh has {n} vertices"));
         }
-        let tri_of = |q: &[u32]| [q[0], q[1], q[3], q[0], q[3], q[2]];
-        if self.uvs.is_some() {
-            let indices = self.indices.chunks_exact(4).flat_map(tri_of).collect();
-            return Ok(MeshData {
-                positions: self.positions.clone(),
-                normals: self.normals.clone(),
-                uvs: self.uvs.clone(),
-                indices,
-            });
+        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
+            return err(format!("position {i} is not finite: {:?}", self.positions[i]));
         }
-        let patches = self.indices.len() / 4;
-        let mut out = MeshData {
-            positions: Vec::with_capacity(4 * patches),
-            normals: self.normals.as_ref().map(|_| Vec::with_capacity(4 * patches)),
-            uvs: Some(Vec::with_capacity(4 * patches)),
-            indices: Vec::with_capacity(6 * patches),
-        };
-        let default_uv = [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0)];
-        for (k, q) in self.indices.chunks_exact(4).enumerate() {
-            for (j, &v) in q.iter().enumerate() {
-                out.positions.push(self.positions[v as usize]);
-                if let (Some(dst), Some(src)) = (&mut out.normals, &self.normals) {
-                    dst.push(src.get(v as usize).copied().unwrap_or(Vec3::ZERO));
-                }
-                if let Some(uvs) = &mut out.uvs {
-                    uvs.push(default_uv[j]);
-                }
+        if let Some(normals) = &self.normals {
+            if normals.len() != n {
+                return err(format!("{} normals for {n} vertices", normals.len()));
             }
-            let b = 4 * k as u32;
-            out.indices.extend(tri_of(&[b, b + 1, b + 2, b + 3]));
+            if let Some(i) = normals.iter().position(|p| !p.is_finite()) {
+                return err(format!("normal {i} is not finite: {:?}", normals[i]));
+            }
         }
-        Ok(out)
+        if let Some(uvs) = &self.uvs {
+            if uvs.len() != n {
+                return err(format!("{} uvs for {n} vertices", uvs.len()));
+            }
+            if let Some(i) = uvs.iter().position(|p| !p.is_finite()) {
+                return err(format!("uv {i} is not finite: {:?}", uvs[i]));
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of patches.
+    pub fn patch_count(&self) -> usize {
+        self.indices.len() / 4
     }
 }
 
@@ -335,20 +324,20 @@ mod tests {
     }
 
     #[test]
-    fn bilinear_split_keeps_pbrt_orientation() {
+    fn bilinear_validation_names_the_problem() {
         let b = BilinearMeshData {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)],
             indices: vec![0, 1, 2, 3],
             ..Default::default()
         };
-        let m = b.to_triangles().unwrap();
-        assert_eq!(m.triangle_count(), 2);
-        for t in m.indices.chunks_exact(3) {
-            let [p0, p1, p2] = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
-            // pbrt's triangle normal cross(p0 − p2, p1 − p2) equals the patch's cross(dpdu, dpdv) = +z.
-            assert!((p0 - p2).cross(p1 - p2).z > 0.0);
-        }
-        assert_eq!(m.uvs.as_ref().unwrap()[3], Vec2::new(1.0, 1.0));
-        assert!(BilinearMeshData { indices: vec![0, 1, 2], ..b.clone() }.to_triangles().is_err());
+        assert!(b.validate().is_ok() && b.patch_count() == 1);
+        let e = BilinearMeshData { indices: vec![0, 1, 2], ..b.clone() }.validate().unwrap_err().to_string();
+        assert!(e.contains("multiple of 4"), "{e}");
+        let e = BilinearMeshData { indices: vec![0, 1, 2, 4], ..b.clone() }.validate().unwrap_err().to_string();
+        assert!(e.contains("out of range"), "{e}");
+        let e = BilinearMeshData { uvs: Some(vec![Vec2::ZERO; 3]), ..b.clone() }.validate().unwrap_err().to_string();
+        assert!(e.contains("3 uvs for 4 vertices"), "{e}");
+        let e = BilinearMeshData { normals: Some(vec![Vec3::Z; 5]), ..b }.validate().unwrap_err().to_string();
+        assert!(e.contains("5 normals for 4 vertices"), "{e}");
     }
 }

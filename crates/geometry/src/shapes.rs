@@ -1,5 +1,5 @@
-//! Shapes: analytic spheres and disks, triangles of meshes; their intersection, surface geometry, error bounds and
-//! sampling (pbrt-v4 book ch. 6).
+//! Shapes: analytic spheres (full or partial) and disks, triangles of meshes; their intersection, surface geometry,
+//! error bounds and sampling (pbrt-v4 book ch. 6). Bilinear patches live in [`crate::bilinear`].
 //!
 //! Spheres and disks are intersected in object space in f64 (so the `t > 0` decision for a ray leaving the surface
 //! is exact enough), triangles in render space with the watertight algorithm of Woop, Benthin and Wald (2013) and
@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 use glam::{DMat3, DVec3, Vec2, Vec3};
 
+use crate::bilinear::BilinearMesh;
 use crate::bounds::Bounds3;
 use crate::mesh::TriangleMesh;
 use crate::ray::{gamma, Ray};
@@ -293,6 +294,16 @@ impl Placement {
     }
 }
 
+/// Azimuth of `p` in `[0, 2π)`.
+fn phi_of(p: DVec3) -> f64 {
+    let phi = p.y.atan2(p.x);
+    if phi < 0.0 {
+        phi + std::f64::consts::TAU
+    } else {
+        phi
+    }
+}
+
 fn dpdu_or_frame(dpdu: DVec3, n_obj: DVec3) -> DVec3 {
     if dpdu.length_squared() > 0.0 {
         dpdu
@@ -304,12 +315,18 @@ fn dpdu_or_frame(dpdu: DVec3, n_obj: DVec3) -> DVec3 {
 // ---------------------------------------------------------------------------------------------------------------
 // Sphere
 
-/// A full sphere of `radius` about the object-space origin (pbrt's `sphere`; partial spheres with zmin, zmax,
-/// phimax are not supported). Any transform is intersected exactly; sampling and area assume a similarity
-/// transform (rotation, translation, uniform scale), as pbrt-v4 does.
+/// A sphere of `radius` about the object-space origin (pbrt's `sphere`), optionally partial: only the part with
+/// `z_min ≤ z ≤ z_max` and azimuth `0 ≤ φ ≤ φ_max` exists. Any transform is intersected exactly; sampling and area
+/// assume a similarity transform (rotation, translation, uniform scale), as pbrt-v4 does.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sphere {
     radius: f64,
+    z_min: f64,
+    z_max: f64,
+    /// Polar angles of `z_min` and `z_max` (θ = acos(z/r), so `theta_z_min ≥ theta_z_max`).
+    theta_z_min: f64,
+    theta_z_max: f64,
+    phi_max: f64,
     place: Placement,
     reverse_orientation: bool,
     center: Vec3,
@@ -317,20 +334,61 @@ pub struct Sphere {
 }
 
 impl Sphere {
-    /// A sphere; errors unless `radius` is positive and finite and the transform invertible.
+    /// A full sphere; errors unless `radius` is positive and finite and the transform invertible.
     pub fn new(radius: f32, render_from_object: Transform, reverse_orientation: bool) -> Result<Self, GeometryError> {
+        Self::partial(radius, -radius, radius, 360.0, render_from_object, reverse_orientation)
+    }
+
+    /// A partial sphere (pbrt-v4's `zmin`, `zmax`, `phimax`): `z_min` and `z_max` are clamped to `[−radius,
+    /// radius]` and must then satisfy `z_min < z_max`; `phi_max_deg` must be in `(0, 360]`. Errors name the
+    /// offending parameter.
+    pub fn partial(
+        radius: f32,
+        z_min: f32,
+        z_max: f32,
+        phi_max_deg: f32,
+        render_from_object: Transform,
+        reverse_orientation: bool,
+    ) -> Result<Self, GeometryError> {
         if !(radius > 0.0 && radius.is_finite()) {
-            return Err(GeometryError::InvalidShape(format!("sphere radius must be positive, got {radius}")));
+            return Err(GeometryError::InvalidShape(format!("sphere 'radius' must be positive, got {radius}")));
+        }
+        let r = radius as f64;
+        let (zlo, zhi) = ((z_min as f64).clamp(-r, r), (z_max as f64).clamp(-r, r));
+        if zlo.is_nan() || zhi.is_nan() || zlo >= zhi {
+            return Err(GeometryError::InvalidShape(format!(
+                "sphere 'zmin' ({z_min}) must be less than 'zmax' ({z_max}) after clamping both to [-radius, radius] \
+                 (radius {radius})"
+            )));
+        }
+        if !(phi_max_deg > 0.0 && phi_max_deg <= 360.0) {
+            return Err(GeometryError::InvalidShape(format!("sphere 'phimax' must be in (0, 360], got {phi_max_deg}")));
         }
         let place = Placement::new(render_from_object, "sphere")?;
         let center = render_from_object.point(DVec3::ZERO).as_vec3();
-        let render_radius = (radius as f64 * place.scale) as f32;
-        Ok(Self { radius: radius as f64, place, reverse_orientation, center, render_radius })
+        let render_radius = (r * place.scale) as f32;
+        Ok(Self {
+            radius: r,
+            z_min: zlo,
+            z_max: zhi,
+            theta_z_min: (zlo / r).clamp(-1.0, 1.0).acos(),
+            theta_z_max: (zhi / r).clamp(-1.0, 1.0).acos(),
+            phi_max: (phi_max_deg as f64).clamp(0.0, 360.0).to_radians(),
+            place,
+            reverse_orientation,
+            center,
+            render_radius,
+        })
     }
 
     /// Object-space radius.
     pub fn radius(&self) -> f32 {
         self.radius as f32
+    }
+
+    /// True for a whole sphere (no clipping by z range or φ).
+    pub fn is_full(&self) -> bool {
+        self.z_min <= -self.radius && self.z_max >= self.radius && self.phi_max >= std::f64::consts::TAU
     }
 
     /// Render-space centre.
@@ -350,16 +408,27 @@ impl Sphere {
 
     /// Render-space bounds.
     pub fn bounds(&self) -> Bounds3 {
-        let r = DVec3::splat(self.radius);
-        self.place.bounds(-r, r)
+        let r = self.radius;
+        self.place.bounds(DVec3::new(-r, -r, self.z_min), DVec3::new(r, r, self.z_max))
     }
 
-    /// Surface area (render space).
+    /// Surface area (render space): φmax·r·(zmax − zmin), the area of a spherical zone (Archimedes' hat-box
+    /// theorem) cut to the wedge φ ≤ φmax; 4πr² for a full sphere.
     pub fn area(&self) -> f32 {
-        4.0 * PI * self.render_radius * self.render_radius
+        let s2 = self.place.scale * self.place.scale;
+        // Archimedes: a zone of height h on a sphere of radius r has area 2π·r·h; a wedge φmax/2π of it.
+        (self.phi_max * self.radius * (self.z_max - self.z_min) * s2) as f32
     }
 
-    /// Nearest hit `t` in `(0, t_max)` and the object-space hit point.
+    /// True if the object-space point `p` on the sphere lies outside the partial sphere.
+    fn clipped(&self, p: DVec3) -> bool {
+        (self.z_min > -self.radius && p.z < self.z_min)
+            || (self.z_max < self.radius && p.z > self.z_max)
+            || (self.phi_max < std::f64::consts::TAU && phi_of(p) > self.phi_max)
+    }
+
+    /// Nearest hit `t` in `(0, t_max)` and the object-space hit point. For a partial sphere a root whose point is
+    /// clipped away is skipped and the farther root tried.
     pub(crate) fn intersect_t(&self, ray: &Ray, t_max: f32) -> Option<(f32, DVec3)> {
         let (o, d) = self.place.ray_to_object(ray);
         let a = d.length_squared();
@@ -384,23 +453,32 @@ impl Sphere {
             std::mem::swap(&mut t0, &mut t1);
         }
         let t_max = t_max as f64;
-        let t = if t0 > 0.0 { t0 } else { t1 };
-        if t <= 0.0 || t >= t_max {
-            return None;
+        for t in [t0, t1] {
+            if t <= 0.0 {
+                continue;
+            }
+            if t >= t_max {
+                return None;
+            }
+            let mut p = o + t * d;
+            p *= self.radius / p.length();
+            if self.clipped(p) {
+                continue;
+            }
+            return Some((t as f32, p));
         }
-        let mut p = o + t * d;
-        p *= self.radius / p.length();
-        Some((t as f32, p))
+        None
     }
 
     fn geom_at(&self, p: DVec3) -> SurfaceGeom {
-        let mut phi = p.y.atan2(p.x);
-        if phi < 0.0 {
-            phi += std::f64::consts::TAU;
-        }
+        let phi = phi_of(p);
         let theta = (p.z / self.radius).clamp(-1.0, 1.0).acos();
-        let uv = Vec2::new((phi / std::f64::consts::TAU) as f32, (1.0 - theta / std::f64::consts::PI) as f32);
-        let dpdu = dpdu_or_frame(std::f64::consts::TAU * DVec3::new(-p.y, p.x, 0.0), p);
+        // pbrt-v4's sphere parametrization: u = φ/φmax, v = (θ − θ(zmin))/(θ(zmax) − θ(zmin)).
+        let uv = Vec2::new(
+            (phi / self.phi_max) as f32,
+            ((theta - self.theta_z_min) / (self.theta_z_max - self.theta_z_min)) as f32,
+        );
+        let dpdu = dpdu_or_frame(self.phi_max * DVec3::new(-p.y, p.x, 0.0), p);
         let p_err_obj = gamma(5) * p.abs().as_vec3();
         let (pr, p_error, mut n, dpdu) = self.place.to_render(p, p_err_obj, p, dpdu);
         if self.reverse_orientation {
@@ -413,21 +491,29 @@ impl Sphere {
         self.geom_at(p_obj)
     }
 
-    /// A uniformly distributed point on the sphere (pdf per unit area = 1/area).
+    /// A uniformly distributed point on the (partial) sphere (pdf per unit area = 1/area).
     pub fn sample_area(&self, u: Vec2) -> ShapeSample {
-        let p = self.radius * sample_uniform_sphere(u).as_dvec3();
+        let p = if self.is_full() {
+            self.radius * sample_uniform_sphere(u).as_dvec3()
+        } else {
+            // Archimedes: z uniform in [zmin, zmax] and φ uniform in [0, φmax] is uniform by area on the zone.
+            let z = self.z_min + u.x as f64 * (self.z_max - self.z_min);
+            let phi = u.y as f64 * self.phi_max;
+            let rho = (self.radius * self.radius - z * z).max(0.0).sqrt();
+            DVec3::new(rho * phi.cos(), rho * phi.sin(), z)
+        };
         let g = self.geom_at(p);
         ShapeSample { p: g.p, p_error: g.p_error, n: g.n, uv: g.uv, pdf: 1.0 / self.area() }
     }
 
-    /// A point sampled by solid angle as seen from `ref_p`: uniform in the cone of directions subtended by the
-    /// sphere when `ref_p` is outside (pdf = 1/(2π(1 − cos θmax)) per steradian), area sampling converted to solid
-    /// angle when inside. `None` if no valid sample.
+    /// A point sampled by solid angle as seen from `ref_p`: for a full sphere seen from outside, uniform in the cone
+    /// of directions it subtends (pdf = 1/(2π(1 − cos θmax)) per steradian); otherwise (inside, or a partial sphere)
+    /// area sampling converted to solid angle. `None` if no valid sample.
     pub fn sample_solid_angle(&self, ref_p: Vec3, u: Vec2) -> Option<ShapeSample> {
         let pc = self.center;
         let r = self.render_radius;
         let dc2 = ref_p.distance_squared(pc);
-        if dc2 <= r * r * (1.0 + 1e-4) {
+        if !self.is_full() || dc2 <= r * r * (1.0 + 1e-4) {
             let ss = self.sample_area(u);
             return area_to_solid_angle(ref_p, ss);
         }
@@ -460,12 +546,12 @@ impl Sphere {
     }
 
     /// Solid-angle density of [`Sphere::sample_solid_angle`] for direction `wi` (unit) from `ref_p`; assumes `wi`
-    /// hits the sphere when `ref_p` is outside.
+    /// hits the sphere when `ref_p` is outside a full sphere (a partial sphere is intersected: 0 on a miss).
     pub fn pdf_solid_angle(&self, ref_p: Vec3, wi: Vec3) -> f32 {
         let pc = self.center;
         let r = self.render_radius;
         let dc2 = ref_p.distance_squared(pc);
-        if dc2 <= r * r * (1.0 + 1e-4) {
+        if !self.is_full() || dc2 <= r * r * (1.0 + 1e-4) {
             let ray = Ray::new(ref_p, wi);
             return match self.intersect_t(&ray, f32::INFINITY) {
                 Some((_, p)) => area_pdf_to_solid_angle(ref_p, &self.geom_at(p), 1.0 / self.area()),
@@ -618,11 +704,14 @@ impl Disk {
 // ---------------------------------------------------------------------------------------------------------------
 // Shape: what an object is made of
 
-/// A shape, the unit a scene is built from. A mesh holds many primitives (its triangles); spheres and disks one.
+/// A shape, the unit a scene is built from. A mesh holds many primitives (its triangles or patches); spheres and
+/// disks one.
 #[derive(Clone, Debug)]
 pub enum Shape {
     /// A triangle mesh; primitive `k` of the shape is triangle `k`.
     Mesh(Arc<TriangleMesh>),
+    /// A bilinear patch mesh; primitive `k` of the shape is patch `k`.
+    Bilinear(Arc<BilinearMesh>),
     /// A sphere.
     Sphere(Sphere),
     /// A disk.
@@ -630,10 +719,11 @@ pub enum Shape {
 }
 
 impl Shape {
-    /// Number of primitives (triangles for a mesh, 1 otherwise).
+    /// Number of primitives (triangles or patches for a mesh, 1 otherwise).
     pub fn primitive_count(&self) -> usize {
         match self {
             Shape::Mesh(m) => m.triangle_count(),
+            Shape::Bilinear(m) => m.patch_count(),
             Shape::Sphere(_) | Shape::Disk(_) => 1,
         }
     }
@@ -642,6 +732,7 @@ impl Shape {
     pub fn bounds(&self) -> Bounds3 {
         match self {
             Shape::Mesh(m) => m.bounds(),
+            Shape::Bilinear(m) => m.bounds(),
             Shape::Sphere(s) => s.bounds(),
             Shape::Disk(d) => d.bounds(),
         }
@@ -651,31 +742,34 @@ impl Shape {
     pub fn element_bounds(&self, element: usize) -> Bounds3 {
         match self {
             Shape::Mesh(m) => Bounds3::from_points(m.triangle_positions(element)),
+            Shape::Bilinear(m) => m.patch_bounds(element),
             _ => self.bounds(),
         }
     }
 
-    /// Area of primitive `element` (a triangle, or the whole sphere or disk).
+    /// Area of primitive `element` (a triangle, a patch, or the whole sphere or disk).
     pub fn area(&self, element: usize) -> f32 {
         match self {
             Shape::Mesh(m) => m.triangle_area(element),
+            Shape::Bilinear(m) => m.patch_area(element),
             Shape::Sphere(s) => s.area(),
             Shape::Disk(d) => d.area(),
         }
     }
 
-    /// A uniformly distributed point on primitive `element`, pdf per unit area (= 1/area). `None` for a
-    /// degenerate triangle.
+    /// A point on primitive `element` with its pdf per unit area: uniform (1/area) except on a non-planar
+    /// bilinear patch (see [`BilinearMesh::sample_area`]). `None` for a degenerate triangle or patch point.
     pub fn sample_area(&self, element: usize, u: Vec2) -> Option<ShapeSample> {
         match self {
             Shape::Mesh(m) => sample_triangle_area(m, element, u),
+            Shape::Bilinear(m) => m.sample_area(element, u),
             Shape::Sphere(s) => Some(s.sample_area(u)),
             Shape::Disk(d) => Some(d.sample_area(u)),
         }
     }
 
     /// A point on primitive `element` sampled with a density per steradian as seen from `ref_p`: cone sampling
-    /// for spheres seen from outside, area sampling converted to solid angle (pdf·dist²/|cos θ|) otherwise.
+    /// for full spheres seen from outside, area sampling converted to solid angle (pdf·dist²/|cos θ|) otherwise.
     pub fn sample_solid_angle(&self, element: usize, ref_p: Vec3, u: Vec2) -> Option<ShapeSample> {
         match self {
             Shape::Sphere(s) => s.sample_solid_angle(ref_p, u),
@@ -691,6 +785,10 @@ impl Shape {
             Shape::Sphere(s) => s.pdf_solid_angle(ref_p, wi),
             Shape::Disk(d) => match d.intersect_t(&ray, f32::INFINITY) {
                 Some((_, p)) => area_pdf_to_solid_angle(ref_p, &d.geom(p), 1.0 / d.area()),
+                None => 0.0,
+            },
+            Shape::Bilinear(m) => match m.intersect(element, ref_p, wi, f32::INFINITY) {
+                Some((_, uv)) => area_pdf_to_solid_angle(ref_p, &m.geom(element, uv), m.pdf_area(element, uv)),
                 None => 0.0,
             },
             Shape::Mesh(m) => {
@@ -712,6 +810,7 @@ impl Shape {
                 let [p0, p1, p2] = m.triangle_positions(element);
                 intersect_triangle(&TriRay::new(ray.o, ray.d), p0, p1, p2, t_max).map(|h| h.0)
             }
+            Shape::Bilinear(m) => m.intersect(element, ray.o, ray.d, t_max).map(|h| h.0),
             Shape::Sphere(s) => s.intersect_t(ray, t_max).map(|h| h.0),
             Shape::Disk(d) => d.intersect_t(ray, t_max).map(|h| h.0),
         }
@@ -868,6 +967,120 @@ mod tests {
         let mean: f64 =
             points(n).map(|u| 1.0 / shape.sample_solid_angle(0, c, u).unwrap().pdf as f64).sum::<f64>() / n as f64;
         assert!((mean - 4.0 * std::f64::consts::PI).abs() < 0.05, "{mean}");
+    }
+
+    #[test]
+    fn partial_sphere_clips_hits_against_closed_form() {
+        // r = 2, zmin = −1, zmax = 1.5, φmax = 250°.
+        let s = Sphere::partial(2.0, -1.0, 1.5, 250.0, Transform::IDENTITY, false).unwrap();
+        let hit = |o: Vec3, d: Vec3| s.intersect_t(&Ray::new(o, d), f32::INFINITY);
+        // Down the z axis: the pole z = 2 is above zmax and z = −2 below zmin: a miss.
+        assert!(hit(Vec3::new(0.0, 0.0, 10.0), -Vec3::Z).is_none());
+        // At x = 1: z = ±√3 are both clipped (√3 > 1.5, −√3 < −1).
+        assert!(hit(Vec3::new(1.0, 0.0, 10.0), -Vec3::Z).is_none());
+        // At x = 1.8: z = ±√(4 − 3.24) = ±0.8718, the near root kept: t = 10 − 0.8718.
+        let (t, p) = hit(Vec3::new(1.8, 0.0, 10.0), -Vec3::Z).unwrap();
+        assert!((t as f64 - (10.0 - 0.76f64.sqrt())).abs() < 1e-5, "{t}");
+        assert!((p.z - 0.76f64.sqrt()).abs() < 1e-6, "{p}");
+        // Along +x at z = 0.5: near root x = −√3.75 has φ = 180° ≤ 250°: kept, t = 10 − √3.75.
+        let (t, p) = hit(Vec3::new(-10.0, 0.0, 0.5), Vec3::X).unwrap();
+        assert!((t as f64 - (10.0 - 3.75f64.sqrt())).abs() < 1e-5, "{t}");
+        // uv: u = φ/φmax, v = (θ − θ(zmin))/(θ(zmax) − θ(zmin)) with θ = acos(z/r).
+        let g = s.geom(p);
+        let (th, th0, th1) = (0.25f64.acos(), (-0.5f64).acos(), 0.75f64.acos());
+        assert!((g.uv.x as f64 - 180.0 / 250.0).abs() < 1e-6, "{:?}", g.uv);
+        assert!((g.uv.y as f64 - (th - th0) / (th1 - th0)).abs() < 1e-6, "{:?}", g.uv);
+        assert!((g.n - (p / 2.0).as_vec3()).length() < 1e-6);
+        // Along +y at z = 0: the near root (0, −2, 0) has φ = 270° > 250° and is clipped; the far root (0, 2, 0)
+        // (φ = 90°) is hit from inside at t = 12, its outward normal +y facing away from the ray origin.
+        let (t, p) = hit(Vec3::new(0.0, -10.0, 0.0), Vec3::Y).unwrap();
+        assert!((t - 12.0).abs() < 1e-5 && (p - DVec3::new(0.0, 2.0, 0.0)).length() < 1e-9, "{t} {p}");
+        assert!((s.geom(p).n - Vec3::Y).length() < 1e-6);
+        // Along −x at y = −1, z = 0: the near root (√3, −1, 0) has φ = 330° (clipped); the far root (−√3, −1, 0)
+        // has φ = 210° and is hit at t = 10 + √3.
+        let (t, _) = hit(Vec3::new(10.0, -1.0, 0.0), -Vec3::X).unwrap();
+        assert!((t as f64 - (10.0 + 3f64.sqrt())).abs() < 1e-5, "{t}");
+        // t_max below the far root: a miss.
+        assert!(s.intersect_t(&Ray::new(Vec3::new(10.0, -1.0, 0.0), -Vec3::X), 11.0).is_none());
+    }
+
+    #[test]
+    fn partial_sphere_parameters_are_validated() {
+        let e = |r, z0, z1, phi| Sphere::partial(r, z0, z1, phi, Transform::IDENTITY, false).unwrap_err().to_string();
+        assert!(e(1.0, 0.5, 0.5, 360.0).contains("'zmin'"));
+        // Clamped to [−1, 1] both become 1: empty.
+        assert!(e(1.0, 2.0, 3.0, 360.0).contains("'zmin'"));
+        assert!(e(1.0, f32::NAN, 1.0, 360.0).contains("'zmin'"));
+        assert!(e(1.0, -1.0, 1.0, 0.0).contains("'phimax'"));
+        assert!(e(1.0, -1.0, 1.0, 361.0).contains("'phimax'"));
+        assert!(e(0.0, -1.0, 1.0, 360.0).contains("'radius'"));
+        // Out-of-range z limits are clamped: the same as the full sphere.
+        let s = Sphere::partial(1.0, -5.0, 5.0, 360.0, Transform::IDENTITY, false).unwrap();
+        assert!(s.is_full() && (s.area() - 4.0 * PI).abs() < 1e-5);
+    }
+
+    #[test]
+    fn partial_sphere_area_and_uniform_sampling() {
+        // Object radius 1.5 scaled by 2 (render radius 3), zmin = −0.5, zmax = 1 (object), φmax = 120°:
+        // area = φmax·r·(zmax − zmin)·s² = (2π/3)·1.5·1.5·4.
+        let t = Transform::translate(DVec3::new(1.0, -2.0, 0.5)) * Transform::scale(DVec3::splat(2.0)).unwrap();
+        let s = Sphere::partial(1.5, -0.5, 1.0, 120.0, t, false).unwrap();
+        let area = 2.0 * std::f64::consts::PI / 3.0 * 1.5 * 1.5 * 4.0;
+        assert!((s.area() as f64 - area).abs() < 1e-5 * area, "{}", s.area());
+        let inv = t.inverse();
+        let n = 20_000;
+        let (mut above, mut low_phi, mut sum_inv_pdf) = (0usize, 0usize, 0.0f64);
+        for u in points(n) {
+            let ss = s.sample_area(u);
+            sum_inv_pdf += 1.0 / ss.pdf as f64;
+            let p = inv.point(ss.p.as_dvec3());
+            assert!((p.length() - 1.5).abs() < 1e-5, "{p}");
+            assert!(p.z >= -0.5 - 1e-6 && p.z <= 1.0 + 1e-6, "{p}");
+            let phi = phi_of(p).to_degrees();
+            assert!(phi <= 120.0 + 1e-3, "{phi}");
+            above += (p.z > 0.25) as usize;
+            low_phi += (phi < 60.0) as usize;
+            // The sample's uv is the surface parametrization of its point.
+            assert!((ss.uv - s.geom(p).uv).length() < 1e-4);
+        }
+        // E[1/pdf] = area (normalisation); uniform by area: P(z > 0.25) = 0.75/1.5, P(φ < 60°) = 1/2.
+        assert!((sum_inv_pdf / n as f64 - area).abs() < 1e-4 * area);
+        assert!((above as f64 / n as f64 - 0.5).abs() < 0.01, "{above}");
+        assert!((low_phi as f64 / n as f64 - 0.5).abs() < 0.01, "{low_phi}");
+    }
+
+    #[test]
+    fn hemisphere_seen_from_below_through_its_open_side() {
+        // Upper hemisphere r = 1 (zmin = 0). From (0, 0, −5) looking up, rays through the opening hit its inside.
+        let s = Sphere::partial(1.0, 0.0, 1.0, 360.0, Transform::IDENTITY, false).unwrap();
+        assert!(!s.is_full());
+        let o = Vec3::new(0.0, 0.0, -5.0);
+        let (t, p) = s.intersect_t(&Ray::new(o, Vec3::Z), f32::INFINITY).unwrap();
+        assert!((t - 6.0).abs() < 1e-5, "{t}");
+        // The outward normal +z faces away from the viewer: the inside is seen.
+        assert!((s.geom(p).n - Vec3::Z).length() < 1e-6);
+        // Off axis: x = 0.6 hits at z = 0.8, t = 5.8.
+        let (t, _) = s.intersect_t(&Ray::new(Vec3::new(0.6, 0.0, -5.0), Vec3::Z), f32::INFINITY).unwrap();
+        assert!((t - 5.8).abs() < 1e-5, "{t}");
+        // Area sampling converted to solid angle: every direction in the cone through the rim (half-angle
+        // atan(1/5)) hits the hemisphere exactly once, so E[1/pdf_ω] = 2π(1 − 5/√26).
+        let shape = Shape::Sphere(s.clone());
+        let n = 40_000;
+        let mut omega = 0.0f64;
+        for u in points(n) {
+            let ss = shape.sample_solid_angle(0, o, u).unwrap();
+            omega += 1.0 / ss.pdf as f64;
+            let wi = (ss.p - o).normalize();
+            let back = shape.pdf_solid_angle(0, o, wi);
+            assert!((back - ss.pdf).abs() < 2e-3 * ss.pdf, "{back} vs {}", ss.pdf);
+        }
+        let exact = 2.0 * std::f64::consts::PI * (1.0 - 5.0 / 26f64.sqrt());
+        assert!((omega / n as f64 - exact).abs() < 5e-3 * exact, "{} vs {exact}", omega / n as f64);
+        // A full sphere keeps cone sampling: the pdf is the constant 1/(2π(1 − cos θmax)).
+        let full = Sphere::new(1.0, Transform::IDENTITY, false).unwrap();
+        let cos_max = (1.0f32 - 1.0 / 25.0).sqrt();
+        let pdf = full.sample_solid_angle(o, Vec2::new(0.3, 0.7)).unwrap().pdf;
+        assert!((pdf - 1.0 / (2.0 * PI * (1.0 - cos_max))).abs() < 1e-3 * pdf);
     }
 
     #[test]

@@ -203,6 +203,17 @@ const MALFORMED: &[(&str, u32, u32, &str)] = &[
     ("Integrator \"mlt\"\nWorldBegin\n", 1, 1, "integrator 'mlt' is not supported"),
     ("WorldBegin\nMaterial \"dielectric\" \"string glass\" \"N-XYZ\"\nShape \"sphere\"\n", 2, 23, "N-XYZ"),
     ("Film \"rgb\" \"integer xresolution\" 0\nWorldBegin\n", 1, 12, "xresolution"),
+    ("WorldBegin\nShape \"sphere\" \"float zmin\" 0.5 \"float zmax\" 0.2\n", 2, 16, "'zmin'"),
+    ("WorldBegin\nShape \"sphere\" \"float zmin\" 2 \"float zmax\" 3\n", 2, 16, "after clamping"),
+    ("WorldBegin\nShape \"sphere\" \"float phimax\" 400\n", 2, 16, "'phimax'"),
+    ("WorldBegin\nShape \"sphere\" \"float radius\" -1\n", 2, 16, "'radius'"),
+    (
+        "WorldBegin\nShape \"bilinearmesh\" \"point3 P\" [ 0 0 0 1 0 0 0 1 0 1 1 0 ] \"integer indices\" [ 0 1 2 ]\n",
+        2,
+        1,
+        "not a multiple of 4",
+    ),
+    ("WorldBegin\nShape \"bilinearmesh\" \"point3 P\" [ 0 0 0 1 0 0 0 1 0 ]\n", 2, 1, "exactly 4 vertices"),
 ];
 
 #[test]

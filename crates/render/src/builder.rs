@@ -8,7 +8,7 @@ use std::sync::Arc;
 use film::{FilmKind, FilmSpec, Filter, PixelSensor};
 use geometry::mesh::BilinearMeshData;
 use geometry::subdiv::loop_subdivide;
-use geometry::{GeometryScene, Instance, MeshData, Object, Shape, Transform, TriangleMesh};
+use geometry::{BilinearMesh, GeometryScene, Instance, MeshData, Object, Shape, Transform, TriangleMesh};
 use glam::{DVec3, Vec2, Vec3};
 use scene::{
     Entity, FloatParam, Loc, MaterialRef, ParamSet, ParamType, SceneDescription, SceneError, ShapeEntity, SpectrumKind,
@@ -546,16 +546,42 @@ fn make_shape(se: &ShapeEntity) -> Result<Option<Shape>> {
             let uvs =
                 p.get_point2s("uv")?.map(|v| v.into_iter().map(|a| Vec2::new(a[0] as f32, a[1] as f32)).collect());
             let bl = BilinearMeshData { positions: to_vec3s(pos), normals, uvs, indices };
-            mesh(bl.to_triangles().map_err(|e| geo_err(loc, e))?)
+            if bl.indices.is_empty() {
+                return Ok(None);
+            }
+            Ok(Some(Shape::Bilinear(Arc::new(BilinearMesh::new(&rfo, bl, ro).map_err(|e| geo_err(loc, e))?))))
         }
         "sphere" => {
-            for partial in ["zmin", "zmax", "phimax"] {
-                if p.contains(partial) {
-                    return err(loc, format!("partial spheres ('{partial}') are not supported"));
+            // Each error names its parameter at the parameter's own location when given.
+            let at = |name: &str| p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+            let r = p.get_float("radius", 1.0)?;
+            if !(r.is_finite() && r > 0.0) {
+                return err(&at("radius"), format!("sphere 'radius' must be a positive number, got {r}"));
+            }
+            let zmin = p.get_float("zmin", -r)?;
+            let zmax = p.get_float("zmax", r)?;
+            let phimax = p.get_float("phimax", 360.0)?;
+            for (name, v) in [("zmin", zmin), ("zmax", zmax)] {
+                if v.is_nan() {
+                    return err(&at(name), format!("sphere '{name}' must be a number, got {v}"));
                 }
             }
-            let r = p.get_float("radius", 1.0)? as f32;
-            Ok(Some(Shape::Sphere(geometry::Sphere::new(r, rfo, ro).map_err(|e| geo_err(loc, e))?)))
+            if zmin.clamp(-r, r) >= zmax.clamp(-r, r) {
+                return err(
+                    &at("zmin"),
+                    format!(
+                        "sphere 'zmin' ({zmin}) must be less than 'zmax' ({zmax}) after clamping both to \
+                         [-radius, radius] = [{}, {r}]",
+                        -r
+                    ),
+                );
+            }
+            if !(phimax > 0.0 && phimax <= 360.0) {
+                return err(&at("phimax"), format!("sphere 'phimax' must be in (0, 360] degrees, got {phimax}"));
+            }
+            let s = geometry::Sphere::partial(r as f32, zmin as f32, zmax as f32, phimax as f32, rfo, ro)
+                .map_err(|e| geo_err(loc, e))?;
+            Ok(Some(Shape::Sphere(s)))
         }
         "disk" => {
             let d = geometry::Disk::new(
