@@ -22,6 +22,7 @@ scenes=(
   "diamond|scenes/diamond.pbrt|"
   "purple-glass|scenes/purple-glass.pbrt|"
   "metals|scenes/metals.pbrt|"
+  "prism-exercise|scenes/prism-exercise.pbrt|"
 )
 
 printf '%-16s %9s %5s %8s %8s %14s %9s %9s\n' scene resolution spp wall_s cpu_s samples/cpu_s Mrays/s peak_MB
