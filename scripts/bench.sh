@@ -35,7 +35,7 @@ for entry in "${scenes[@]}"; do
     || { echo "$name: render failed:" >&2; cat "$out/err" >&2; continue; }
   read -r wall user sys rss_kb <"$out/time"
   # "wrote FILE (WxH, N spp, ...)" (or "N iterations" for sppm) and "X Msamples/s, Y Mrays/s, ..."
-  res=$(sed -n 'X' "$out/log")
+  res=$(sed -n 's/^wrote .* (\([0-9]*x[0-9]*\), \([0-9]*\) \(spp\|iterations\).*/\1 \2/p' "$out/log")
   read -r wh spp <<<"$res"
   w=${wh%x*}; h=${wh#*x}
   mrays=$(sed -n 's/.*Msamples\/s, \([0-9.]*\) Mrays\/s.*/\1/p' "$out/log")
