@@ -19,7 +19,7 @@ use spectral::{SampledSpectrum, SampledWavelengths};
 use std::f32::consts::PI;
 
 use crate::bxdf::{Bxdf, TransportMode};
-use crate::integrator::{next_medium, resolve_surface, RayCounts, Surface};
+use crate::integrator::{cross_boundary, next_medium, resolve_surface, RayCounts, Surface};
 use crate::sampler::Sampler;
 use crate::sampling::Frame;
 use crate::scene::{MediumInterface, RenderScene, SurfaceHit};
@@ -161,7 +161,8 @@ impl Vertex {
         }
     }
 
-    /// A solid-angle density at this vertex turned into an area density at `next` (pbrt-v4 eq. 16.? : cos/d²).
+    /// A solid-angle density at this vertex turned into an area density at `next`: dω = |cos θ_next| dA / d²
+    /// (Veach 1997 eq. 8.10).
     fn convert_density(&self, pdf: f32, next: &Vertex, scene: &RenderScene) -> f32 {
         if next.is_infinite_light(scene) {
             return pdf;
@@ -505,10 +506,7 @@ impl BdptIntegrator {
             let u: [f32; DIMS_PER_BOUNCE] = std::array::from_fn(|_| sampler.next_1d());
             let bxdf = match resolve_surface(scene, &hit, wl, u[5], u[6]) {
                 Surface::PassThrough => {
-                    medium = next_medium(&hit, d, medium);
-                    o = hit.spawn_origin(d);
-                    crossings += 1;
-                    if crossings > 256 {
+                    if !cross_boundary(&hit, d, &mut medium, &mut o, &mut crossings) {
                         break;
                     }
                     continue;

@@ -133,10 +133,7 @@ impl PathIntegrator {
             let bxdf = match resolve_surface(scene, &hit, wl, u[7], u[8]) {
                 Surface::PassThrough => {
                     // Pass straight through, switching media; does not count as a bounce.
-                    medium = next_medium(&hit, d, medium);
-                    o = hit.spawn_origin(d);
-                    crossings += 1;
-                    if crossings > 256 {
+                    if !cross_boundary(&hit, d, &mut medium, &mut o, &mut crossings) {
                         break;
                     }
                     continue;
@@ -234,6 +231,25 @@ impl PathIntegrator {
             f * ls.l * (power_heuristic(p_l, p_b) / p_l)
         }
     }
+}
+
+/// Longest run of material-less boundary crossings a path follows before it is dropped.
+const MAX_CROSSINGS: u32 = 256;
+
+/// Carries a path straight through a material-less boundary at `hit` (a change of medium only): updates the
+/// medium and the ray origin and counts the crossing. Returns false once the path has crossed too many boundaries
+/// and should be dropped.
+pub(crate) fn cross_boundary(
+    hit: &SurfaceHit,
+    d: Vec3,
+    medium: &mut Option<u32>,
+    o: &mut Vec3,
+    crossings: &mut u32,
+) -> bool {
+    *medium = next_medium(hit, d, *medium);
+    *o = hit.spawn_origin(d);
+    *crossings += 1;
+    *crossings <= MAX_CROSSINGS
 }
 
 /// What a ray meets at a surface once mixes are resolved.

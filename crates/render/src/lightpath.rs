@@ -13,16 +13,13 @@ use glam::{Vec2, Vec3};
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use crate::bxdf::TransportMode;
-use crate::integrator::{next_medium, resolve_surface, RayCounts, Surface};
+use crate::integrator::{cross_boundary, next_medium, resolve_surface, RayCounts, Surface};
 use crate::sampler::Sampler;
 use crate::sampling::Frame;
 use crate::scene::RenderScene;
 
 /// Dimensions drawn per bounce of a light path, so that a bounce always uses the same Sobol dimensions.
 const DIMS_PER_BOUNCE: u32 = 8;
-
-/// Longest run of material-less boundary crossings followed before a path is dropped.
-const MAX_CROSSINGS: u32 = 256;
 
 /// The `lightpath` integrator.
 #[derive(Clone, Copy, Debug)]
@@ -107,10 +104,7 @@ pub(crate) fn walk_light_path(
         }
         let bxdf = match resolve_surface(scene, &hit, wl, u[6], u[7]) {
             Surface::PassThrough => {
-                medium = next_medium(&hit, d, medium);
-                o = hit.spawn_origin(d);
-                crossings += 1;
-                if crossings > MAX_CROSSINGS {
+                if !cross_boundary(&hit, d, &mut medium, &mut o, &mut crossings) {
                     break;
                 }
                 continue;

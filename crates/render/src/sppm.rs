@@ -22,7 +22,7 @@ use spectral::{SampledSpectrum, SampledWavelengths, WavelengthSampler, Xyz};
 use std::f64::consts::PI;
 
 use crate::bxdf::{Bxdf, TransportMode};
-use crate::integrator::{next_medium, resolve_surface, PathIntegrator, RayCounts, Surface};
+use crate::integrator::{cross_boundary, next_medium, resolve_surface, PathIntegrator, RayCounts, Surface};
 use crate::lightpath::walk_light_path;
 use crate::render::RenderStats;
 use crate::sampler::{hash_words, Sampler};
@@ -400,10 +400,7 @@ impl SppmIntegrator {
             let u: [f32; 8] = std::array::from_fn(|_| sampler.next_1d());
             let bxdf = match resolve_surface(scene, &hit, wl, u[6], u[7]) {
                 Surface::PassThrough => {
-                    medium = next_medium(&hit, d, medium);
-                    o = hit.spawn_origin(d);
-                    crossings += 1;
-                    if crossings > 256 {
+                    if !cross_boundary(&hit, d, &mut medium, &mut o, &mut crossings) {
                         return (None, ld);
                     }
                     continue;
