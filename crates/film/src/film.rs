@@ -23,7 +23,10 @@
 use crate::{FilmError, Filter};
 use rayon::prelude::*;
 use spectral::color::{mul_mat_vec, white_balance_matrix, Mat3};
-use spectral::{RgbColorSpace, SampledSpectrum, SampledWavelengths, Xyz, N_WAVELENGTHS};
+use spectral::{
+    Observer, RgbColorSpace, SampledSpectrum, SampledWavelengths, Spectrum, WavelengthSampler, WavelengthStrategy, Xyz,
+    N_WAVELENGTHS,
+};
 use std::path::PathBuf;
 
 /// What a film records besides colour.
@@ -192,6 +195,12 @@ pub struct FilmSpec {
     /// `maxcomponentvalue`: a sample whose largest XYZ component (after the imaging ratio) exceeds it is scaled
     /// down to it, colour and spectral buckets alike (pbrt-v4 default: infinity, no clamp).
     pub max_component_value: f64,
+    /// How paths draw their wavelengths and how their radiance becomes colour (`rgb`, `cmf` or `hero`, the
+    /// default): the film samples the wavelengths ([`Film::sample_wavelengths`]) and converts with the same
+    /// strategy, as pbrt-v4's film does with its sensor.
+    pub wavelengths: WavelengthStrategy,
+    /// The observer colours are measured with (CIE 1931 2°, as pbrt-v4's `cie1931` sensor).
+    pub observer: Observer,
 }
 
 impl Default for FilmSpec {
@@ -214,6 +223,8 @@ impl FilmSpec {
             aovs: false,
             sensor: PixelSensor::default(),
             max_component_value: f64::INFINITY,
+            wavelengths: WavelengthStrategy::default(),
+            observer: Observer::Cie1931,
         }
     }
 
@@ -250,6 +261,8 @@ impl FilmSpec {
 pub struct Film {
     spec: FilmSpec,
     nbuckets: usize,
+    /// Wavelength sampling, colour conversion, sensor response and bucket assignment.
+    conversion: SampleConversion,
     /// XYZ → output XYZ (the sensor's white balance, or the identity).
     output_matrix: Mat3,
     /// Weighted XYZ sums, one per pixel, row-major from the top row.
@@ -299,6 +312,7 @@ impl Film {
         let naov = if spec.aovs { npix } else { 0 };
         Ok(Self {
             nbuckets,
+            conversion: SampleConversion::new(&spec),
             output_matrix: spec.sensor.output_matrix(&spec.color_space),
             xyz: zeroed(npix, [0.0; 3]).ok_or_else(too_large)?,
             weight: zeroed(npix, 0.0).ok_or_else(too_large)?,
@@ -318,6 +332,21 @@ impl Film {
     /// The film's definition.
     pub fn spec(&self) -> &FilmSpec {
         &self.spec
+    }
+
+    /// How the film converts path samples (colour, sensor, buckets).
+    pub fn conversion(&self) -> &SampleConversion {
+        &self.conversion
+    }
+
+    /// The wavelength strategy paths rendered into this film draw from.
+    pub fn wavelengths(&self) -> &WavelengthSampler {
+        &self.conversion.wavelengths
+    }
+
+    /// Draws the wavelengths of one path from one uniform number (pbrt-v4's `Film::SampleWavelengths`).
+    pub fn sample_wavelengths(&self, u: f64) -> SampledWavelengths {
+        self.conversion.wavelengths.sample(u)
     }
 
     /// Width in pixels.
@@ -347,28 +376,47 @@ impl Film {
     }
 
     /// Splats a light-path contribution at raster position `raster` (pixels, y down, continuous): every pixel whose
-    /// centre lies within the filter's radius receives the contribution times `f(centre offset) / ∫f`. `xyz` and
-    /// `spectral` (`(λ nm, L/pdf)` pairs, as in [`FilmRow::add_sample`]) are the contribution's estimates. The
-    /// splat sums count once [`Film::add_light_paths`] says how many light paths were traced. Returns whether the
-    /// splat was accumulated (non-finite values are dropped and counted).
-    pub fn add_splat(&mut self, raster: [f64; 2], xyz: Xyz, spectral: &[(f32, f32)]) -> bool {
-        let mut estimates = SpectralEstimates::default();
-        for &(l, v) in spectral.iter().take(N_WAVELENGTHS) {
-            estimates.pairs[estimates.len] = (l, v);
-            estimates.len += 1;
-        }
-        self.add_splats(&[Splat { raster, xyz, spectral: estimates }]) == 1
+    /// centre lies within the filter's radius receives the contribution times `f(centre offset) / ∫f`. `l` is the
+    /// contribution at the wavelengths `wl` (converted as camera samples are). The splat sums count once
+    /// [`Film::add_light_paths`] says how many light paths were traced. Returns whether the splat was accumulated
+    /// (non-finite values are dropped and counted).
+    pub fn add_splat(&mut self, raster: [f64; 2], l: &SampledSpectrum, wl: &SampledWavelengths) -> bool {
+        self.add_splats(&[Splat { raster, l: *l, wl: *wl }]) == 1
     }
 
     /// Adds many splats (see [`Film::add_splat`]), rows of the film in parallel. Each pixel receives its splats in
     /// the order given, so the sums do not depend on the number of threads. Returns how many were accumulated.
     pub fn add_splats(&mut self, splats: &[Splat]) -> usize {
+        let conv = &self.conversion;
+        let converted: Vec<XyzSplat> = splats
+            .par_iter()
+            .map(|sp| XyzSplat {
+                raster: sp.raster,
+                xyz: conv.xyz(&sp.l, &sp.wl),
+                spectral: SpectralEstimates::new(&sp.l, &sp.wl),
+            })
+            .collect();
+        self.add_xyz_splats(&converted)
+    }
+
+    /// Splats a contribution already reduced to XYZ and `(λ nm, L/pdf)` pairs (see [`Film::add_splat`]); for tests
+    /// and tools that form these themselves.
+    pub fn add_xyz_splat(&mut self, raster: [f64; 2], xyz: Xyz, spectral: &[(f32, f32)]) -> bool {
+        let mut estimates = SpectralEstimates::default();
+        for &(l, v) in spectral.iter().take(N_WAVELENGTHS) {
+            estimates.pairs[estimates.len] = (l, v);
+            estimates.len += 1;
+        }
+        self.add_xyz_splats(&[XyzSplat { raster, xyz, spectral: estimates }]) == 1
+    }
+
+    fn add_xyz_splats(&mut self, splats: &[XyzSplat]) -> usize {
         let npix = self.weight.len();
         if self.splat_xyz.is_empty() {
             self.splat_xyz = vec![[0.0; 3]; npix];
             self.splat_buckets = vec![0.0; npix * self.nbuckets];
         }
-        let bins = Binning::new(&self.spec);
+        let conv = &self.conversion;
         let filter = &self.spec.filter;
         let [rx, ry] = filter.radius();
         let norm = 1.0 / filter.integral();
@@ -387,9 +435,7 @@ impl Film {
                 self.rejected_splats += 1;
                 continue;
             }
-            let xyz = sp.xyz.scaled(bins.imaging_ratio);
-            let m = xyz.x.max(xyz.y).max(xyz.z);
-            let clamp = if m > bins.max_component { bins.max_component / m } else { 1.0 };
+            let (xyz, clamp) = conv.respond(sp.xyz);
             let y0 = ((sp.raster[1] - 0.5 - ry).ceil() as i64).max(0);
             let y1 = ((sp.raster[1] - 0.5 + ry).floor() as i64).min(h - 1);
             let k = prepared.len() as u32;
@@ -422,7 +468,7 @@ impl Film {
                         s[2] += f * xyz.z;
                         if nb > 0 {
                             let b = &mut bucket_row[x as usize * nb..(x as usize + 1) * nb];
-                            add_to_buckets(&bins, b, sp.spectral.as_slice(), f * clamp);
+                            conv.add_estimates_to_buckets(b, sp.spectral.as_slice(), f * clamp);
                         }
                     }
                 }
@@ -449,7 +495,7 @@ impl Film {
             return false;
         }
         // The sensor's imaging ratio applies as to camera samples (the estimate is final: no clamp).
-        let xyz = xyz.scaled(self.spec.sensor.imaging_ratio);
+        let (xyz, _) = self.conversion.respond(xyz);
         let s = &mut self.xyz[i];
         s[0] += weight * xyz.x;
         s[1] += weight * xyz.y;
@@ -488,7 +534,7 @@ impl Film {
         let w = self.spec.width as usize;
         let nb = self.nbuckets;
         let aov = self.spec.aovs;
-        let bins = Binning::new(&self.spec);
+        let (conv, color_space) = (&self.conversion, &self.spec.color_space);
         let (mut xyz, mut weight, mut buckets) = (&mut self.xyz[..], &mut self.weight[..], &mut self.buckets[..]);
         let (mut albedo, mut normal, mut count) = (&mut self.albedo[..], &mut self.normal[..], &mut self.aov_count[..]);
         let mut rows = Vec::with_capacity(self.spec.height as usize);
@@ -503,7 +549,8 @@ impl Film {
             (xyz, weight, buckets, albedo, normal, count) = (x_rest, w_rest, b_rest, a_rest, n_rest, c_rest);
             rows.push(FilmRow {
                 y: y as u32,
-                bins,
+                conv,
+                color_space,
                 xyz: x_row,
                 weight: w_row,
                 buckets: b_row,
@@ -535,12 +582,18 @@ impl Film {
     }
 
     /// Adds one camera sample to pixel (x, y): see [`FilmRow::add_sample`]. Returns whether it was accumulated.
-    pub fn add_sample(&mut self, x: u32, y: u32, xyz: Xyz, weight: f64, spectral: &[(f32, f32)]) -> bool {
+    pub fn add_sample(&mut self, x: u32, y: u32, l: &SampledSpectrum, wl: &SampledWavelengths, weight: f64) -> bool {
+        let xyz = self.conversion.xyz(l, wl);
+        self.add_xyz_sample(x, y, xyz, weight, SpectralEstimates::new(l, wl).as_slice())
+    }
+
+    /// Adds one sample already reduced to XYZ and `(λ nm, L/pdf)` pairs to pixel (x, y): see
+    /// [`FilmRow::add_xyz_sample`]. Returns whether it was accumulated.
+    pub fn add_xyz_sample(&mut self, x: u32, y: u32, xyz: Xyz, weight: f64, spectral: &[(f32, f32)]) -> bool {
         let Some(i) = self.index(x, y) else { return false };
-        let bins = Binning::new(&self.spec);
         let nb = self.nbuckets;
         accumulate(
-            &bins,
+            &self.conversion,
             &mut self.xyz[i],
             &mut self.weight[i],
             &mut self.buckets[i * nb..(i + 1) * nb],
@@ -711,18 +764,23 @@ pub struct AovImages {
     pub normal: Vec<[f32; 3]>,
 }
 
-/// How samples are scaled (imaging ratio, clamp) and how wavelengths map to buckets; copied into each row.
-#[derive(Clone, Copy, Debug)]
-struct Binning {
+/// How the film turns what a path carries into what a pixel stores, each rule written once: the wavelength
+/// strategy's conversion of `L(λᵢ)` to XYZ, the sensor's response (imaging ratio, then pbrt-v4's
+/// `maxcomponentvalue` clamp), and the assignment of each wavelength to its spectral bucket.
+#[derive(Clone, Debug)]
+pub struct SampleConversion {
+    wavelengths: WavelengthSampler,
     nbuckets: usize,
     lambda_min: f64,
     lambda_max: f64,
     inv_width: f64,
     imaging_ratio: f64,
     max_component: f64,
+    /// The colour space's white as a spectrum (D65), under which AOV albedos are seen; `None` without AOVs.
+    white: Option<Spectrum>,
 }
 
-impl Binning {
+impl SampleConversion {
     fn new(spec: &FilmSpec) -> Self {
         let (imaging_ratio, max_component) = (spec.sensor.imaging_ratio, spec.max_component_value);
         let (nbuckets, lambda_min, lambda_max, inv_width) = match spec.kind {
@@ -731,13 +789,73 @@ impl Binning {
                 (nbuckets, lambda_min, lambda_max, nbuckets as f64 / (lambda_max - lambda_min))
             }
         };
-        Self { nbuckets, lambda_min, lambda_max, inv_width, imaging_ratio, max_component }
+        let white = spec.aovs.then(|| spectral::named::illuminant("stdillum-D65").expect("D65 is built in"));
+        Self {
+            wavelengths: WavelengthSampler::new(spec.wavelengths, spec.observer),
+            nbuckets,
+            lambda_min,
+            lambda_max,
+            inv_width,
+            imaging_ratio,
+            max_component,
+            white,
+        }
+    }
+
+    /// The wavelength strategy with its tables.
+    pub fn wavelengths(&self) -> &WavelengthSampler {
+        &self.wavelengths
+    }
+
+    /// The colour of a path sample: `L(λᵢ)/pdfᵢ` weighted by the strategy's colour matching functions (before the
+    /// sensor's response).
+    pub fn xyz(&self, l: &SampledSpectrum, wl: &SampledWavelengths) -> Xyz {
+        self.wavelengths.to_xyz(l, wl)
+    }
+
+    /// The sensor's response to a sample's colour: times the imaging ratio (pbrt-v4 `PixelSensor::ToSensorRGB` for
+    /// the cie1931 sensor), then, if its largest component `m` exceeds `maxcomponentvalue`, scaled by max/m
+    /// (pbrt-v4 `RGBFilm::AddSample`). Returns the colour times the imaging ratio and the clamp factor, which the
+    /// caller applies to the colour and the sample's spectral buckets alike.
+    fn respond(&self, xyz: Xyz) -> (Xyz, f64) {
+        let xyz = xyz.scaled(self.imaging_ratio);
+        let m = xyz.x.max(xyz.y).max(xyz.z);
+        let clamp = if m > self.max_component { self.max_component / m } else { 1.0 };
+        (xyz, clamp)
+    }
+
+    /// Adds `weight·(L/pdf)/Δλ` of each `(λ, L/pdf)` pair to the bucket holding λ (pairs outside
+    /// `[lambda_min, lambda_max)` are ignored): the expectation of a bucket is then the mean spectral radiance over
+    /// it, per nm, whatever the wavelength strategy.
+    pub fn add_estimates_to_buckets(&self, buckets: &mut [f64], spectral: &[(f32, f32)], weight: f64) {
+        for &(lambda, value) in spectral {
+            let lambda = lambda as f64;
+            if lambda >= self.lambda_min && lambda < self.lambda_max {
+                let b = (((lambda - self.lambda_min) * self.inv_width) as usize).min(self.nbuckets - 1);
+                buckets[b] += value as f64 * self.inv_width * weight;
+            }
+        }
+    }
+
+    /// [`SampleConversion::add_estimates_to_buckets`] for a path sample (nothing for an RGB film).
+    pub fn add_to_buckets(&self, buckets: &mut [f64], l: &SampledSpectrum, wl: &SampledWavelengths, weight: f64) {
+        if self.nbuckets > 0 {
+            self.add_estimates_to_buckets(buckets, SpectralEstimates::new(l, wl).as_slice(), weight);
+        }
+    }
+
+    /// Linear RGB of an albedo (a reflectance at the path's wavelengths) seen under the colour space's white, with
+    /// Y = 1 for a white reflector; `None` when the film keeps no AOVs.
+    fn albedo_rgb(&self, albedo: &SampledSpectrum, wl: &SampledWavelengths, cs: &RgbColorSpace) -> Option<[f64; 3]> {
+        let white = self.white.as_ref()?;
+        Some(cs.to_rgb(self.wavelengths.to_xyz(&(*albedo * white.sample(wl)), wl)))
     }
 }
 
+/// Adds one sample already reduced to XYZ and `(λ, L/pdf)` pairs to a pixel's accumulators.
 #[allow(clippy::too_many_arguments)]
 fn accumulate(
-    bins: &Binning,
+    conv: &SampleConversion,
     xyz_sum: &mut [f64; 3],
     weight_sum: &mut f64,
     buckets: &mut [f64],
@@ -755,30 +873,15 @@ fn accumulate(
         *rejected += 1;
         return false;
     }
-    // The sensor's response: XYZ times the imaging ratio (pbrt-v4 PixelSensor::ToSensorRGB for the cie1931 sensor).
-    let xyz = xyz.scaled(bins.imaging_ratio);
-    // pbrt-v4 RGBFilm::AddSample: a sample whose largest component m exceeds maxcomponentvalue is scaled by max/m.
-    let m = xyz.x.max(xyz.y).max(xyz.z);
-    let clamp = if m > bins.max_component { bins.max_component / m } else { 1.0 };
+    let (xyz, clamp) = conv.respond(xyz);
     xyz_sum[0] += weight * clamp * xyz.x;
     xyz_sum[1] += weight * clamp * xyz.y;
     xyz_sum[2] += weight * clamp * xyz.z;
     *weight_sum += weight;
-    if bins.nbuckets > 0 {
-        add_to_buckets(bins, buckets, spectral, weight * clamp);
+    if conv.nbuckets > 0 {
+        conv.add_estimates_to_buckets(buckets, spectral, weight * clamp);
     }
     true
-}
-
-/// Adds `weight·(L/pdf)/Δλ` of each `(λ, L/pdf)` pair to the bucket holding λ (pairs outside are ignored).
-fn add_to_buckets(bins: &Binning, buckets: &mut [f64], spectral: &[(f32, f32)], weight: f64) {
-    for &(lambda, value) in spectral {
-        let lambda = lambda as f64;
-        if lambda >= bins.lambda_min && lambda < bins.lambda_max {
-            let b = (((lambda - bins.lambda_min) * bins.inv_width) as usize).min(bins.nbuckets - 1);
-            buckets[b] += value as f64 * bins.inv_width * weight;
-        }
-    }
 }
 
 fn accumulate_aov(
@@ -803,7 +906,8 @@ fn accumulate_aov(
 #[derive(Debug)]
 pub struct FilmRow<'a> {
     y: u32,
-    bins: Binning,
+    conv: &'a SampleConversion,
+    color_space: &'a RgbColorSpace,
     xyz: &'a mut [[f64; 3]],
     weight: &'a mut [f64],
     buckets: &'a mut [f64],
@@ -824,7 +928,20 @@ impl FilmRow<'_> {
         self.weight.len() as u32
     }
 
-    /// Adds one camera sample to pixel `x` of this row.
+    /// Adds one camera sample to pixel `x` of this row: radiance `l` at the path's wavelengths `wl` (the slots
+    /// still active, with their effective densities), and its filter weight `weight`
+    /// ([`crate::FilterSample::weight`]). The film converts it to XYZ with its wavelength strategy, applies the
+    /// sensor's response, and for a spectral film puts each `L(λᵢ)/pdfᵢ` in the bucket holding λᵢ (see
+    /// [`FilmRow::add_xyz_sample`]).
+    ///
+    /// A sample with any NaN or infinite value, or with `x` outside the row, is dropped and counted
+    /// ([`Film::rejected_samples`]); the return value says whether the sample was accumulated.
+    pub fn add_sample(&mut self, x: u32, l: &SampledSpectrum, wl: &SampledWavelengths, weight: f64) -> bool {
+        let xyz = self.conv.xyz(l, wl);
+        self.add_xyz_sample(x, xyz, weight, SpectralEstimates::new(l, wl).as_slice())
+    }
+
+    /// Adds one camera sample already reduced to colour and per-wavelength estimates to pixel `x` of this row.
     ///
     /// `xyz` is the sample's tristimulus estimate and `weight` its filter weight ([`crate::FilterSample::weight`]);
     /// the pixel accumulates `weight·xyz` and `weight`. For a spectral film each `(λ nm, L/pdf)` pair with λ in
@@ -833,15 +950,15 @@ impl FilmRow<'_> {
     ///
     /// A sample with any NaN or infinite value, or with `x` outside the row, is dropped and counted
     /// ([`Film::rejected_samples`]); the return value says whether the sample was accumulated.
-    pub fn add_sample(&mut self, x: u32, xyz: Xyz, weight: f64, spectral: &[(f32, f32)]) -> bool {
+    pub fn add_xyz_sample(&mut self, x: u32, xyz: Xyz, weight: f64, spectral: &[(f32, f32)]) -> bool {
         let x = x as usize;
         if x >= self.weight.len() {
             *self.rejected += 1;
             return false;
         }
-        let nb = self.bins.nbuckets;
+        let nb = self.conv.nbuckets;
         accumulate(
-            &self.bins,
+            self.conv,
             &mut self.xyz[x],
             &mut self.weight[x],
             &mut self.buckets[x * nb..(x + 1) * nb],
@@ -850,6 +967,16 @@ impl FilmRow<'_> {
             weight,
             spectral,
         )
+    }
+
+    /// Adds one albedo and shading-normal record to pixel `x`: `albedo` is the first surface's reflectance at the
+    /// wavelengths `wl`, which the film sees under its colour space's white (Y = 1 for a white reflector).
+    /// Ignored (returns `false`) when the film has no AOVs, outside the row, or for non-finite values.
+    pub fn add_albedo(&mut self, x: u32, albedo: &SampledSpectrum, wl: &SampledWavelengths, normal: [f64; 3]) -> bool {
+        match self.conv.albedo_rgb(albedo, wl, self.color_space) {
+            Some(rgb) => self.add_aov(x, rgb, normal),
+            None => false,
+        }
     }
 
     /// Adds one albedo (linear RGB) and shading-normal record to pixel `x`; ignored (returns `false`) when the
@@ -863,15 +990,23 @@ impl FilmRow<'_> {
     }
 }
 
-/// A light-path contribution to splat: raster position (pixels, y down), XYZ and per-wavelength estimates.
+/// A light-path contribution to splat: where it lands and its radiance at the wavelengths it was made at.
 #[derive(Clone, Copy, Debug)]
 pub struct Splat {
-    /// Where it lands on the film.
+    /// Where it lands on the film (pixels, y down).
     pub raster: [f64; 2],
-    /// Its colour.
-    pub xyz: Xyz,
-    /// Its `(λ, L/pdf)` pairs for spectral films.
-    pub spectral: SpectralEstimates,
+    /// Its radiance estimate per wavelength slot.
+    pub l: SampledSpectrum,
+    /// The wavelengths (and effective densities) `l` is at.
+    pub wl: SampledWavelengths,
+}
+
+/// A splat reduced to colour and per-wavelength estimates.
+#[derive(Clone, Copy, Debug)]
+struct XyzSplat {
+    raster: [f64; 2],
+    xyz: Xyz,
+    spectral: SpectralEstimates,
 }
 
 /// The `(λ nm, L/pdf)` pairs of a path's active wavelengths, as [`FilmRow::add_sample`] takes them; built without

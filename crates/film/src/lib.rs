@@ -19,7 +19,7 @@
 //!     for x in 0..row.width() {
 //!         let s = sampler.sample([0.3, 0.7]);
 //!         // One path sample: its XYZ, and (λ, L/pdf) for each active wavelength.
-//!         row.add_sample(x, Xyz::new(0.5, 0.5, 0.5), s.weight, &[(550.0, 1.0), (600.0, 2.0)]);
+//!         row.add_xyz_sample(x, Xyz::new(0.5, 0.5, 0.5), s.weight, &[(550.0, 1.0), (600.0, 2.0)]);
 //!     }
 //! }
 //! assert!((film.pixel_xyz(1, 2).y - 0.5).abs() < 1e-12);
@@ -33,7 +33,7 @@ pub mod filter;
 pub mod image_io;
 
 pub use error::{FilmError, ImageError};
-pub use film::{AovImages, Film, FilmKind, FilmRow, FilmSpec, PixelSensor, SpectralEstimates, Splat};
+pub use film::{AovImages, Film, FilmKind, FilmRow, FilmSpec, PixelSensor, SampleConversion, SpectralEstimates, Splat};
 pub use filter::{Filter, FilterSample, FilterSampler};
 pub use image_io::{
     parse_spectral_channel_name, read_exr_aovs, read_exr_rgb, read_exr_spectral, read_pfm, read_png_linear, read_rgb,

@@ -1,10 +1,10 @@
 //! The film: accumulation, spectral buckets for every wavelength strategy, rows in parallel, merging, validation.
 
-use film::{Film, FilmError, FilmKind, FilmSpec, Filter, FilterSampler, SpectralEstimates};
+use film::{Film, FilmError, FilmKind, FilmSpec, Filter, FilterSampler};
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use spectral::{Observer, SampledSpectrum, WavelengthSampler, WavelengthStrategy, Xyz};
+use spectral::{Observer, SampledSpectrum, WavelengthStrategy, Xyz};
 
 fn uniform(rng: &mut Pcg64) -> f64 {
     (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
@@ -27,7 +27,7 @@ fn constant_xyz_samples_give_that_xyz_back() {
         for x in 0..8 {
             for _ in 0..17 {
                 let s = sampler.sample([uniform(&mut rng), uniform(&mut rng)]);
-                assert!(film.add_sample(x, y, xyz, s.weight, &[]));
+                assert!(film.add_xyz_sample(x, y, xyz, s.weight, &[]));
             }
         }
     }
@@ -56,7 +56,7 @@ fn constant_xyz_samples_give_that_xyz_back() {
 fn spectral_bucket_assignment() {
     // 47 buckets of 10 nm over 360–830: 405 nm is in bucket 4 ([400, 410)), value / 10 nm.
     let mut film = Film::new(spectral_spec(3, 2, 47, 360.0, 830.0)).unwrap();
-    assert!(film.add_sample(1, 1, Xyz::new(1.0, 1.0, 1.0), 1.0, &[(405.0, 3.0)]));
+    assert!(film.add_xyz_sample(1, 1, Xyz::new(1.0, 1.0, 1.0), 1.0, &[(405.0, 3.0)]));
     let s = film.pixel_spectrum(1, 1);
     assert_eq!(s.len(), 47);
     for (b, v) in s.iter().enumerate() {
@@ -74,8 +74,8 @@ fn spectral_bucket_assignment() {
 
     // Weights scale the buckets like the colour; wavelengths outside [min, max) are ignored.
     let mut film = Film::new(spectral_spec(1, 1, 4, 400.0, 800.0)).unwrap();
-    film.add_sample(0, 0, Xyz::default(), 2.0, &[(450.0, 10.0), (799.0, 100.0), (380.0, 1e6), (800.0, 1e6)]);
-    film.add_sample(0, 0, Xyz::default(), 2.0, &[]);
+    film.add_xyz_sample(0, 0, Xyz::default(), 2.0, &[(450.0, 10.0), (799.0, 100.0), (380.0, 1e6), (800.0, 1e6)]);
+    film.add_xyz_sample(0, 0, Xyz::default(), 2.0, &[]);
     // bucket width 100 nm; weight sum 4.
     assert_eq!(film.pixel_spectrum(0, 0), vec![2.0 * 10.0 / 100.0 / 4.0, 0.0, 0.0, 2.0 * 100.0 / 100.0 / 4.0]);
 }
@@ -83,13 +83,13 @@ fn spectral_bucket_assignment() {
 #[test]
 fn non_finite_samples_are_dropped_and_counted() {
     let mut film = Film::new(spectral_spec(2, 1, 4, 400.0, 800.0)).unwrap();
-    assert!(!film.add_sample(0, 0, Xyz::new(f64::NAN, 0.0, 0.0), 1.0, &[]));
-    assert!(!film.add_sample(0, 0, Xyz::new(1.0, 1.0, 1.0), f64::INFINITY, &[]));
-    assert!(!film.add_sample(0, 0, Xyz::new(1.0, 1.0, 1.0), 1.0, &[(500.0, f32::NAN)]));
-    assert!(!film.add_sample(5, 0, Xyz::new(1.0, 1.0, 1.0), 1.0, &[]));
+    assert!(!film.add_xyz_sample(0, 0, Xyz::new(f64::NAN, 0.0, 0.0), 1.0, &[]));
+    assert!(!film.add_xyz_sample(0, 0, Xyz::new(1.0, 1.0, 1.0), f64::INFINITY, &[]));
+    assert!(!film.add_xyz_sample(0, 0, Xyz::new(1.0, 1.0, 1.0), 1.0, &[(500.0, f32::NAN)]));
+    assert!(!film.add_xyz_sample(5, 0, Xyz::new(1.0, 1.0, 1.0), 1.0, &[]));
     {
         let mut row = film.row_mut(0).unwrap();
-        assert!(!row.add_sample(2, Xyz::new(1.0, 1.0, 1.0), 1.0, &[]));
+        assert!(!row.add_xyz_sample(2, Xyz::new(1.0, 1.0, 1.0), 1.0, &[]));
     }
     assert!(film.row_mut(1).is_none());
     assert_eq!(film.pixel_weight(0, 0), 0.0);
@@ -113,15 +113,15 @@ fn every_wavelength_strategy_fills_the_buckets_correctly() {
     // spectral radiance over each bucket whatever the density the wavelengths were drawn from.
     let (lo, hi, nb) = (400.0, 700.0, 10);
     for strategy in WavelengthStrategy::ALL {
-        let ws = WavelengthSampler::new(strategy, Observer::Cie1931);
-        let mut film = Film::new(spectral_spec(1, 1, nb, lo, hi)).unwrap();
+        let mut spec = spectral_spec(1, 1, nb, lo, hi);
+        spec.wavelengths = strategy;
+        let mut film = Film::new(spec).unwrap();
         let n = 400_000;
         for k in 0..n {
             let u = (k as f64 + 0.5) / n as f64; // stratified, so the test is quick and deterministic
-            let wl = ws.sample(u);
+            let wl = film.sample_wavelengths(u);
             let l = SampledSpectrum(std::array::from_fn(|i| test_spectrum(wl.lambda(i) as f64) as f32));
-            let est = SpectralEstimates::new(&l, &wl);
-            film.add_sample(0, 0, ws.to_xyz(&l, &wl), 1.0, est.as_slice());
+            film.add_sample(0, 0, &l, &wl, 1.0);
         }
         let got = film.pixel_spectrum(0, 0);
         let width = (hi - lo) / nb as f64;
@@ -143,7 +143,7 @@ fn parallel_rows_are_deterministic_and_match_serial() {
                     let s = sampler.sample([uniform(&mut rng), uniform(&mut rng)]);
                     let v = uniform(&mut rng);
                     let lambda = 360.0 + 470.0 * uniform(&mut rng) as f32;
-                    row.add_sample(x, Xyz::new(v, 2.0 * v, 0.5), s.weight, &[(lambda, v as f32)]);
+                    row.add_xyz_sample(x, Xyz::new(v, 2.0 * v, 0.5), s.weight, &[(lambda, v as f32)]);
                 }
                 row.add_aov(x, [0.5, 0.25, 0.125], [0.0, 0.0, 2.0]);
             }
@@ -192,7 +192,7 @@ fn merge_of_two_half_films_equals_one_film() {
         let lambda = 400.0 + (rng.next_u32() % 256) as f32;
         let half = if k % 2 == 0 { &mut first } else { &mut second };
         for film in [&mut whole, half] {
-            film.add_sample(x, y, Xyz::new(v, v / 2.0, 1.0), w, &[(lambda, v as f32)]);
+            film.add_xyz_sample(x, y, Xyz::new(v, v / 2.0, 1.0), w, &[(lambda, v as f32)]);
             film.add_aov(x, y, [v, 0.5, 0.25], [0.0, 1.0, 0.0]);
         }
     }
@@ -246,12 +246,12 @@ fn splats_are_scaled_by_pixels_per_light_path_and_spread_by_the_filter() {
     let mut spec = spectral_spec(4, 3, 2, 400.0, 600.0);
     spec.filter = Filter::new_box([0.5, 0.5]).unwrap();
     let mut film = Film::new(spec.clone()).unwrap();
-    assert!(film.add_sample(1, 1, Xyz::new(1.0, 1.0, 1.0), 1.0, &[(450.0, 100.0)]));
+    assert!(film.add_xyz_sample(1, 1, Xyz::new(1.0, 1.0, 1.0), 1.0, &[(450.0, 100.0)]));
     // Two splats in pixel (1, 1) and one in (3, 2); 24 light paths over 12 pixels: scale ½.
-    assert!(film.add_splat([1.5, 1.5], Xyz::new(2.0, 4.0, 6.0), &[(450.0, 200.0)]));
-    assert!(film.add_splat([1.2, 1.9], Xyz::new(2.0, 0.0, 0.0), &[(550.0, 100.0)]));
-    assert!(film.add_splat([3.7, 2.1], Xyz::new(0.0, 8.0, 0.0), &[]));
-    assert!(!film.add_splat([0.5, 0.5], Xyz::new(f64::NAN, 0.0, 0.0), &[]));
+    assert!(film.add_xyz_splat([1.5, 1.5], Xyz::new(2.0, 4.0, 6.0), &[(450.0, 200.0)]));
+    assert!(film.add_xyz_splat([1.2, 1.9], Xyz::new(2.0, 0.0, 0.0), &[(550.0, 100.0)]));
+    assert!(film.add_xyz_splat([3.7, 2.1], Xyz::new(0.0, 8.0, 0.0), &[]));
+    assert!(!film.add_xyz_splat([0.5, 0.5], Xyz::new(f64::NAN, 0.0, 0.0), &[]));
     film.add_light_paths(24);
     let p = film.pixel_xyz(1, 1);
     assert_eq!((p.x, p.y, p.z), (1.0 + 0.5 * 4.0, 1.0 + 0.5 * 4.0, 1.0 + 0.5 * 6.0));
@@ -264,7 +264,7 @@ fn splats_are_scaled_by_pixels_per_light_path_and_spread_by_the_filter() {
     let mut tri = spectral_spec(4, 4, 1, 400.0, 600.0);
     tri.filter = Filter::triangle([1.0, 1.0]).unwrap();
     let mut f2 = Film::new(tri).unwrap();
-    f2.add_splat([2.0, 2.0], Xyz::new(0.0, 16.0, 0.0), &[]);
+    f2.add_xyz_splat([2.0, 2.0], Xyz::new(0.0, 16.0, 0.0), &[]);
     f2.add_light_paths(16);
     let total: f64 = (0..4).flat_map(|y| (0..4).map(move |x| (x, y))).map(|(x, y)| f2.pixel_xyz(x, y).y).sum();
     assert!((total - 16.0).abs() < 1e-12, "{total}");
@@ -272,9 +272,9 @@ fn splats_are_scaled_by_pixels_per_light_path_and_spread_by_the_filter() {
     // Merging two films: splat sums and light paths add, so the scale stays right.
     let mut a = Film::new(spec.clone()).unwrap();
     let mut b = Film::new(spec).unwrap();
-    a.add_splat([0.5, 0.5], Xyz::new(0.0, 6.0, 0.0), &[]);
+    a.add_xyz_splat([0.5, 0.5], Xyz::new(0.0, 6.0, 0.0), &[]);
     a.add_light_paths(12);
-    b.add_splat([0.5, 0.5], Xyz::new(0.0, 2.0, 0.0), &[]);
+    b.add_xyz_splat([0.5, 0.5], Xyz::new(0.0, 2.0, 0.0), &[]);
     b.add_light_paths(12);
     a.merge(&b).unwrap();
     assert_eq!(a.pixel_xyz(0, 0).y, 4.0);
@@ -283,7 +283,7 @@ fn splats_are_scaled_by_pixels_per_light_path_and_spread_by_the_filter() {
     iso.filter = Filter::new_box([0.5, 0.5]).unwrap();
     iso.sensor = film::PixelSensor { imaging_ratio: 2.0, white_balance_from: None };
     let mut c = Film::new(iso).unwrap();
-    c.add_splat([0.5, 0.5], Xyz::new(0.0, 6.0, 0.0), &[]);
+    c.add_xyz_splat([0.5, 0.5], Xyz::new(0.0, 6.0, 0.0), &[]);
     c.add_light_paths(12);
     assert_eq!(c.pixel_xyz(0, 0).y, 12.0);
 }
@@ -305,8 +305,8 @@ fn imaging_ratio_scales_colour_exactly_but_not_buckets() {
                 let xyz = Xyz::new(uniform(&mut rng), uniform(&mut rng), uniform(&mut rng));
                 let w = uniform(&mut rng);
                 let pairs = [(450.0 + 200.0 * uniform(&mut rng) as f32, uniform(&mut rng) as f32)];
-                a.add_sample(x, y, xyz, w, &pairs);
-                b.add_sample(x, y, xyz, w, &pairs);
+                a.add_xyz_sample(x, y, xyz, w, &pairs);
+                b.add_xyz_sample(x, y, xyz, w, &pairs);
             }
             let (pa, pb) = (a.pixel_xyz(x, y), b.pixel_xyz(x, y));
             assert_eq!((2.0 * pa.x, 2.0 * pa.y, 2.0 * pa.z), (pb.x, pb.y, pb.z));
@@ -328,14 +328,14 @@ fn max_component_value_clamps_each_sample() {
     let mut spec = spectral_spec(2, 1, 1, 400.0, 500.0);
     spec.max_component_value = 1.0;
     let mut film = Film::new(spec.clone()).unwrap();
-    film.add_sample(0, 0, Xyz::new(0.5, 4.0, 2.0), 1.0, &[(450.0, 8.0)]);
-    film.add_sample(1, 0, Xyz::new(0.2, 0.9, 0.4), 1.0, &[(450.0, 8.0)]);
+    film.add_xyz_sample(0, 0, Xyz::new(0.5, 4.0, 2.0), 1.0, &[(450.0, 8.0)]);
+    film.add_xyz_sample(1, 0, Xyz::new(0.2, 0.9, 0.4), 1.0, &[(450.0, 8.0)]);
     assert_eq!(film.pixel_xyz(0, 0), Xyz::new(0.125, 1.0, 0.5));
     assert_eq!(film.pixel_spectrum(0, 0), vec![8.0 / 4.0 / 100.0]);
     assert_eq!(film.pixel_xyz(1, 0), Xyz::new(0.2, 0.9, 0.4));
     spec.sensor.imaging_ratio = 2.0;
     let mut film = Film::new(spec.clone()).unwrap();
-    film.add_sample(0, 0, Xyz::new(0.2, 0.9, 0.4), 1.0, &[]);
+    film.add_xyz_sample(0, 0, Xyz::new(0.2, 0.9, 0.4), 1.0, &[]);
     let p = film.pixel_xyz(0, 0); // (0.4, 1.8, 0.8) scaled by 1/1.8
     assert!((p.x - 0.4 / 1.8).abs() < 1e-15 && p.y == 1.0 && (p.z - 0.8 / 1.8).abs() < 1e-15, "{p:?}");
     // Bad values name the parameter.
@@ -361,7 +361,7 @@ fn white_balance_maps_the_illuminant_to_the_output_white() {
     let mut spec = FilmSpec::new(1, 1, "wb.exr");
     spec.sensor.white_balance_from = Some(spectral::daylight::white_balance_chromaticity(5000.0).unwrap());
     let mut film = Film::new(spec).unwrap();
-    film.add_sample(0, 0, d50, 1.0, &[]);
+    film.add_xyz_sample(0, 0, d50, 1.0, &[]);
     let out = film.pixel_xyz(0, 0).to_array();
     let wb = spectral::daylight::white_balance_chromaticity(5000.0).unwrap();
     assert!((wb[0] - 0.345_669_019).abs() < 1e-9 && (wb[1] - 0.358_489_925).abs() < 1e-9, "{wb:?}");
@@ -376,7 +376,7 @@ fn white_balance_maps_the_illuminant_to_the_output_white() {
     }
     // Without white balance the same surface is visibly warm in sRGB (red above blue by more than 0.2).
     let mut plain = Film::new(FilmSpec::new(1, 1, "p.exr")).unwrap();
-    plain.add_sample(0, 0, d50, 1.0, &[]);
+    plain.add_xyz_sample(0, 0, d50, 1.0, &[]);
     let rgb = plain.to_rgb_image()[0];
     assert!(rgb[0] - rgb[2] > 0.2, "{rgb:?}");
 }

@@ -47,7 +47,7 @@ fn random_film(w: u32, h: u32, kind: FilmKind, aovs: bool, seed: u64) -> Film {
             let xyz = Xyz::new(uniform(&mut rng), uniform(&mut rng), uniform(&mut rng));
             let spectral: Vec<(f32, f32)> =
                 (0..4).map(|_| (360.0 + 470.0 * uniform(&mut rng) as f32, 10.0 * uniform(&mut rng) as f32)).collect();
-            film.add_sample(x, y, xyz, 0.5 + uniform(&mut rng), &spectral);
+            film.add_xyz_sample(x, y, xyz, 0.5 + uniform(&mut rng), &spectral);
             film.add_aov(x, y, [uniform(&mut rng), 0.5, 0.25], [uniform(&mut rng), 1.0, -0.5]);
         }
     }

@@ -9,8 +9,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use render::builder::{build_scene, BuildOptions};
-use render::render::render_film;
-use spectral::{Observer, WavelengthSampler, WavelengthStrategy};
+use spectral::WavelengthStrategy;
 
 /// Arguments of `prismatic render`.
 #[derive(Args, Debug)]
@@ -120,8 +119,10 @@ pub fn run(args: &RenderArgs) -> Result<String> {
         }
         spec.aovs = true;
     }
+    spec.wavelengths = args.wavelengths;
     let mut film = film::Film::new(spec).map_err(|e| anyhow!("{e}"))?;
-    let wavelengths = WavelengthSampler::new(args.wavelengths, Observer::Cie1931);
+    let unit = built.integrator.needs().unit.name();
+    let mut job = built.integrator.begin(&built.scene, &film, args.seed).map_err(|e| anyhow!("{e}"))?;
     let (w, h) = (built.film.width as u64, built.film.height as u64);
 
     let show = !args.quiet && std::io::stderr().is_terminal();
@@ -145,16 +146,7 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                 let secs = render_start.elapsed().as_secs_f64().max(1e-9);
                 bar.set_message(format!("{:.2} Msamples/s", t as f64 / secs / 1e6));
             };
-            let stats = render_film(
-                &built.scene,
-                &built.integrator,
-                &wavelengths,
-                &mut film,
-                0..built.spp,
-                args.seed,
-                &progress,
-            )
-            .map_err(|e| anyhow!("{e}"))?;
+            let stats = job.run(&mut film, 0..built.spp, &progress);
             rays += stats.rays;
             spp_done = built.spp;
         }
@@ -167,33 +159,16 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                     .unwrap_or_else(|_| ProgressStyle::default_spinner()),
             );
             let mut pass = 1u32;
-            // Photon mapping keeps its progressive state (radii, photon counts) across passes and writes once.
-            let mut sppm_state = match &built.integrator {
-                render::integrator::Integrator::Sppm(s) => Some((s, render::sppm::SppmState::new(&film, s))),
-                _ => None,
-            };
             while spp_done == 0 || render_start.elapsed() < budget {
                 let pass_start = Instant::now();
                 let progress = |n: u64| {
                     taken.fetch_add(n, Ordering::Relaxed);
                 };
                 let range = spp_done..spp_done + pass;
-                let stats = match &mut sppm_state {
-                    Some((s, state)) => s.run(&built.scene, &wavelengths, state, range, args.seed, &progress),
-                    None => render_film(
-                        &built.scene,
-                        &built.integrator,
-                        &wavelengths,
-                        &mut film,
-                        range,
-                        args.seed,
-                        &progress,
-                    )
-                    .map_err(|e| anyhow!("{e}"))?,
-                };
+                let stats = job.run(&mut film, range, &progress);
                 rays += stats.rays;
                 spp_done += pass;
-                bar.set_message(format!("{spp_done} {}", if sppm_state.is_some() { "iterations" } else { "spp" }));
+                bar.set_message(format!("{spp_done} {unit}"));
                 bar.tick();
                 // Grow the pass while it stays well inside the remaining time.
                 let left = budget.saturating_sub(render_start.elapsed());
@@ -203,11 +178,10 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                     pass /= 2;
                 }
             }
-            if let Some((_, state)) = &sppm_state {
-                state.write_to(&mut film);
-            }
         }
     }
+    // Whatever the integrator keeps outside the film (photon mapping's progressive estimate) goes in once.
+    job.finish(&mut film);
     bar.finish_and_clear();
     let render_time = render_start.elapsed();
     let path = built.film.filename.clone();
@@ -226,7 +200,7 @@ pub fn run(args: &RenderArgs) -> Result<String> {
         w,
         h,
         spp_done,
-        if matches!(built.integrator, render::integrator::Integrator::Sppm(_)) { "iterations" } else { "spp" },
+        unit,
         args.wavelengths,
         built.integrator.name(),
         setup.as_secs_f64(),

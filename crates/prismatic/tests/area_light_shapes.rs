@@ -6,8 +6,6 @@ use std::path::Path;
 
 use film::Film;
 use render::builder::{build_scene, BuildOptions};
-use render::render::render_film;
-use spectral::{Observer, WavelengthSampler, WavelengthStrategy};
 
 /// Height of the light above the floor and half its side.
 const H: f64 = 1.0;
@@ -45,11 +43,10 @@ fn mean_y(text: &str) -> (f64, f64) {
     let desc = pbrt::parse_str(text, Path::new("light.pbrt")).unwrap_or_else(|e| panic!("{e}"));
     let built = build_scene(&desc, &BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     assert!(built.warnings.is_empty(), "{:#?}", built.warnings);
-    let wavelengths = WavelengthSampler::new(WavelengthStrategy::Hero, Observer::Cie1931);
     let renders: Vec<Film> = (1..=2)
         .map(|seed| {
             let mut film = Film::new(built.film.clone()).unwrap();
-            render_film(&built.scene, &built.integrator, &wavelengths, &mut film, 0..256, seed, &|_| {}).unwrap();
+            built.integrator.render(&built.scene, &mut film, 0..256, seed, &|_| {}).unwrap();
             film
         })
         .collect();

@@ -6,8 +6,7 @@ use std::path::Path;
 
 use film::Film;
 use render::builder::{build_scene, BuildOptions, BuiltScene};
-use render::render::render_film;
-use spectral::{Observer, WavelengthSampler, WavelengthStrategy};
+use spectral::WavelengthStrategy;
 
 /// Parses and builds a scene given as pbrt text; the scene must build without warnings.
 fn build(text: &str) -> BuiltScene {
@@ -18,9 +17,10 @@ fn build(text: &str) -> BuiltScene {
 }
 
 fn render(built: &BuiltScene, spp: u32, seed: u32) -> Film {
-    let mut film = Film::new(built.film.clone()).unwrap();
-    let wavelengths = WavelengthSampler::new(WavelengthStrategy::Hero, Observer::Cie1931);
-    render_film(&built.scene, &built.integrator, &wavelengths, &mut film, 0..spp, seed, &|_| {}).unwrap();
+    let mut spec = built.film.clone();
+    spec.wavelengths = WavelengthStrategy::Hero;
+    let mut film = Film::new(spec).unwrap();
+    built.integrator.render(&built.scene, &mut film, 0..spp, seed, &|_| {}).unwrap();
     film
 }
 

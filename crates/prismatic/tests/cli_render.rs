@@ -12,8 +12,7 @@ use std::process::{Command, Output};
 
 use film::Film;
 use render::builder::{build_scene, BuildOptions};
-use render::render::render_film;
-use spectral::{Observer, WavelengthSampler, WavelengthStrategy};
+use spectral::WavelengthStrategy;
 
 /// A fresh, empty temporary directory for one test.
 fn temp_dir(name: &str) -> PathBuf {
@@ -117,9 +116,10 @@ fn spectral_exr_round_trip_through_the_cli() {
     let options = BuildOptions { resolution: Some((20, 12)), spp: Some(4), output: Some(out.clone()) };
     let built = build_scene(&desc, &options).unwrap();
     assert!(built.warnings.is_empty(), "{:?}", built.warnings);
-    let mut film = Film::new(built.film.clone()).unwrap();
-    let wavelengths = WavelengthSampler::new(WavelengthStrategy::Rgb, Observer::Cie1931);
-    render_film(&built.scene, &built.integrator, &wavelengths, &mut film, 0..built.spp, 7, &|_| {}).unwrap();
+    let mut spec = built.film.clone();
+    spec.wavelengths = WavelengthStrategy::Rgb;
+    let mut film = Film::new(spec).unwrap();
+    built.integrator.render(&built.scene, &mut film, 0..built.spp, 7, &|_| {}).unwrap();
 
     let image = film::read_exr_spectral(&out).unwrap();
     assert_eq!((image.width, image.height), (20, 12));

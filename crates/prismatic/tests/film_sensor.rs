@@ -6,8 +6,7 @@ use std::path::Path;
 
 use film::Film;
 use render::builder::{build_scene, BuildOptions, BuiltScene};
-use render::render::render_film;
-use spectral::{Observer, WavelengthSampler, WavelengthStrategy};
+use spectral::WavelengthStrategy;
 
 fn scene(film_params: &str, camera_params: &str) -> String {
     format!(
@@ -35,9 +34,10 @@ fn build_err(text: &str) -> String {
 }
 
 fn render(built: &BuiltScene) -> Film {
-    let mut film = Film::new(built.film.clone()).unwrap();
-    let wavelengths = WavelengthSampler::new(WavelengthStrategy::Hero, Observer::Cie1931);
-    render_film(&built.scene, &built.integrator, &wavelengths, &mut film, 0..8, 7, &|_| {}).unwrap();
+    let mut spec = built.film.clone();
+    spec.wavelengths = WavelengthStrategy::Hero;
+    let mut film = Film::new(spec).unwrap();
+    built.integrator.render(&built.scene, &mut film, 0..8, 7, &|_| {}).unwrap();
     film
 }
 

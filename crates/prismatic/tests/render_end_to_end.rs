@@ -16,7 +16,6 @@ use std::path::Path;
 
 use film::Film;
 use render::builder::{build_scene, BuildOptions, BuiltScene};
-use render::render::render_film;
 use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum};
 use spectral::{Observer, Spectrum, WavelengthSampler, WavelengthStrategy, Xyz};
 
@@ -35,9 +34,10 @@ fn build(text: &str, name: &str) -> BuiltScene {
 
 /// Renders samples `0..spp` of every pixel with `strategy` (colours measured by the CIE 1931 observer).
 fn render(built: &BuiltScene, strategy: WavelengthStrategy, spp: u32, seed: u32) -> Film {
-    let mut film = Film::new(built.film.clone()).unwrap();
-    let wavelengths = WavelengthSampler::new(strategy, Observer::Cie1931);
-    render_film(&built.scene, &built.integrator, &wavelengths, &mut film, 0..spp, seed, &|_| {}).unwrap();
+    let mut spec = built.film.clone();
+    spec.wavelengths = strategy;
+    let mut film = Film::new(spec).unwrap();
+    built.integrator.render(&built.scene, &mut film, 0..spp, seed, &|_| {}).unwrap();
     film
 }
 

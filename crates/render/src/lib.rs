@@ -2,19 +2,15 @@
 //!
 //! Knows nothing of file formats: it consumes the plain scene description and writes into a film.
 
-pub mod bdpt;
 pub mod builder;
 pub mod bxdf;
 pub mod camera;
 pub mod integrator;
 pub mod layered;
 pub mod light;
-pub mod lightpath;
 pub mod material;
 pub mod microfacet;
-pub mod render;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
-pub mod sppm;
 pub mod texture;

@@ -4,16 +4,16 @@
 //! (every point sees only the environment), and a non-absorbing smooth glass sphere looks exactly L (it neither
 //! absorbs nor emits; every path eventually leaves). Renders use a pinhole camera at a few hundred samples.
 
+use film::{Film, FilmSpec, Filter};
 use geometry::Transform;
 use glam::{DVec3, Vec2, Vec3};
 use render::camera::{Camera, Projection, ScreenWindow};
-use render::integrator::{PathIntegrator, RayCounts};
+use render::integrator::{Integrator, PathIntegrator};
 use render::light::Light;
 use render::material::{DielectricIor, Material, Roughness};
-use render::render::render_pixel;
 use render::scene::{Geometry, RenderScene, SurfaceHit};
 use render::texture::SpectrumTexture;
-use spectral::{Observer, Spectrum, WavelengthSampler, WavelengthStrategy};
+use spectral::{Spectrum, WavelengthStrategy};
 
 /// One sphere at the origin.
 struct OneSphere {
@@ -81,16 +81,15 @@ fn scene(material: Material) -> RenderScene {
 
 /// Mean Y over the central 4×4 pixels (all on the sphere) and its standard error across pixels.
 fn mean_y(scene: &RenderScene, strategy: WavelengthStrategy, spp: u32, max_depth: u32) -> (f64, f64) {
-    let ws = WavelengthSampler::new(strategy, Observer::Cie1931);
-    let integrator = PathIntegrator { max_depth };
-    let filter = |_: [f32; 2]| (Vec2::ZERO, 1.0f32);
+    let mut spec = FilmSpec::new(8, 8, "furnace.exr");
+    spec.filter = Filter::new_box([0.5, 0.5]).unwrap();
+    spec.wavelengths = strategy;
+    let mut film = Film::new(spec).unwrap();
+    Integrator::Path(PathIntegrator { max_depth }).render(scene, &mut film, 0..spp, 1, &|_| {}).unwrap();
     let mut values = vec![];
-    let mut counts = RayCounts::default();
     for y in 2..6 {
         for x in 2..6 {
-            let mut sum = 0.0;
-            render_pixel(scene, &integrator, &ws, &filter, x, y, 0..spp, 1, &mut counts, None, |c| sum += c.xyz.y);
-            values.push(sum / spp as f64);
+            values.push(film.pixel_xyz(x, y).y);
         }
     }
     let n = values.len() as f64;

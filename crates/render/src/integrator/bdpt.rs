@@ -14,13 +14,19 @@
 //! strategies evaluated afterwards at the reduced wavelengths stay unbiased). Absorbing media attenuate every
 //! segment by Beer–Lambert.
 
-use glam::{Vec2, Vec3};
-use spectral::{SampledSpectrum, SampledWavelengths};
 use std::f32::consts::PI;
+use std::ops::Range;
 
+use film::{Film, FilmError};
+use glam::{Vec2, Vec3};
+use scene::SceneError;
+use spectral::{SampledSpectrum, SampledWavelengths};
+
+use super::drive::{finite_or_zero, render_splatting, CameraSampler, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
+use super::transport::{cross_boundary, next_medium, resolve_surface, RayCounts, Surface};
+use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
-use crate::integrator::{cross_boundary, next_medium, resolve_surface, RayCounts, Surface};
-use crate::sampler::Sampler;
+use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
 use crate::scene::{MediumInterface, RenderScene, SurfaceHit};
 
@@ -784,4 +790,64 @@ impl BdptIntegrator {
             0.0
         }
     }
+}
+
+/// Salt of the bidirectional path tracer's connection sampler (the light subpath uses the light tracer's salt).
+const BDPT_CONNECT_SEED_SALT: u32 = 0x636f_6e6e;
+
+impl Integrate for BdptIntegrator {
+    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+        Ok(BdptIntegrator { max_depth: params.max_depth()? })
+    }
+
+    fn needs(&self) -> Needs {
+        Needs { camera_reachable_by_light: true, ..Needs::default() }
+    }
+
+    fn begin<'a>(
+        &'a self,
+        scene: &'a RenderScene,
+        film: &Film,
+        seed: u32,
+    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+        Ok(Box::new(BdptRender { integrator: self, scene, camera: CameraSampler::new(film)?, seed }))
+    }
+}
+
+/// A bidirectional render: per pixel sample, a camera sample for the pixel and splats for t = 1 connections.
+struct BdptRender<'a> {
+    integrator: &'a BdptIntegrator,
+    scene: &'a RenderScene,
+    camera: CameraSampler,
+    seed: u32,
+}
+
+impl RenderJob for BdptRender<'_> {
+    fn run(&mut self, film: &mut Film, passes: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
+        let (scene, seed) = (self.scene, self.seed);
+        let light_seed = hash_words(&[seed, LIGHT_PATH_SEED_SALT]);
+        let connect_seed = hash_words(&[seed, BDPT_CONNECT_SEED_SALT]);
+        let per_sample = |x: u32, y: u32, s: u32, counts: &mut RayCounts, records: &mut SampleRecords| {
+            let mut sampler = Sampler::new(x, y, s, seed);
+            let cs = self.camera.sample(scene, x, y, &mut sampler);
+            let mut wl = cs.wl;
+            let mut light_sampler = Sampler::new(x, y, s, light_seed);
+            let mut connect_sampler = Sampler::new(x, y, s, connect_seed);
+            let l = self.integrator.li(
+                scene,
+                cs.ray.origin,
+                cs.ray.direction,
+                &mut wl,
+                [&mut sampler, &mut light_sampler, &mut connect_sampler],
+                counts,
+                // Splats keep the wavelengths they were made at (a later dispersive event on the other subpath may
+                // have reduced the set since).
+                |raster, c, swl| records.splat(raster, c, *swl),
+            );
+            records.camera(x, finite_or_zero(l), wl, cs.weight);
+        };
+        render_splatting(film, passes, progress, &per_sample)
+    }
+
+    fn finish(self: Box<Self>, _film: &mut Film) {}
 }

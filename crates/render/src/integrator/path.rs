@@ -2,28 +2,23 @@
 //! heuristic) between light and BSDF sampling, light selection by power, Russian roulette and `maxdepth`
 //! (Veach 1997 ch. 9; pbrt-v4 §13.4).
 
+use std::ops::Range;
+
+use film::{Film, FilmError};
 use glam::{Vec2, Vec3};
+use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
-use crate::bxdf::{Bxdf, TransportMode};
-use crate::light::LightSampleContext;
-use crate::material::Material;
+use super::drive::{finite_or_zero, render_rows, CameraSampler, RenderStats};
+use super::transport::{cross_boundary, next_medium, resolve_surface, sample_direct_light, RayCounts, Surface};
+use super::{Integrate, IntegratorParams, RenderJob};
+use crate::bxdf::TransportMode;
 use crate::sampler::Sampler;
 use crate::sampling::{power_heuristic, Frame};
-use crate::scene::{RenderScene, SurfaceHit, NO_MATERIAL};
-use crate::texture::TextureEvalContext;
+use crate::scene::RenderScene;
 
 /// Dimensions each bounce draws, so that a given bounce always uses the same Sobol dimensions.
 const DIMS_PER_BOUNCE: u32 = 9;
-
-/// Counters for statistics.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct RayCounts {
-    /// Closest-hit rays.
-    pub intersect: u64,
-    /// Shadow rays.
-    pub shadow: u64,
-}
 
 /// What the camera ray hit first, for AOVs.
 #[derive(Clone, Copy, Debug)]
@@ -32,31 +27,6 @@ pub struct FirstHit {
     pub albedo: SampledSpectrum,
     /// World-space shading normal.
     pub normal: Vec3,
-}
-
-/// The integrators the renderer can run, chosen by the scene's `Integrator` directive.
-#[derive(Clone, Copy, Debug)]
-pub enum Integrator {
-    /// Unidirectional path tracing from the camera.
-    Path(PathIntegrator),
-    /// Particle tracing from the lights, splatted onto the film.
-    LightPath(crate::lightpath::LightPathIntegrator),
-    /// Stochastic progressive photon mapping; the render's sample count is its number of iterations.
-    Sppm(crate::sppm::SppmIntegrator),
-    /// Bidirectional path tracing with MIS over all connection strategies.
-    Bdpt(crate::bdpt::BdptIntegrator),
-}
-
-impl Integrator {
-    /// The integrator's name in a scene file.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Integrator::Path(_) => "path",
-            Integrator::LightPath(_) => "lightpath",
-            Integrator::Sppm(_) => "sppm",
-            Integrator::Bdpt(_) => "bdpt",
-        }
-    }
 }
 
 /// The `path` integrator.
@@ -154,7 +124,8 @@ impl PathIntegrator {
             let wo = frame.to_local(-d);
             // Next-event estimation.
             if !bxdf.is_specular() {
-                l += beta * self.sample_ld(scene, &hit, &frame, &bxdf, wo, wl, u[0], Vec2::new(u[1], u[2]), counts);
+                l +=
+                    beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, u[0], Vec2::new(u[1], u[2]), counts);
             }
             // BSDF sampling for the next direction.
             let Some(bs) = bxdf.sample_f(wo, u[3], Vec2::new(u[4], u[5]), TransportMode::Radiance) else { break };
@@ -190,118 +161,68 @@ impl PathIntegrator {
         }
         l
     }
+}
 
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn sample_ld(
-        &self,
-        scene: &RenderScene,
-        hit: &SurfaceHit,
-        frame: &Frame,
-        bxdf: &Bxdf,
-        wo: Vec3,
-        wl: &SampledWavelengths,
-        u_light: f32,
-        u: Vec2,
-        counts: &mut RayCounts,
-    ) -> SampledSpectrum {
-        let Some((li, p_sel)) = scene.sample_light(u_light) else { return SampledSpectrum::zero() };
-        let light = &scene.lights[li as usize];
-        let ctx = LightSampleContext { p: hit.p, n: hit.n };
-        let Some(ls) = light.sample_li(&ctx, u, wl) else { return SampledSpectrum::zero() };
-        if ls.pdf <= 0.0 || ls.l.is_black() {
-            return SampledSpectrum::zero();
+impl Integrate for PathIntegrator {
+    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+        let max_depth = params.max_depth()?;
+        if params.entity.name == "volpath" && params.scene_has_media {
+            params.warnings.push(format!(
+                "{}: warning: integrator \"volpath\" renders as \"path\" (absorbing media only)",
+                params.entity.loc
+            ));
         }
-        let wi_local = frame.to_local(ls.wi);
-        let f = bxdf.f(wo, wi_local, TransportMode::Radiance) * wi_local.z.abs();
-        if f.is_black() {
-            return SampledSpectrum::zero();
-        }
-        let origin = hit.spawn_origin(ls.wi);
-        counts.shadow += 1;
-        // Stop just short of the light's surface (pbrt's ShadowEpsilon, relative).
-        let t_max = if ls.dist.is_finite() { (ls.p - origin).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-        if scene.geometry.occluded(origin, ls.wi, t_max) {
-            return SampledSpectrum::zero();
-        }
-        let p_l = p_sel * ls.pdf;
-        if ls.delta {
-            f * ls.l * (1.0 / p_l)
-        } else {
-            let p_b = bxdf.pdf(wo, wi_local, TransportMode::Radiance);
-            f * ls.l * (power_heuristic(p_l, p_b) / p_l)
-        }
+        Ok(PathIntegrator { max_depth })
+    }
+
+    fn begin<'a>(
+        &'a self,
+        scene: &'a RenderScene,
+        film: &Film,
+        seed: u32,
+    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+        Ok(Box::new(CameraPaths { integrator: *self, scene, camera: CameraSampler::new(film)?, seed }))
     }
 }
 
-/// Longest run of material-less boundary crossings a path follows before it is dropped.
-const MAX_CROSSINGS: u32 = 256;
-
-/// Carries a path straight through a material-less boundary at `hit` (a change of medium only): updates the
-/// medium and the ray origin and counts the crossing. Returns false once the path has crossed too many boundaries
-/// and should be dropped.
-pub(crate) fn cross_boundary(
-    hit: &SurfaceHit,
-    d: Vec3,
-    medium: &mut Option<u32>,
-    o: &mut Vec3,
-    crossings: &mut u32,
-) -> bool {
-    *medium = next_medium(hit, d, *medium);
-    *o = hit.spawn_origin(d);
-    *crossings += 1;
-    *crossings <= MAX_CROSSINGS
+/// Camera paths traced into the pixels they start from: the `path` integrator's render, and the directly visible
+/// emitters of the light tracer (with `max_depth` 0).
+pub(crate) struct CameraPaths<'a> {
+    pub integrator: PathIntegrator,
+    pub scene: &'a RenderScene,
+    pub camera: CameraSampler,
+    pub seed: u32,
 }
 
-/// What a ray meets at a surface once mixes are resolved.
-pub(crate) enum Surface {
-    /// A boundary between media without a material: the ray goes on unchanged.
-    PassThrough,
-    /// A material that scatters nothing at these wavelengths.
-    Absorb,
-    /// The BxDF to scatter with.
-    Scatter(Bxdf),
-}
-
-/// Resolves the material at `hit` (a mix picks one of its materials with `u_mix`, repeatedly) and builds its BxDF
-/// at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front).
-pub(crate) fn resolve_surface(
-    scene: &RenderScene,
-    hit: &SurfaceHit,
-    wl: &mut SampledWavelengths,
-    mut u_mix: f32,
-    u_bxdf: f32,
-) -> Surface {
-    let mut material_index = hit.material;
-    while material_index != NO_MATERIAL {
-        if let Material::Mix { materials, amount } = &scene.materials[material_index as usize] {
-            let a = amount.eval(&TextureEvalContext { uv: hit.uv, p: hit.p }).clamp(0.0, 1.0);
-            let pick = if u_mix < a { 1 } else { 0 };
-            u_mix = if pick == 1 { u_mix / a.max(1e-6) } else { (u_mix - a) / (1.0 - a).max(1e-6) };
-            material_index = materials[pick];
-        } else {
-            break;
-        }
-    }
-    if material_index == NO_MATERIAL {
-        return Surface::PassThrough;
-    }
-    let ctx = TextureEvalContext { uv: hit.uv, p: hit.p };
-    match scene.materials[material_index as usize].bxdf(&ctx, wl, u_bxdf) {
-        Some(b) => Surface::Scatter(b),
-        None => Surface::Absorb,
-    }
-}
-
-/// The medium a ray enters when it leaves `hit` in direction `d` (unchanged if the surface has no interface).
-pub(crate) fn next_medium(hit: &SurfaceHit, d: Vec3, current: Option<u32>) -> Option<u32> {
-    match hit.media {
-        Some(mi) => {
-            if d.dot(hit.n) < 0.0 {
-                mi.inside
-            } else {
-                mi.outside
+impl CameraPaths<'_> {
+    /// Renders samples `samples` of every pixel into `film`, with albedo and normal AOVs if the film keeps them.
+    pub fn render(&self, film: &mut Film, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
+        let aovs = film.has_aovs();
+        render_rows(film, samples, progress, &|row, x, samples, counts| {
+            let y = row.y();
+            for s in samples {
+                let mut sampler = Sampler::new(x, y, s, self.seed);
+                let cs = self.camera.sample(self.scene, x, y, &mut sampler);
+                let mut wl = cs.wl;
+                let mut first_hit = None;
+                let fh = aovs.then_some(&mut first_hit);
+                let (o, d) = (cs.ray.origin, cs.ray.direction);
+                let l = finite_or_zero(self.integrator.li(self.scene, o, d, &mut wl, &mut sampler, counts, fh));
+                row.add_sample(x, &l, &wl, cs.weight as f64);
+                // The albedo is seen at the wavelengths the camera ray started with.
+                if let Some(h) = first_hit {
+                    let n = [h.normal.x as f64, h.normal.y as f64, h.normal.z as f64];
+                    row.add_albedo(x, &h.albedo, &cs.wl, n);
+                }
             }
-        }
-        None => current,
+        })
     }
+}
+
+impl RenderJob for CameraPaths<'_> {
+    fn run(&mut self, film: &mut Film, passes: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
+        self.render(film, passes, progress)
+    }
+
+    fn finish(self: Box<Self>, _film: &mut Film) {}
 }

@@ -9,12 +9,19 @@
 //! and are missing, as in every light tracer. Dispersion works as in the path tracer: a refraction through a
 //! dispersive surface keeps only the wavelength it followed.
 
+use std::ops::Range;
+
+use film::{Film, FilmError};
 use glam::{Vec2, Vec3};
+use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
+use super::drive::{render_splatting, CameraSampler, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
+use super::path::{CameraPaths, PathIntegrator};
+use super::transport::{cross_boundary, next_medium, resolve_surface, RayCounts, Surface};
+use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::TransportMode;
-use crate::integrator::{cross_boundary, next_medium, resolve_surface, RayCounts, Surface};
-use crate::sampler::Sampler;
+use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
 use crate::scene::RenderScene;
 
@@ -193,4 +200,52 @@ impl LightPathIntegrator {
             splat(cs.raster, c, wl);
         });
     }
+}
+
+impl Integrate for LightPathIntegrator {
+    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+        Ok(LightPathIntegrator { max_depth: params.max_depth()? })
+    }
+
+    fn needs(&self) -> Needs {
+        Needs { camera_reachable_by_light: true, ..Needs::default() }
+    }
+
+    fn begin<'a>(
+        &'a self,
+        scene: &'a RenderScene,
+        film: &Film,
+        seed: u32,
+    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+        // Emitters seen directly: a path tracer that stops at the first surface.
+        let direct = PathIntegrator { max_depth: 0 };
+        let camera = CameraPaths { integrator: direct, scene, camera: CameraSampler::new(film)?, seed };
+        Ok(Box::new(LightPaths { integrator: self, camera }))
+    }
+}
+
+/// A light-tracing render: camera rays for directly visible light, and one light path per pixel sample, splatted.
+struct LightPaths<'a> {
+    integrator: &'a LightPathIntegrator,
+    camera: CameraPaths<'a>,
+}
+
+impl RenderJob for LightPaths<'_> {
+    fn run(&mut self, film: &mut Film, passes: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
+        let mut stats = self.camera.render(film, passes.clone(), &|_| {});
+        let (scene, seed) = (self.camera.scene, self.camera.seed);
+        let wavelengths = self.camera.camera.wavelengths();
+        let light_seed = hash_words(&[seed, LIGHT_PATH_SEED_SALT]);
+        let per_sample = |x: u32, y: u32, s: u32, counts: &mut RayCounts, records: &mut SampleRecords| {
+            let mut sampler = Sampler::new(x, y, s, light_seed);
+            let mut wl = wavelengths.sample(sampler.next_1d() as f64);
+            self.integrator.trace(scene, &mut wl, &mut sampler, counts, |raster, l, wl| records.splat(raster, l, *wl));
+        };
+        let light = render_splatting(film, passes, progress, &per_sample);
+        stats.rays += light.rays;
+        stats.samples = light.samples;
+        stats
+    }
+
+    fn finish(self: Box<Self>, _film: &mut Film) {}
 }

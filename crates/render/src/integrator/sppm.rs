@@ -16,19 +16,23 @@
 //! bucket, so the spectral film is right for photon-mapped light too. Photon contributions are gathered in batches
 //! and added in photon order: the image does not depend on the number of threads.
 
+use std::f64::consts::PI;
+use std::ops::Range;
+
+use film::{Film, FilmError, SampleConversion};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use spectral::{SampledSpectrum, SampledWavelengths, WavelengthSampler, Xyz};
-use std::f64::consts::PI;
+use scene::SceneError;
+use spectral::{SampledSpectrum, SampledWavelengths, Xyz};
 
+use super::drive::RenderStats;
+use super::lightpath::walk_light_path;
+use super::transport::{cross_boundary, next_medium, resolve_surface, sample_direct_light, RayCounts, Surface};
+use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
-use crate::integrator::{cross_boundary, next_medium, resolve_surface, PathIntegrator, RayCounts, Surface};
-use crate::lightpath::walk_light_path;
-use crate::render::RenderStats;
 use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
 use crate::scene::RenderScene;
-use film::{Film, SpectralEstimates};
 
 /// pbrt-v4's `sppm` parameters.
 #[derive(Clone, Copy, Debug)]
@@ -39,6 +43,8 @@ pub struct SppmIntegrator {
     pub photons_per_iteration: Option<u64>,
     /// Initial gather radius in scene units (default 1).
     pub initial_radius: f32,
+    /// Iterations the scene asks for (default 64; pbrt-v4 ignores the sampler's pixel samples here).
+    pub iterations: u32,
 }
 
 /// Salt for the photon samplers' seeds.
@@ -75,8 +81,8 @@ pub struct SppmState {
     width: u32,
     height: u32,
     nbuckets: usize,
-    bucket_min: f64,
-    bucket_inv_width: f64,
+    /// The film's conversion of path samples to colour and buckets.
+    conversion: SampleConversion,
     pixels: Vec<PixelState>,
     /// τ per bucket (pixel-major), for spectral films.
     tau_buckets: Vec<f64>,
@@ -92,16 +98,11 @@ impl SppmState {
         let (w, h) = (film.width(), film.height());
         let npix = w as usize * h as usize;
         let nb = film.nbuckets();
-        let kind = &film.spec().kind;
-        let centres = kind.bucket_centres();
-        let bucket_width = if nb > 0 { kind.bucket_width() } else { 1.0 };
-        let bucket_min = centres.first().map_or(0.0, |c| c - bucket_width / 2.0);
         Self {
             width: w,
             height: h,
             nbuckets: nb,
-            bucket_min,
-            bucket_inv_width: 1.0 / bucket_width,
+            conversion: film.conversion().clone(),
             pixels: vec![
                 PixelState {
                     radius: integrator.initial_radius as f64,
@@ -121,16 +122,6 @@ impl SppmState {
     /// Iterations done so far.
     pub fn iterations(&self) -> u32 {
         self.iterations
-    }
-
-    /// Adds `(λ, L/pdf)` estimates to a pixel's bucket row (values per nm).
-    fn bin(&self, row: &mut [f64], est: &SpectralEstimates) {
-        for &(lambda, v) in est.as_slice() {
-            let b = ((lambda as f64 - self.bucket_min) * self.bucket_inv_width).floor();
-            if b >= 0.0 && (b as usize) < self.nbuckets {
-                row[b as usize] += v as f64 * self.bucket_inv_width;
-            }
-        }
     }
 
     /// Writes the current estimate into `film` (one sample of weight 1 per pixel).
@@ -234,7 +225,6 @@ impl SppmIntegrator {
     pub fn run(
         &self,
         scene: &RenderScene,
-        wavelengths: &WavelengthSampler,
         state: &mut SppmState,
         iterations: std::ops::Range<u32>,
         seed: u32,
@@ -247,7 +237,7 @@ impl SppmIntegrator {
         for it in iterations {
             // One wavelength set per iteration, stratified over iterations (van der Corput, Owen-scrambled).
             let u_wl = sobol_burley::sample(it, 0, hash_words(&[seed, WAVELENGTH_SEED_SALT]));
-            let wl_iter = wavelengths.sample(u_wl as f64);
+            let wl_iter = state.conversion.wavelengths().sample(u_wl as f64);
 
             // 1. Camera pass: visible points and direct light.
             let camera: Vec<(Option<VisiblePoint>, SampledSpectrum, SampledWavelengths, RayCounts)> = (0..npix)
@@ -265,17 +255,13 @@ impl SppmIntegrator {
             for (i, (vp, ld, wl, counts)) in camera.into_iter().enumerate() {
                 stats.rays += counts.intersect + counts.shadow;
                 if !ld.is_black() {
-                    let xyz = wavelengths.to_xyz(&ld, &wl);
+                    let xyz = state.conversion.xyz(&ld, &wl);
                     let px = &mut state.pixels[i];
                     px.ld_xyz[0] += xyz.x;
                     px.ld_xyz[1] += xyz.y;
                     px.ld_xyz[2] += xyz.z;
-                    if state.nbuckets > 0 {
-                        let nb = state.nbuckets;
-                        let mut row = std::mem::take(&mut state.ld_buckets);
-                        state.bin(&mut row[i * nb..(i + 1) * nb], &SpectralEstimates::new(&ld, &wl));
-                        state.ld_buckets = row;
-                    }
+                    let nb = state.nbuckets;
+                    state.conversion.add_to_buckets(&mut state.ld_buckets[i * nb..(i + 1) * nb], &ld, &wl, 1.0);
                 }
                 points.push(vp);
             }
@@ -332,15 +318,14 @@ impl SppmIntegrator {
                     continue;
                 }
                 let l = vp.beta * phi[i];
-                let xyz = wavelengths.to_xyz(&l, &vp.wl);
-                let est = SpectralEstimates::new(&l, &vp.wl);
+                let xyz = state.conversion.xyz(&l, &vp.wl);
                 let px = &state.pixels[i];
                 let n_new = px.n + ALPHA * m[i] as f64;
                 let r_new = px.radius * (n_new / (px.n + m[i] as f64)).sqrt();
                 let shrink = (r_new / px.radius).powi(2);
                 if nb > 0 {
                     let mut add = vec![0.0; nb];
-                    state.bin(&mut add, &est);
+                    state.conversion.add_to_buckets(&mut add, &l, &vp.wl, 1.0);
                     for (t, a) in state.tau_buckets[i * nb..(i + 1) * nb].iter_mut().zip(&add) {
                         *t = (*t + a) * shrink;
                     }
@@ -381,7 +366,6 @@ impl SppmIntegrator {
         let mut medium = scene.camera_medium;
         let mut depth = 0u32;
         let mut crossings = 0u32;
-        let nee = PathIntegrator { max_depth: self.max_depth };
         loop {
             counts.intersect += 1;
             let Some(hit) = scene.geometry.intersect(o, d, f32::INFINITY) else {
@@ -415,7 +399,8 @@ impl SppmIntegrator {
             let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
             let wo = frame.to_local(-d);
             if !bxdf.is_specular() {
-                ld += beta * nee.sample_ld(scene, &hit, &frame, &bxdf, wo, wl, u[0], Vec2::new(u[1], u[2]), counts);
+                ld +=
+                    beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, u[0], Vec2::new(u[1], u[2]), counts);
                 let vp = VisiblePoint { p: hit.p, frame, wo, bxdf, beta, wl: *wl };
                 return (Some(vp), ld);
             }
@@ -480,5 +465,62 @@ impl SppmIntegrator {
                 }
             }
         });
+    }
+}
+
+impl Integrate for SppmIntegrator {
+    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+        let p = &params.entity.params;
+        let photons = p.get_int("photonsperiteration", -1)?;
+        let radius = p.get_float("radius", 1.0)?;
+        if !(radius.is_finite() && radius > 0.0) {
+            let msg = format!("'radius' must be a positive number, got {radius}");
+            return Err(SceneError::at(params.loc_of("radius"), msg));
+        }
+        if photons == 0 || !(-1..=1 << 32).contains(&photons) {
+            let msg = format!("'photonsperiteration' must be positive (or -1 for one per pixel), got {photons}");
+            return Err(SceneError::at(params.loc_of("photonsperiteration"), msg));
+        }
+        Ok(SppmIntegrator {
+            max_depth: params.max_depth()?,
+            photons_per_iteration: (photons > 0).then_some(photons as u64),
+            initial_radius: radius as f32,
+            iterations: params.count("iterations", 64)?,
+        })
+    }
+
+    fn needs(&self) -> Needs {
+        Needs { unit: PassUnit::Iterations, ..Needs::default() }
+    }
+
+    fn passes(&self) -> Option<u32> {
+        Some(self.iterations)
+    }
+
+    fn begin<'a>(
+        &'a self,
+        scene: &'a RenderScene,
+        film: &Film,
+        seed: u32,
+    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+        Ok(Box::new(SppmRender { integrator: self, scene, state: SppmState::new(film, self), seed }))
+    }
+}
+
+/// A photon-mapping render: iterations extend the progressive state, which is written into the film once.
+struct SppmRender<'a> {
+    integrator: &'a SppmIntegrator,
+    scene: &'a RenderScene,
+    state: SppmState,
+    seed: u32,
+}
+
+impl RenderJob for SppmRender<'_> {
+    fn run(&mut self, _film: &mut Film, passes: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
+        self.integrator.run(self.scene, &mut self.state, passes, self.seed, progress)
+    }
+
+    fn finish(self: Box<Self>, film: &mut Film) {
+        self.state.write_to(film);
     }
 }

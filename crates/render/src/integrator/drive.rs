@@ -1,0 +1,191 @@
+//! The road from camera sample to film, shared by every integrator: building a camera sample, the parallel loop
+//! over pixels that writes camera samples into the film's rows, and the batched loop of integrators that also
+//! splat light-path contributions.
+//!
+//! Determinism: every random number comes from a [`Sampler`] seeded by (pixel, sample index, seed and a
+//! per-purpose salt); camera samples of one pixel are written by one thread, and splats are added in a fixed order,
+//! so an image does not depend on the number of threads.
+
+use std::ops::Range;
+
+use film::{Film, FilmError, FilmRow, FilterSampler, Splat};
+use glam::Vec2;
+use rayon::prelude::*;
+use spectral::{SampledSpectrum, SampledWavelengths, WavelengthSampler};
+
+use super::transport::RayCounts;
+use crate::camera::CameraRay;
+use crate::sampler::Sampler;
+use crate::scene::RenderScene;
+
+/// Totals of a render pass.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RenderStats {
+    /// Pixel samples taken (for photon mapping: pixels × iterations).
+    pub samples: u64,
+    /// Rays traced (closest hit and shadow).
+    pub rays: u64,
+}
+
+/// Salt that makes a light path's random numbers independent of its pixel sample's camera ray.
+pub(crate) const LIGHT_PATH_SEED_SALT: u32 = 0x6c69_6768;
+
+/// One camera sample: the path's wavelengths, the film position and filter weight, and the camera ray.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CameraSample {
+    /// Wavelengths the path starts with.
+    pub wl: SampledWavelengths,
+    /// Filter weight f/pdf of the sampled film offset.
+    pub weight: f32,
+    /// The ray leaving the lens.
+    pub ray: CameraRay,
+}
+
+/// Makes camera samples for a film: its pixel filter, importance sampled, and its wavelength strategy.
+pub(crate) struct CameraSampler {
+    filter: FilterSampler,
+    wavelengths: WavelengthSampler,
+}
+
+impl CameraSampler {
+    /// The camera sampler of `film`.
+    pub fn new(film: &Film) -> Result<Self, FilmError> {
+        Ok(Self { filter: FilterSampler::new(&film.spec().filter)?, wavelengths: film.wavelengths().clone() })
+    }
+
+    /// The camera sample of pixel (`x`, `y`), drawing the first five dimensions of `sampler`: wavelengths (1),
+    /// film offset from the filter (2), lens (2).
+    pub fn sample(&self, scene: &RenderScene, x: u32, y: u32, sampler: &mut Sampler) -> CameraSample {
+        let wl = self.wavelengths.sample(sampler.next_1d() as f64);
+        let [u0, u1] = sampler.next_2d();
+        let f = self.filter.sample([u0 as f64, u1 as f64]);
+        let offset = Vec2::new(f.offset[0] as f32, f.offset[1] as f32);
+        let lens = Vec2::from(sampler.next_2d());
+        let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
+        CameraSample { wl, weight: f.weight as f32, ray: scene.camera.generate_ray(film, lens) }
+    }
+
+    /// The wavelength strategy.
+    pub fn wavelengths(&self) -> &WavelengthSampler {
+        &self.wavelengths
+    }
+}
+
+/// A camera path's radiance, or zero if any value is NaN or infinite (pbrt-v4 drops such samples' radiance the
+/// same way, keeping their filter weight, so one bad path does not blacken or brighten a pixel).
+pub(crate) fn finite_or_zero(l: SampledSpectrum) -> SampledSpectrum {
+    if l.0.iter().all(|v| v.is_finite()) {
+        l
+    } else {
+        SampledSpectrum::zero()
+    }
+}
+
+/// What [`render_rows`] calls for each pixel: `(row, x, samples, counts)` adds samples `samples` of pixel `x` to
+/// `row`.
+pub(crate) type PixelSamples<'f> = dyn Fn(&mut FilmRow, u32, Range<u32>, &mut RayCounts) + Sync + 'f;
+
+/// Renders samples `samples` of every pixel, rows in parallel, with `per_pixel`. `progress` hears the number of
+/// pixel samples done after each row.
+pub(crate) fn render_rows(
+    film: &mut Film,
+    samples: Range<u32>,
+    progress: &(dyn Fn(u64) + Sync),
+    per_pixel: &PixelSamples,
+) -> RenderStats {
+    let per_pixel_samples = (samples.end - samples.start) as u64;
+    film.par_rows_mut()
+        .map(|mut row| {
+            let mut counts = RayCounts::default();
+            for x in 0..row.width() {
+                per_pixel(&mut row, x, samples.clone(), &mut counts);
+            }
+            let taken = per_pixel_samples * row.width() as u64;
+            progress(taken);
+            RenderStats { samples: taken, rays: counts.intersect + counts.shadow }
+        })
+        .reduce(RenderStats::default, |a, b| RenderStats { samples: a.samples + b.samples, rays: a.rays + b.rays })
+}
+
+/// A camera sample's contribution to its own pixel, from a splatting integrator.
+struct CameraRecord {
+    x: u32,
+    l: SampledSpectrum,
+    wl: SampledWavelengths,
+    weight: f32,
+}
+
+/// What the pixel samples of a splatting integrator produced: camera samples for their own pixels and splats.
+#[derive(Default)]
+pub(crate) struct SampleRecords {
+    camera: Vec<CameraRecord>,
+    splats: Vec<Splat>,
+}
+
+impl SampleRecords {
+    /// Records a camera sample of pixel `x` (of the row being rendered) with radiance `l` at wavelengths `wl`.
+    pub fn camera(&mut self, x: u32, l: SampledSpectrum, wl: SampledWavelengths, weight: f32) {
+        self.camera.push(CameraRecord { x, l, wl, weight });
+    }
+
+    /// Records a light-path contribution `l` at wavelengths `wl` landing at raster position `raster`.
+    pub fn splat(&mut self, raster: Vec2, l: SampledSpectrum, wl: SampledWavelengths) {
+        self.splats.push(Splat { raster: [raster.x as f64, raster.y as f64], l, wl });
+    }
+}
+
+/// Runs `per_sample(x, y, s, counts, records)` for every pixel sample, rows in parallel in batches small enough to
+/// hold their records in memory, then adds the camera samples and splats in row order: the same sums in the same
+/// order for any number of threads. Counts `samples` light paths per pixel for the splats' scale.
+pub(crate) fn render_splatting(
+    film: &mut Film,
+    samples: Range<u32>,
+    progress: &(dyn Fn(u64) + Sync),
+    per_sample: &(dyn Fn(u32, u32, u32, &mut RayCounts, &mut SampleRecords) + Sync),
+) -> RenderStats {
+    let (w, h) = (film.width(), film.height());
+    let spp = (samples.end - samples.start) as u64;
+    // Batches of at least 32 rows (work for every thread) and at most ~128k pixel samples (memory for their
+    // records): the sample range is split into chunks when the rows are wide or the sample count high. Batching
+    // depends only on the film size and the sample range, never on the thread count.
+    const BATCH_PATHS: u64 = 1 << 17;
+    let batch_rows = 32u32.min(h).max(1);
+    let chunk = (BATCH_PATHS / (w as u64 * batch_rows as u64).max(1)).clamp(1, spp.max(1)) as u32;
+    let mut stats = RenderStats::default();
+    let mut s0 = samples.start;
+    while s0 < samples.end {
+        let s1 = (s0 + chunk).min(samples.end);
+        let mut y0 = 0;
+        while y0 < h {
+            let y1 = (y0 + batch_rows).min(h);
+            let rows: Vec<(SampleRecords, RayCounts)> = (y0..y1)
+                .into_par_iter()
+                .map(|y| {
+                    let mut records = SampleRecords::default();
+                    let mut counts = RayCounts::default();
+                    for x in 0..w {
+                        for s in s0..s1 {
+                            per_sample(x, y, s, &mut counts, &mut records);
+                        }
+                    }
+                    progress(w as u64 * (s1 - s0) as u64);
+                    (records, counts)
+                })
+                .collect();
+            let mut splats = Vec::new();
+            for (y, (records, counts)) in (y0..y1).zip(rows) {
+                for c in &records.camera {
+                    film.add_sample(c.x, y, &c.l, &c.wl, c.weight as f64);
+                }
+                splats.extend(records.splats);
+                stats.rays += counts.intersect + counts.shadow;
+            }
+            film.add_splats(&splats);
+            y0 = y1;
+        }
+        s0 = s1;
+    }
+    film.add_light_paths(w as u64 * h as u64 * spp);
+    stats.samples = w as u64 * h as u64 * spp;
+    stats
+}

@@ -1,0 +1,231 @@
+//! The integrators, behind one interface.
+//!
+//! Every integrator is a file of this folder with a parameter struct that implements [`Integrate`]: it reads its
+//! pbrt-v4 parameters, says what it needs ([`Needs`]), and starts a render ([`Integrate::begin`]) that is driven
+//! the same way whatever the algorithm: [`RenderJob::run`] over ranges of samples (or photon-mapping iterations),
+//! then [`RenderJob::finish`] into the film. The [`Integrator`] enum lists them, one line each.
+//!
+//! Shared by all of them: [`transport`] (resolving surfaces, crossing boundaries between media, next-event
+//! estimation) and [`drive`] (camera samples, and the loops that write camera samples and splats into the film).
+
+use std::ops::Range;
+
+use film::{Film, FilmError};
+use scene::{Entity, Loc, SceneError};
+
+use crate::scene::RenderScene;
+
+pub mod bdpt;
+pub mod drive;
+pub mod lightpath;
+pub mod path;
+pub mod sppm;
+pub mod transport;
+
+pub use bdpt::BdptIntegrator;
+pub use drive::RenderStats;
+pub use lightpath::LightPathIntegrator;
+pub use path::PathIntegrator;
+pub use sppm::SppmIntegrator;
+pub use transport::RayCounts;
+
+/// What an integrator needs of the scene and how its passes count.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Needs {
+    /// Light paths must reach the camera (`Camera::sample_wi`): a perspective camera, not an orthographic one.
+    pub camera_reachable_by_light: bool,
+    /// What a pass of [`RenderJob::run`] is.
+    pub unit: PassUnit,
+}
+
+/// What one pass of a render is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PassUnit {
+    /// One sample per pixel (the sampler's `pixelsamples`).
+    #[default]
+    Samples,
+    /// One photon-mapping iteration over all pixels (the integrator's `iterations`).
+    Iterations,
+}
+
+impl PassUnit {
+    /// How the command line names a count of passes.
+    pub fn name(self) -> &'static str {
+        match self {
+            PassUnit::Samples => "spp",
+            PassUnit::Iterations => "iterations",
+        }
+    }
+}
+
+/// A render in progress: passes can be added until it is finished into the film.
+pub trait RenderJob: Send {
+    /// Renders passes `passes` (sample indices, or iterations; their indices seed the random numbers, so running
+    /// `0..4` then `4..8` gives exactly the image of `0..8`) into `film`. `progress` hears the number of pixel
+    /// samples done as work completes.
+    fn run(&mut self, film: &mut Film, passes: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats;
+
+    /// Writes what the job keeps outside the film (photon mapping's progressive estimate) into `film`.
+    fn finish(self: Box<Self>, film: &mut Film);
+}
+
+/// The parameters of an `Integrator` directive, with pbrt-v4's shared ones read the same way for all.
+pub struct IntegratorParams<'a> {
+    /// The directive.
+    pub entity: &'a Entity,
+    /// Whether the scene declares media (pbrt-v4's `volpath` renders them; the camera-side `path` here absorbs
+    /// only).
+    pub scene_has_media: bool,
+    /// Where warnings go.
+    pub warnings: &'a mut Vec<String>,
+}
+
+impl IntegratorParams<'_> {
+    /// Where parameter `name` was written, or the directive's location if it was not.
+    pub fn loc_of(&self, name: &str) -> Loc {
+        self.entity.params.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| self.entity.loc.clone())
+    }
+
+    /// pbrt-v4's `maxdepth` (default 5; negative values are an error; capped at 1000).
+    pub fn max_depth(&self) -> Result<u32, SceneError> {
+        let md = self.entity.params.get_int("maxdepth", 5)?;
+        if md < 0 {
+            return Err(SceneError::at(self.loc_of("maxdepth"), format!("'maxdepth' must be non-negative, got {md}")));
+        }
+        Ok(md.min(1_000) as u32)
+    }
+
+    /// A positive integer parameter (at most 2²⁰), or `default`.
+    pub fn count(&self, name: &str, default: i64) -> Result<u32, SceneError> {
+        let v = self.entity.params.get_int(name, default)?;
+        if v <= 0 || v > 1 << 20 {
+            return Err(SceneError::at(self.loc_of(name), format!("'{name}' must be a positive integer, got {v}")));
+        }
+        Ok(v as u32)
+    }
+}
+
+/// What every integrator implements.
+pub trait Integrate: Sync + std::fmt::Debug {
+    /// Reads the integrator's parameters, naming the bad one with its file, line and column.
+    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError>
+    where
+        Self: Sized;
+
+    /// What it needs of the scene and how its passes count.
+    fn needs(&self) -> Needs {
+        Needs::default()
+    }
+
+    /// The number of passes the scene asks for when the integrator sets it itself (photon mapping's
+    /// `iterations`); `None` to use the sampler's `pixelsamples`.
+    fn passes(&self) -> Option<u32> {
+        None
+    }
+
+    /// Starts a render of `scene` into films like `film`, with the render seed `seed`.
+    fn begin<'a>(
+        &'a self,
+        scene: &'a RenderScene,
+        film: &Film,
+        seed: u32,
+    ) -> Result<Box<dyn RenderJob + 'a>, FilmError>;
+}
+
+/// Declares [`Integrator`] with one variant per integrator, its pbrt-v4 name (and aliases), and the dispatch to
+/// [`Integrate`]: adding an integrator is one file and one line here.
+macro_rules! integrators {
+    ($($(#[$doc:meta])* $variant:ident($ty:ty) = $name:literal $(| $alias:literal)*;)*) => {
+        /// The integrators the renderer can run, chosen by the scene's `Integrator` directive.
+        #[derive(Clone, Copy, Debug)]
+        pub enum Integrator {
+            $($(#[$doc])* $variant($ty),)*
+        }
+
+        impl Integrator {
+            /// The names a scene file can give (aliases included).
+            pub const NAMES: &'static [&'static str] = &[$($name, $($alias,)*)*];
+
+            /// The integrator's name in a scene file.
+            pub fn name(&self) -> &'static str {
+                match self {
+                    $(Integrator::$variant(_) => $name,)*
+                }
+            }
+
+            /// The integrator as its interface.
+            pub fn get(&self) -> &dyn Integrate {
+                match self {
+                    $(Integrator::$variant(i) => i,)*
+                }
+            }
+
+            fn read_named(params: &mut IntegratorParams) -> Option<Result<Self, SceneError>> {
+                match params.entity.name.as_str() {
+                    $($name $(| $alias)* => Some(<$ty>::read(params).map(Integrator::$variant)),)*
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+
+integrators! {
+    /// Unidirectional path tracing from the camera (pbrt-v4's `volpath` renders as `path`: media absorb only).
+    Path(PathIntegrator) = "path" | "volpath";
+    /// Particle tracing from the lights, splatted onto the film.
+    LightPath(LightPathIntegrator) = "lightpath";
+    /// Bidirectional path tracing with MIS over all connection strategies.
+    Bdpt(BdptIntegrator) = "bdpt";
+    /// Stochastic progressive photon mapping; a pass is one iteration.
+    Sppm(SppmIntegrator) = "sppm";
+}
+
+impl Integrator {
+    /// Reads an `Integrator` directive. An unknown name is an error that lists the supported ones.
+    pub fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+        Self::read_named(params).unwrap_or_else(|| {
+            let e = params.entity;
+            Err(SceneError::at(
+                e.loc.clone(),
+                format!("integrator '{}' is not supported; supported: {}", e.name, Self::NAMES.join(", ")),
+            ))
+        })
+    }
+
+    /// See [`Integrate::needs`].
+    pub fn needs(&self) -> Needs {
+        self.get().needs()
+    }
+
+    /// See [`Integrate::passes`].
+    pub fn passes(&self) -> Option<u32> {
+        self.get().passes()
+    }
+
+    /// See [`Integrate::begin`].
+    pub fn begin<'a>(
+        &'a self,
+        scene: &'a RenderScene,
+        film: &Film,
+        seed: u32,
+    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+        self.get().begin(scene, film, seed)
+    }
+
+    /// Renders passes `passes` into `film` from start to finish: [`Integrator::begin`], one
+    /// [`RenderJob::run`], [`RenderJob::finish`].
+    pub fn render(
+        &self,
+        scene: &RenderScene,
+        film: &mut Film,
+        passes: Range<u32>,
+        seed: u32,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<RenderStats, FilmError> {
+        let mut job = self.begin(scene, film, seed)?;
+        let stats = job.run(film, passes, progress);
+        job.finish(film);
+        Ok(stats)
+    }
+}
