@@ -23,7 +23,7 @@ use crate::light::{EnvironmentMap, Light};
 use crate::lightpath::LightPathIntegrator;
 use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
 use crate::sampling::Frame;
-use crate::scene::{AbsorbingMedium, Geometry, MediumInterface, RenderScene, SurfaceHit, NO_MATERIAL};
+use crate::scene::{AbsorbingMedium, MediumInterface, RenderScene, SceneGeometry, ShapeInfo, NO_MATERIAL};
 use crate::sppm::SppmIntegrator;
 use crate::texture::{FloatTexture, RgbImage, RgbKind, SpectrumTexture, UvMapping};
 
@@ -426,50 +426,6 @@ fn named_metal(name: &str, loc: &Loc) -> Result<Spectrum> {
     optics::catalogue::named_spectrum_checked(name).map_err(|e| SceneError::at(loc.clone(), e.to_string()))
 }
 
-/// Per-shape data the geometry hit needs to find material, light and media.
-#[derive(Clone, Copy, Debug)]
-struct ShapeInfo {
-    material: u32,
-    area_light_base: Option<u32>,
-    media: Option<MediumInterface>,
-}
-
-struct SceneGeometry {
-    accel: GeometryScene,
-    /// `[object][shape]`.
-    info: Vec<Vec<ShapeInfo>>,
-}
-
-impl Geometry for SceneGeometry {
-    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit> {
-        use geometry::Accel;
-        let hit = self.accel.intersect(&geometry::Ray::new(o, d), t_max)?;
-        let info = self.info[hit.object as usize][hit.shape as usize];
-        Some(SurfaceHit {
-            t: hit.t,
-            p: hit.p,
-            n: hit.n,
-            ns: hit.ns,
-            uv: hit.uv,
-            dpdu: hit.tangent,
-            p_error: hit.p_error,
-            material: info.material,
-            area_light: info.area_light_base.map(|b| b + hit.element),
-            media: info.media,
-        })
-    }
-
-    fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
-        use geometry::Accel;
-        self.accel.occluded(&geometry::Ray::new(o, d), t_max)
-    }
-
-    fn bounding_sphere(&self) -> (Vec3, f32) {
-        use geometry::Accel;
-        self.accel.bounds().bounding_sphere()
-    }
-}
-
 fn geo_err(loc: &Loc, e: geometry::GeometryError) -> SceneError {
     SceneError::at(loc.clone(), e.to_string())
 }
@@ -812,7 +768,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     let camera_medium = medium_of(&desc.camera.medium, &desc.camera.entity.loc)?;
 
     let scene =
-        RenderScene::new(Box::new(SceneGeometry { accel, info }), materials, lights, media, camera_medium, camera);
+        RenderScene::new(Box::new(SceneGeometry::new(accel, info)), materials, lights, media, camera_medium, camera);
     warnings.extend(desc.warnings.iter().map(|d| d.to_string()));
     warnings.extend(desc.unused_parameters().iter().map(|d| d.to_string()));
     Ok(BuiltScene { scene, film, spp, integrator, triangles, warnings })
