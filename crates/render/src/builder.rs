@@ -595,57 +595,10 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     // Sampler and integrator.
     let scene_spp = p_count(&desc.sampler.params, "pixelsamples", 16, &desc.sampler.loc)? as u32;
     let spp = options.spp.unwrap_or(scene_spp);
-    let ip = &desc.integrator.params;
-    let max_depth = || -> Result<u32> {
-        let md = ip.get_int("maxdepth", 5)?;
-        if md < 0 {
-            let l = ip.get("maxdepth").map(|q| q.loc.clone()).unwrap_or_else(|| desc.integrator.loc.clone());
-            return err(&l, format!("'maxdepth' must be non-negative, got {md}"));
-        }
-        Ok(md.min(1_000) as u32)
-    };
-    let integrator = match desc.integrator.name.as_str() {
-        "path" | "volpath" => {
-            let md = max_depth()?;
-            if desc.integrator.name == "volpath" && !desc.media.is_empty() {
-                warnings.push(format!(
-                    "{}: warning: integrator \"volpath\" renders as \"path\" (absorbing media only)",
-                    desc.integrator.loc
-                ));
-            }
-            Integrator::Path(PathIntegrator { max_depth: md })
-        }
-        "lightpath" => Integrator::LightPath(LightPathIntegrator { max_depth: max_depth()? }),
-        "bdpt" => Integrator::Bdpt(crate::bdpt::BdptIntegrator { max_depth: max_depth()? }),
-        "sppm" => {
-            let photons = ip.get_int("photonsperiteration", -1)?;
-            let radius = ip.get_float("radius", 1.0)?;
-            let at = |name: &str| ip.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| desc.integrator.loc.clone());
-            if !(radius.is_finite() && radius > 0.0) {
-                return err(&at("radius"), format!("'radius' must be a positive number, got {radius}"));
-            }
-            if photons == 0 || !(-1..=1 << 32).contains(&photons) {
-                return err(
-                    &at("photonsperiteration"),
-                    format!("'photonsperiteration' must be positive (or -1 for one per pixel), got {photons}"),
-                );
-            }
-            Integrator::Sppm(SppmIntegrator {
-                max_depth: max_depth()?,
-                photons_per_iteration: (photons > 0).then_some(photons as u64),
-                initial_radius: radius as f32,
-            })
-        }
-        other => {
-            return err(
-                &desc.integrator.loc,
-                unsupported("integrator", other, &["path", "volpath", "lightpath", "sppm", "bdpt"]),
-            )
-        }
-    };
+    let integrator = read_integrator(desc, &mut warnings)?;
     // Photon mapping renders `iterations` passes (pbrt-v4 ignores the sampler's pixel samples there).
     let spp = if matches!(integrator, Integrator::Sppm(_)) {
-        let it = p_count(ip, "iterations", 64, &desc.integrator.loc)? as u32;
+        let it = p_count(&desc.integrator.params, "iterations", 64, &desc.integrator.loc)? as u32;
         options.spp.unwrap_or(it)
     } else {
         spp
@@ -772,6 +725,61 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     warnings.extend(desc.warnings.iter().map(|d| d.to_string()));
     warnings.extend(desc.unused_parameters().iter().map(|d| d.to_string()));
     Ok(BuiltScene { scene, film, spp, integrator, triangles, warnings })
+}
+
+/// The `Integrator` directive: pbrt-v4's `path` (and `volpath`, rendered as `path`), `lightpath`, `bdpt` and `sppm`
+/// with `maxdepth`, and for `sppm` also `photonsperiteration` and `radius` (its `iterations` count as samples per
+/// pixel and are read with the sampler's in [`build_scene`]).
+fn read_integrator(desc: &SceneDescription, warnings: &mut Vec<String>) -> Result<Integrator> {
+    let ip = &desc.integrator.params;
+    let max_depth = || -> Result<u32> {
+        let md = ip.get_int("maxdepth", 5)?;
+        if md < 0 {
+            let l = ip.get("maxdepth").map(|q| q.loc.clone()).unwrap_or_else(|| desc.integrator.loc.clone());
+            return err(&l, format!("'maxdepth' must be non-negative, got {md}"));
+        }
+        Ok(md.min(1_000) as u32)
+    };
+    let integrator = match desc.integrator.name.as_str() {
+        "path" | "volpath" => {
+            let md = max_depth()?;
+            if desc.integrator.name == "volpath" && !desc.media.is_empty() {
+                warnings.push(format!(
+                    "{}: warning: integrator \"volpath\" renders as \"path\" (absorbing media only)",
+                    desc.integrator.loc
+                ));
+            }
+            Integrator::Path(PathIntegrator { max_depth: md })
+        }
+        "lightpath" => Integrator::LightPath(LightPathIntegrator { max_depth: max_depth()? }),
+        "bdpt" => Integrator::Bdpt(crate::bdpt::BdptIntegrator { max_depth: max_depth()? }),
+        "sppm" => {
+            let photons = ip.get_int("photonsperiteration", -1)?;
+            let radius = ip.get_float("radius", 1.0)?;
+            let at = |name: &str| ip.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| desc.integrator.loc.clone());
+            if !(radius.is_finite() && radius > 0.0) {
+                return err(&at("radius"), format!("'radius' must be a positive number, got {radius}"));
+            }
+            if photons == 0 || !(-1..=1 << 32).contains(&photons) {
+                return err(
+                    &at("photonsperiteration"),
+                    format!("'photonsperiteration' must be positive (or -1 for one per pixel), got {photons}"),
+                );
+            }
+            Integrator::Sppm(SppmIntegrator {
+                max_depth: max_depth()?,
+                photons_per_iteration: (photons > 0).then_some(photons as u64),
+                initial_radius: radius as f32,
+            })
+        }
+        other => {
+            return err(
+                &desc.integrator.loc,
+                unsupported("integrator", other, &["path", "volpath", "lightpath", "sppm", "bdpt"]),
+            )
+        }
+    };
+    Ok(integrator)
 }
 
 fn shape_triangles(s: &Shape) -> usize {
