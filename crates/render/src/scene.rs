@@ -1,6 +1,7 @@
-//! The render-ready scene: geometry behind a small trait, materials, lights with a power-based light sampler,
-//! media and the camera.
+//! The render-ready scene: geometry behind a small trait (with [`SceneGeometry`], the BVH-backed implementation
+//! every ray goes through), materials, lights with a power-based light sampler, media and the camera.
 
+use geometry::GeometryScene;
 use glam::{Vec2, Vec3};
 use spectral::{Distribution1D, SampledSpectrum, SampledWavelengths, Spectrum};
 
@@ -60,6 +61,61 @@ pub trait Geometry: Send + Sync {
     fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool;
     /// A sphere (centre, radius) enclosing all geometry.
     fn bounding_sphere(&self) -> (Vec3, f32);
+}
+
+/// Per-shape data the geometry hit needs to find material, light and media.
+#[derive(Clone, Copy, Debug)]
+pub struct ShapeInfo {
+    /// Material index, or [`NO_MATERIAL`].
+    pub material: u32,
+    /// Index of the area light of the shape's first primitive (primitive `i` has light `base + i`), if it emits.
+    pub area_light_base: Option<u32>,
+    /// Media on either side, if the shape separates media.
+    pub media: Option<MediumInterface>,
+}
+
+/// The scene's [`Geometry`]: the two-level BVH of the shapes, and per shape what a hit on it means for rendering.
+pub struct SceneGeometry {
+    accel: GeometryScene,
+    /// `[object][shape]`.
+    info: Vec<Vec<ShapeInfo>>,
+}
+
+impl SceneGeometry {
+    /// Wraps `accel`; `info[object][shape]` describes shape `shape` of the accel's object `object`.
+    pub fn new(accel: GeometryScene, info: Vec<Vec<ShapeInfo>>) -> Self {
+        Self { accel, info }
+    }
+}
+
+impl Geometry for SceneGeometry {
+    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit> {
+        use geometry::Accel;
+        let hit = self.accel.intersect(&geometry::Ray::new(o, d), t_max)?;
+        let info = self.info[hit.object as usize][hit.shape as usize];
+        Some(SurfaceHit {
+            t: hit.t,
+            p: hit.p,
+            n: hit.n,
+            ns: hit.ns,
+            uv: hit.uv,
+            dpdu: hit.tangent,
+            p_error: hit.p_error,
+            material: info.material,
+            area_light: info.area_light_base.map(|b| b + hit.element),
+            media: info.media,
+        })
+    }
+
+    fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
+        use geometry::Accel;
+        self.accel.occluded(&geometry::Ray::new(o, d), t_max)
+    }
+
+    fn bounding_sphere(&self) -> (Vec3, f32) {
+        use geometry::Accel;
+        self.accel.bounds().bounding_sphere()
+    }
 }
 
 /// A homogeneous medium that only absorbs (Beer–Lambert): coloured glass interiors.

@@ -1,0 +1,97 @@
+//! The film: pbrt-v4's `Film "rgb"|"spectral"` directive (resolution, `filename`, spectral buckets,
+//! `maxcomponentvalue`), its pixel sensor (`sensor`, `iso`, `whitebalance`, with the camera's shutter interval as
+//! the exposure time) and the `PixelFilter` directive.
+
+use std::path::PathBuf;
+
+use film::{FilmKind, FilmSpec, Filter, PixelSensor};
+use scene::{Entity, SceneDescription, SceneError};
+
+use super::{err, p_count, param_loc, unsupported, BuildOptions, Result};
+
+/// The film to render into; `options` override the resolution and the output file.
+pub(super) fn make_film(desc: &SceneDescription, options: &BuildOptions) -> Result<FilmSpec> {
+    let fp = &desc.film.params;
+    let kind = match desc.film.name.as_str() {
+        "rgb" => FilmKind::Rgb,
+        "spectral" => FilmKind::Spectral {
+            nbuckets: p_count(fp, "nbuckets", 16, &desc.film.loc)?,
+            lambda_min: fp.get_float("lambdamin", 360.0)?,
+            lambda_max: fp.get_float("lambdamax", 830.0)?,
+        },
+        other => return err(&desc.film.loc, unsupported("film", other, &["rgb", "spectral"])),
+    };
+    let (mut w, mut h) = (
+        p_count(fp, "xresolution", 1280, &desc.film.loc)? as u32,
+        p_count(fp, "yresolution", 720, &desc.film.loc)? as u32,
+    );
+    if let Some((rw, rh)) = options.resolution {
+        (w, h) = (rw, rh);
+    }
+    // Read the scene's values even when overridden, so they are not reported as unused.
+    let scene_filename = PathBuf::from(fp.get_string("filename", "pbrt.exr")?);
+    let filename = options.output.clone().unwrap_or(scene_filename);
+    let filter = make_filter(&desc.filter)?;
+    let mut film = FilmSpec::new(w, h, filename);
+    (film.kind, film.filter) = (kind, filter);
+    film.sensor = make_sensor(desc)?;
+    film.max_component_value = fp.get_float("maxcomponentvalue", f64::INFINITY)?;
+    film.validate().map_err(|e| SceneError::at(desc.film.loc.clone(), e.to_string()))?;
+    Ok(film)
+}
+
+/// pbrt-v4's pixel sensor from the film's `sensor`, `iso` and `whitebalance` and the camera's shutter interval.
+///
+/// pbrt-v4 takes the exposure time as the camera's `shutterclose` − `shutteropen` (defaults 1 and 0, so 1 s) and
+/// `iso` defaults to 100, making the imaging ratio t · ISO / 100 exactly 1 by default; `whitebalance` (K) defaults
+/// to 0, no white balance, for the `cie1931` sensor. The measured camera sensors pbrt-v4 ships ("canon_eos_100d",
+/// …) need response curves we do not have, so any other `sensor` is an error.
+fn make_sensor(desc: &SceneDescription) -> Result<PixelSensor> {
+    let (fp, floc) = (&desc.film.params, &desc.film.loc);
+    let sensor = fp.get_string("sensor", "cie1931")?;
+    if sensor != "cie1931" {
+        return err(
+            &param_loc(fp, "sensor", floc),
+            format!("'sensor' \"{sensor}\" is not supported: only \"cie1931\" (measured camera sensors need response data we do not have)"),
+        );
+    }
+    let cp = &desc.camera.entity.params;
+    let (open, close) = (cp.get_float("shutteropen", 0.0)?, cp.get_float("shutterclose", 1.0)?);
+    let exposure = close - open;
+    if !(exposure.is_finite() && exposure > 0.0) {
+        return err(
+            &param_loc(cp, "shutterclose", &desc.camera.entity.loc),
+            format!("'shutterclose' ({close}) must be later than 'shutteropen' ({open}): the shutter never opens"),
+        );
+    }
+    let iso = fp.get_float("iso", 100.0)?;
+    if !(iso.is_finite() && iso > 0.0) {
+        return err(&param_loc(fp, "iso", floc), format!("'iso' must be a positive number, got {iso}"));
+    }
+    let temperature = fp.get_float("whitebalance", 0.0)?;
+    let white_balance_from = if temperature == 0.0 {
+        None
+    } else {
+        let xy = spectral::daylight::white_balance_chromaticity(temperature)
+            .map_err(|e| SceneError::at(param_loc(fp, "whitebalance", floc), e.to_string()))?;
+        Some(xy)
+    };
+    Ok(PixelSensor { imaging_ratio: PixelSensor::imaging_ratio(exposure, iso), white_balance_from })
+}
+
+/// The `PixelFilter` directive: pbrt-v4's filters with their radii and shape parameters.
+fn make_filter(e: &Entity) -> Result<Filter> {
+    let p = &e.params;
+    let Some(default) = Filter::default_for(&e.name) else {
+        return err(&e.loc, unsupported("pixel filter", &e.name, &Filter::NAMES));
+    };
+    let r = default.radius();
+    let radius = [p.get_float("xradius", r[0])?, p.get_float("yradius", r[1])?];
+    let f = match default {
+        Filter::Box { .. } => Filter::new_box(radius),
+        Filter::Gaussian { sigma, .. } => Filter::gaussian(radius, p.get_float("sigma", sigma)?),
+        Filter::Triangle { .. } => Filter::triangle(radius),
+        Filter::Mitchell { b, c, .. } => Filter::mitchell(radius, p.get_float("B", b)?, p.get_float("C", c)?),
+    };
+    f.map_err(|x| SceneError::at(e.loc.clone(), x.to_string()))
+}

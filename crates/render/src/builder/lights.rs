@@ -1,0 +1,206 @@
+//! Lights: pbrt-v4's `LightSource` directive (`point`, `spot`, `distant`, and `infinite`, uniform or from an
+//! environment map) and `AreaLightSource "diffuse"` on shapes, with pbrt-v4's photometric normalisation: `scale`,
+//! `power` and `illuminance` fix the emitted luminance, so a spectrum's shape sets only the colour.
+
+use geometry::{Shape, Transform};
+use glam::DVec3;
+use scene::{Entity, Loc, SceneDescription, SceneError, SpectrumKind};
+use spectral::rgb_uplift::RgbIlluminantSpectrum;
+use spectral::{Distribution2D, Observer, RgbColorSpace, Spectrum};
+
+use super::{err, unsupported, Result};
+use crate::light::{EnvironmentMap, Light};
+use crate::sampling::Frame;
+
+/// Appends one light per `LightSource` directive to `lights` (after the area lights, which the shapes made).
+pub(super) fn make_lights(
+    desc: &SceneDescription,
+    scene_radius: f32,
+    lights: &mut Vec<Light>,
+    warnings: &mut Vec<String>,
+) -> Result<()> {
+    for le in &desc.lights {
+        lights.push(light(le, scene_radius.max(1e-3), warnings)?);
+    }
+    Ok(())
+}
+
+/// Luminance Y of a spectrum in our convention (Y = 1 for a constant 1); for an RGB illuminant only the
+/// illuminant counts, as pbrt-v4's `SpectrumToPhotometric` does.
+fn photometric(s: &Spectrum) -> f64 {
+    match s {
+        Spectrum::RgbIlluminant(_) => 1.0, // the colour space illuminant is normalised to Y = 1
+        other => Observer::Cie1931.spectrum_to_xyz(other).y,
+    }
+}
+
+/// Scales an emission spectrum so that `scale` is its luminance in nits (pbrt-v4: `scale /= SpectrumToPhotometric`).
+fn normalise_emission(loc: &Loc, s: Spectrum, scale: f64) -> Result<Spectrum> {
+    let y = photometric(&s);
+    if y.is_nan() || y <= 0.0 {
+        return err(loc, "emission spectrum has no luminance (it is zero across the visible range)");
+    }
+    if !scale.is_finite() || scale < 0.0 {
+        return err(loc, format!("emission scale must be a finite non-negative number, got {scale}"));
+    }
+    let scaled = s.scaled(scale / y);
+    // Radiance is carried in f32: anything near its range would overflow along a path.
+    let peak = scaled.max_value();
+    if peak.is_nan() || peak >= 1e30 {
+        return err(loc, format!("emission is too large ('scale'/'power' give a peak of {:e})", scaled.max_value()));
+    }
+    Ok(scaled)
+}
+
+/// Creates one area light per primitive of `shape`; returns the index of the first.
+pub(super) fn area_lights(al: &Entity, shape: &Shape, lights: &mut Vec<Light>) -> Result<u32> {
+    let p = &al.params;
+    if al.name != "diffuse" {
+        return err(&al.loc, unsupported("area light", &al.name, &["diffuse"]));
+    }
+    let l = p.get_spectrum("L", SpectrumKind::Illuminant)?.unwrap_or_else(|| {
+        Spectrum::RgbIlluminant(RgbIlluminantSpectrum::new([1.0, 1.0, 1.0]).expect("white is valid"))
+    });
+    let two_sided = p.get_bool("twosided", false)?;
+    let mut scale = p.get_float("scale", 1.0)?;
+    let power = p.get_float("power", -1.0)?;
+    if p.contains("filename") {
+        return err(&al.loc, "image area lights ('filename') are not supported yet");
+    }
+    let n = shape.primitive_count();
+    if power > 0.0 {
+        // pbrt-v4: k_e = π · (2 if two-sided) · area, in luminance units.
+        let area: f64 = (0..n).map(|i| shape.area(i) as f64).sum();
+        let k_e = std::f64::consts::PI * if two_sided { 2.0 } else { 1.0 } * area;
+        if k_e > 0.0 {
+            scale *= power / k_e;
+        }
+    }
+    let l = normalise_emission(&al.loc, l, scale)?;
+    let base = lights.len() as u32;
+    for element in 0..n {
+        lights.push(Light::DiffuseArea {
+            shape: Box::new(shape.clone()),
+            element: element as u32,
+            l: l.clone(),
+            two_sided,
+        });
+    }
+    Ok(base)
+}
+
+/// One `LightSource`; `scene_radius` places the lights at infinity.
+fn light(le: &scene::LightEntity, scene_radius: f32, warnings: &mut Vec<String>) -> Result<Light> {
+    let e = &le.entity;
+    let p = &e.params;
+    let t = &le.render_from_light;
+    let white = || Spectrum::RgbIlluminant(RgbIlluminantSpectrum::new([1.0, 1.0, 1.0]).expect("white is valid"));
+    let scale = p.get_float("scale", 1.0)?;
+    let power = p.get_float("power", -1.0)?;
+    Ok(match e.name.as_str() {
+        "point" => {
+            let i = p.get_spectrum("I", SpectrumKind::Illuminant)?.unwrap_or_else(white);
+            let from = p.get_point3("from", DVec3::ZERO)?;
+            let k = if power > 0.0 { power / (4.0 * std::f64::consts::PI) } else { 1.0 };
+            Light::Point { p: t.point(from).as_vec3(), i: normalise_emission(&e.loc, i, scale * k)? }
+        }
+        "spot" => {
+            let i = p.get_spectrum("I", SpectrumKind::Illuminant)?.unwrap_or_else(white);
+            let from = p.get_point3("from", DVec3::ZERO)?;
+            let to = p.get_point3("to", DVec3::new(0.0, 0.0, 1.0))?;
+            let cone = p.get_float("coneangle", 30.0)?;
+            let delta = p.get_float("conedeltaangle", 5.0)?;
+            let (cos_end, cos_start) = (cone.to_radians().cos(), (cone - delta).to_radians().cos());
+            let k = if power > 0.0 {
+                power / (2.0 * std::f64::consts::PI * (1.0 - 0.5 * (cos_start + cos_end)))
+            } else {
+                1.0
+            };
+            let pf = t.point(from).as_vec3();
+            let axis = (t.point(to).as_vec3() - pf)
+                .try_normalize()
+                .ok_or_else(|| SceneError::at(e.loc.clone(), "spot light 'from' equals 'to'"))?;
+            Light::Spot {
+                p: pf,
+                frame: Frame::from_z(axis),
+                i: normalise_emission(&e.loc, i, scale * k)?,
+                cos_falloff_start: cos_start as f32,
+                cos_falloff_end: cos_end as f32,
+            }
+        }
+        "distant" => {
+            let l = p.get_spectrum("L", SpectrumKind::Illuminant)?.unwrap_or_else(white);
+            let from = p.get_point3("from", DVec3::ZERO)?;
+            let to = p.get_point3("to", DVec3::new(0.0, 0.0, 1.0))?;
+            let w = t
+                .vector(from - to)
+                .as_vec3()
+                .try_normalize()
+                .ok_or_else(|| SceneError::at(e.loc.clone(), "distant light 'from' equals 'to'"))?;
+            let e_v = p.get_float("illuminance", -1.0)?;
+            let k = if e_v > 0.0 { e_v } else { 1.0 };
+            Light::Distant { w, l: normalise_emission(&e.loc, l, scale * k)?, scene_radius }
+        }
+        "infinite" => {
+            let e_v = p.get_float("illuminance", -1.0)?;
+            if let Some(path) = p.get_filename("filename")? {
+                let map = environment_map(&path, &e.loc, t)?;
+                let mut s = scale;
+                if e_v > 0.0 {
+                    // Scale so that an upward-facing point receives illuminance E_v (pbrt-v4 computes the same
+                    // integral over the upper hemisphere; we use the mean luminance, exact for uniform maps).
+                    let k_e = std::f64::consts::PI * map.mean_luminance as f64;
+                    if k_e > 0.0 {
+                        s *= e_v / k_e;
+                    }
+                    warnings.push(format!("{}: warning: 'illuminance' of an image light is matched on average", e.loc));
+                }
+                Light::ImageInfinite { map: Box::new(map), scale: s as f32, scene_radius }
+            } else {
+                let l = p.get_spectrum("L", SpectrumKind::Illuminant)?.unwrap_or_else(white);
+                let k = if e_v > 0.0 { e_v / std::f64::consts::PI } else { 1.0 };
+                Light::UniformInfinite { l: normalise_emission(&e.loc, l, scale * k)?, scene_radius }
+            }
+        }
+        other => return err(&e.loc, unsupported("light", other, &["point", "spot", "distant", "infinite"])),
+    })
+}
+
+/// An environment map (square: equal-area, 2:1: latitude-longitude) with its sampling distribution, oriented by `t`.
+fn environment_map(path: &std::path::Path, loc: &Loc, t: &Transform) -> Result<EnvironmentMap> {
+    let (w, h, pixels) = film::read_rgb(path)
+        .map_err(|e| SceneError::at(loc.clone(), format!("cannot read {}: {e}", path.display())))?;
+    let (w, h) = (w as usize, h as usize);
+    let equal_area = w == h;
+    if !equal_area && w != 2 * h {
+        return err(loc, format!("environment map {}×{} is neither square (equal-area) nor 2:1 (lat-long)", w, h));
+    }
+    let cs = RgbColorSpace::srgb();
+    let mut texels = Vec::with_capacity(w * h);
+    let mut weights = Vec::with_capacity(w * h);
+    let mut lum_sum = 0.0f64;
+    for (i, px) in pixels.iter().enumerate() {
+        let rgb = px.map(|c| (c.max(0.0)) as f64);
+        texels.push(RgbIlluminantSpectrum::new(rgb).map_err(|e| SceneError::at(loc.clone(), e.to_string()))?);
+        let y = cs.to_xyz(rgb).y.max(0.0);
+        lum_sum += y;
+        // Lat-long rows cover less solid angle near the poles: weight by sin θ.
+        let row = i / w;
+        let sin_theta = if equal_area { 1.0 } else { ((row as f64 + 0.5) / h as f64 * std::f64::consts::PI).sin() };
+        weights.push(y * sin_theta + 1e-6);
+    }
+    let distribution = Distribution2D::new(&weights, w, h, (0.0, 1.0), (0.0, 1.0))
+        .map_err(|e| SceneError::at(loc.clone(), e.to_string()))?;
+    let x = t.vector(DVec3::X).as_vec3().normalize();
+    let y = t.vector(DVec3::Y).as_vec3().normalize();
+    let z = t.vector(DVec3::Z).as_vec3().normalize();
+    Ok(EnvironmentMap {
+        width: w,
+        height: h,
+        texels,
+        equal_area,
+        mean_luminance: (lum_sum / (w * h) as f64) as f32,
+        distribution,
+        frame: Frame { x, y, z },
+    })
+}

@@ -1,0 +1,219 @@
+//! Materials: pbrt-v4's `Material` and `MakeNamedMaterial` directives (`diffuse`, `conductor`, `dielectric`,
+//! `thindielectric`, `coateddiffuse`, `coatedconductor`, `mix`, `interface`) with their roughness, conductor,
+//! index-of-refraction and layer parameters, and the index a shape's material reference resolves to.
+
+use std::collections::HashMap;
+
+use scene::{Entity, Loc, MaterialRef, ParamSet, ParamType, SceneDescription, SceneError, SpectrumKind};
+use spectral::Spectrum;
+
+use super::textures::Textures;
+use super::{err, finite_positive, unsupported, Result};
+use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
+use crate::scene::NO_MATERIAL;
+use crate::texture::{FloatTexture, SpectrumTexture};
+
+/// The scene's materials, anonymous first, then named; a name maps to its index.
+pub(super) struct Materials {
+    /// In the order of [`crate::scene::RenderScene::materials`].
+    pub(super) list: Vec<Material>,
+    names: HashMap<String, u32>,
+}
+
+impl Materials {
+    /// Reads every material; names are known before any is read, since a `mix` refers to others by name.
+    pub(super) fn build(desc: &SceneDescription, textures: &Textures) -> Result<Self> {
+        let mut names: HashMap<String, u32> = HashMap::new();
+        let n_anon = desc.materials.len();
+        for (i, (name, _)) in desc.named_materials.iter().enumerate() {
+            names.insert(name.clone(), (n_anon + i) as u32);
+        }
+        let mut materials = Vec::with_capacity(n_anon + desc.named_materials.len());
+        for e in desc.materials.iter().chain(desc.named_materials.iter().map(|(_, e)| e)) {
+            materials.push(material(textures, e, &names)?);
+        }
+        Ok(Materials { list: materials, names })
+    }
+
+    /// The index a shape's material reference resolves to; an `interface` material is [`NO_MATERIAL`], a boundary
+    /// between media only.
+    pub(super) fn index(&self, r: &MaterialRef, loc: &Loc) -> Result<u32> {
+        let i = match r {
+            MaterialRef::Anonymous(i) => *i as u32,
+            MaterialRef::Named(n) => {
+                *self.names.get(n).ok_or_else(|| SceneError::at(loc.clone(), format!("no material named '{n}'")))?
+            }
+        };
+        Ok(if matches!(self.list[i as usize], Material::Interface) { NO_MATERIAL } else { i })
+    }
+}
+
+fn roughness(t: &Textures, p: &ParamSet) -> Result<Roughness> {
+    prefixed_roughness(t, p, "")
+}
+
+/// `{prefix}roughness`, overridden per direction by `{prefix}uroughness`/`{prefix}vroughness`, and the shared
+/// `remaproughness`.
+fn prefixed_roughness(t: &Textures, p: &ParamSet, prefix: &str) -> Result<Roughness> {
+    let name = |n: &str| format!("{prefix}{n}");
+    let r = t.float_param(p, &name("roughness"), 0.0)?;
+    let u = if p.contains(&name("uroughness")) { t.float_param(p, &name("uroughness"), 0.0)? } else { r.clone() };
+    let v = if p.contains(&name("vroughness")) { t.float_param(p, &name("vroughness"), 0.0)? } else { r };
+    Ok(Roughness { u, v, remap: p.get_bool("remaproughness", true)? })
+}
+
+/// A conductor's optical constants: `reflectance`, or the spectra `eta_name` and `k_name` (copper by default).
+fn conductor_spec(t: &Textures, p: &ParamSet, loc: &Loc, eta_name: &str, k_name: &str) -> Result<ConductorSpec> {
+    if p.contains("reflectance") {
+        if p.contains(eta_name) || p.contains(k_name) {
+            return err(loc, format!("give either 'reflectance' or '{eta_name}' and '{k_name}', not both"));
+        }
+        return Ok(ConductorSpec::Reflectance(t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.0)?));
+    }
+    let eta = match p.get_spectrum_texture(eta_name, SpectrumKind::Unbounded)? {
+        Some(_) => t.spectrum_param(p, eta_name, SpectrumKind::Unbounded, 1.0)?,
+        None => SpectrumTexture::Constant(named_metal("metal-Cu-eta", loc)?),
+    };
+    let k = match p.get_spectrum_texture(k_name, SpectrumKind::Unbounded)? {
+        Some(_) => t.spectrum_param(p, k_name, SpectrumKind::Unbounded, 0.0)?,
+        None => SpectrumTexture::Constant(named_metal("metal-Cu-k", loc)?),
+    };
+    Ok(ConductorSpec::EtaK { eta, k })
+}
+
+/// The medium of a layered material: `thickness` (> 0, default 0.01), `albedo` (default 0), `g` (in (−1, 1),
+/// default 0), `maxdepth` (default 10) and `nsamples` (default 1), pbrt-v4's names and defaults.
+fn layer_medium(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<LayerMedium> {
+    let at = |name: &str| p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+    let thickness = finite_positive(&at("thickness"), "thickness", p.get_float("thickness", 0.01)?)?;
+    let g = t.float_param(p, "g", 0.0)?;
+    if let FloatTexture::Constant(v) = g {
+        if !(v > -1.0 && v < 1.0) {
+            return err(&at("g"), format!("'g' (Henyey–Greenstein asymmetry) must be in (−1, 1), got {v}"));
+        }
+    }
+    Ok(LayerMedium {
+        thickness: thickness as f32,
+        albedo: t.spectrum_param(p, "albedo", SpectrumKind::Albedo, 0.0)?,
+        g,
+        max_depth: p.get_int("maxdepth", 10)?.clamp(1, 1000) as u32,
+        n_samples: p.get_int("nsamples", 1)?.clamp(1, 1000) as u32,
+    })
+}
+
+/// The index of refraction of a dielectric: pbrt's `eta` (float or spectrum), or Prismatic's extensions `glass`,
+/// `sellmeierB`/`sellmeierC`, and `abbe` with `eta` as n_d (docs/scene-format.md).
+fn dielectric_ior(p: &ParamSet, loc: &Loc, default: f64) -> Result<DielectricIor> {
+    let bad = |name: &str, e: optics::OpticsError| {
+        let l = p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+        SceneError::at(l, format!("'{name}': {e}"))
+    };
+    if p.contains("glass") {
+        let name = p.get_string("glass", "")?;
+        let entry = optics::catalogue::lookup(&name).map_err(|e| bad("glass", e))?;
+        if entry.ior.is_complex() {
+            return err(loc, format!("'glass' names '{name}', a metal; use the conductor material"));
+        }
+        return Ok(DielectricIor::Model(entry.ior));
+    }
+    if p.contains("sellmeierB") || p.contains("sellmeierC") {
+        let b = p.get_floats("sellmeierB").unwrap_or(&[]).to_vec();
+        let c = p.get_floats("sellmeierC").unwrap_or(&[]).to_vec();
+        if b.is_empty() || b.len() != c.len() {
+            return err(
+                loc,
+                format!("'sellmeierB' and 'sellmeierC' need the same number of terms ({} vs {})", b.len(), c.len()),
+            );
+        }
+        let terms: Vec<(f64, f64)> = b.into_iter().zip(c).collect();
+        return Ok(DielectricIor::Model(optics::Ior::sellmeier(0.0, &terms).map_err(|e| bad("sellmeierB", e))?));
+    }
+    if p.contains("abbe") {
+        let vd = p.get_float("abbe", 0.0)?;
+        let nd = p.get_float("eta", default)?;
+        return Ok(DielectricIor::Model(optics::Ior::abbe(nd, vd).map_err(|e| bad("abbe", e))?));
+    }
+    named_eta(p, loc, "eta", default)
+}
+
+/// A dielectric index given as a float or a spectrum under `name`.
+fn named_eta(p: &ParamSet, loc: &Loc, name: &str, default: f64) -> Result<DielectricIor> {
+    match p.param_type(name) {
+        Some(ParamType::Float) | None => {
+            let n = p.get_float(name, default)?;
+            let ior = optics::Ior::constant(n).map_err(|e| {
+                let l = p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+                SceneError::at(l, format!("'{name}': {e}"))
+            })?;
+            Ok(DielectricIor::Model(ior))
+        }
+        _ => {
+            let s = p.get_spectrum(name, SpectrumKind::Unbounded)?.unwrap_or(Spectrum::Constant(default));
+            Ok(DielectricIor::Spectrum(s))
+        }
+    }
+}
+
+fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>) -> Result<Material> {
+    let p = &e.params;
+    Ok(match e.name.as_str() {
+        "diffuse" => Material::Diffuse { reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.5)? },
+        "conductor" => {
+            Material::Conductor { spec: conductor_spec(t, p, &e.loc, "eta", "k")?, roughness: roughness(t, p)? }
+        }
+        "dielectric" => Material::Dielectric { ior: dielectric_ior(p, &e.loc, 1.5)?, roughness: roughness(t, p)? },
+        "thindielectric" => Material::ThinDielectric { ior: dielectric_ior(p, &e.loc, 1.5)? },
+        "coateddiffuse" => Material::CoatedDiffuse {
+            reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.5)?,
+            roughness: roughness(t, p)?,
+            ior: dielectric_ior(p, &e.loc, 1.5)?,
+            medium: layer_medium(t, p, &e.loc)?,
+        },
+        "coatedconductor" => Material::CoatedConductor {
+            conductor: conductor_spec(t, p, &e.loc, "conductor.eta", "conductor.k")?,
+            conductor_roughness: prefixed_roughness(t, p, "conductor.")?,
+            interface_roughness: prefixed_roughness(t, p, "interface.")?,
+            interface_ior: named_eta(p, &e.loc, "interface.eta", 1.5)?,
+            medium: layer_medium(t, p, &e.loc)?,
+        },
+        "mix" => {
+            let Some(m) = p.get_strings("materials") else {
+                return err(&e.loc, "mix needs 'string materials' [two names]");
+            };
+            if m.len() != 2 {
+                return err(&e.loc, format!("mix needs exactly two materials, got {}", m.len()));
+            }
+            let idx = |n: &str| {
+                names
+                    .get(n)
+                    .copied()
+                    .ok_or_else(|| SceneError::at(e.loc.clone(), format!("mix: no material named '{n}'")))
+            };
+            Material::Mix { materials: [idx(&m[0])?, idx(&m[1])?], amount: t.float_param(p, "amount", 0.5)? }
+        }
+        "interface" => Material::Interface,
+        other => {
+            return err(
+                &e.loc,
+                unsupported(
+                    "material",
+                    other,
+                    &[
+                        "diffuse",
+                        "conductor",
+                        "dielectric",
+                        "thindielectric",
+                        "coateddiffuse",
+                        "coatedconductor",
+                        "mix",
+                        "interface",
+                    ],
+                ),
+            )
+        }
+    })
+}
+
+fn named_metal(name: &str, loc: &Loc) -> Result<Spectrum> {
+    optics::catalogue::named_spectrum_checked(name).map_err(|e| SceneError::at(loc.clone(), e.to_string()))
+}

@@ -1,0 +1,124 @@
+//! From a scene description to a render-ready scene. [`build_scene`] reads the directives family by family, each
+//! in its own file: the film (with its filter and sensor), the camera, textures, materials, media, shapes (into the
+//! two-level BVH, with their area lights) and lights (with pbrt-v4's photometric normalisation). The sampler's
+//! `pixelsamples` is read here; the `Integrator` directive by [`Integrator::read`], next to the integrators.
+
+use std::path::PathBuf;
+
+use ::film::FilmSpec;
+use scene::{Loc, ParamSet, SceneDescription, SceneError};
+
+use crate::integrator::{Integrator, IntegratorParams};
+use crate::scene::RenderScene;
+
+mod camera;
+mod film;
+mod lights;
+mod materials;
+mod media;
+mod shapes;
+mod textures;
+
+/// Command-line overrides of the scene's settings.
+#[derive(Clone, Debug, Default)]
+pub struct BuildOptions {
+    /// Film resolution instead of the scene's.
+    pub resolution: Option<(u32, u32)>,
+    /// Samples per pixel instead of the scene's.
+    pub spp: Option<u32>,
+    /// Output file instead of the film's `filename`.
+    pub output: Option<PathBuf>,
+}
+
+/// A scene ready to render, with the settings the scene file chose.
+pub struct BuiltScene {
+    /// The scene.
+    pub scene: RenderScene,
+    /// The film to render into.
+    pub film: FilmSpec,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// The integrator.
+    pub integrator: Integrator,
+    /// Triangles in the scene (instances counted once).
+    pub triangles: usize,
+    /// Warnings (unused parameters, ignored features), each with file, line and column.
+    pub warnings: Vec<String>,
+}
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+/// An error at `loc`.
+fn err<T>(loc: &Loc, message: impl Into<String>) -> Result<T> {
+    Err(SceneError::at(loc.clone(), message))
+}
+
+/// `v` if it is finite and positive; otherwise an error naming parameter `name`.
+fn finite_positive(loc: &Loc, name: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        err(loc, format!("'{name}' must be a positive number, got {v}"))
+    }
+}
+
+/// The message for a type name Prismatic does not know, listing the ones it does.
+fn unsupported(what: &str, name: &str, supported: &[&str]) -> String {
+    format!("{what} '{name}' is not supported; supported: {}", supported.join(", "))
+}
+
+/// A count parameter: a positive integer (at most 2^20, which no sane resolution or sample count exceeds).
+fn p_count(p: &ParamSet, name: &str, default: i64, loc: &Loc) -> Result<usize> {
+    let v = p.get_int(name, default)?;
+    if v <= 0 || v > 1 << 20 {
+        let l = p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+        return err(&l, format!("'{name}' must be a positive integer, got {v}"));
+    }
+    Ok(v as usize)
+}
+
+/// Where parameter `name` was written, or the directive's location if it was not.
+fn param_loc(p: &ParamSet, name: &str, directive: &Loc) -> Loc {
+    p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| directive.clone())
+}
+
+/// Builds the render-ready scene from a parsed description.
+pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<BuiltScene> {
+    if desc.color_space != "srgb" {
+        return err(&desc.film.loc, format!("colour space '{}' is not supported (only srgb)", desc.color_space));
+    }
+    let mut warnings = vec![];
+    let film = film::make_film(desc, options)?;
+
+    // Sampler and integrator.
+    let scene_spp = p_count(&desc.sampler.params, "pixelsamples", 16, &desc.sampler.loc)? as u32;
+    let integrator = Integrator::read(&mut IntegratorParams {
+        entity: &desc.integrator,
+        scene_has_media: !desc.media.is_empty(),
+        warnings: &mut warnings,
+    })?;
+    // Photon mapping renders `iterations` passes (pbrt-v4 ignores the sampler's pixel samples there).
+    let spp = options.spp.unwrap_or(integrator.passes().unwrap_or(scene_spp));
+
+    let camera = camera::make_camera(desc, (film.width, film.height))?;
+    if integrator.needs().camera_reachable_by_light && !camera.supports_light_tracing() {
+        return err(
+            &desc.camera.entity.loc,
+            format!("integrator \"{}\" needs a perspective camera (an orthographic camera cannot be reached by light paths)", integrator.name()),
+        );
+    }
+
+    let textures = textures::Textures::build(desc)?;
+    let materials = materials::Materials::build(desc, &textures)?;
+    let media = media::Media::build(desc)?;
+    let camera_medium = media.of(&desc.camera.medium, &desc.camera.entity.loc)?;
+    // Area lights are made with their shapes, so they come before the `LightSource` lights.
+    let mut lights = vec![];
+    let shapes = shapes::make_geometry(desc, &materials, &media, &mut lights)?;
+    lights::make_lights(desc, shapes.scene_radius, &mut lights, &mut warnings)?;
+
+    let scene = RenderScene::new(Box::new(shapes.geometry), materials.list, lights, media.list, camera_medium, camera);
+    warnings.extend(desc.warnings.iter().map(|d| d.to_string()));
+    warnings.extend(desc.unused_parameters().iter().map(|d| d.to_string()));
+    Ok(BuiltScene { scene, film, spp, integrator, triangles: shapes.triangles, warnings })
+}

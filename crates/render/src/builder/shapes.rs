@@ -1,0 +1,227 @@
+//! Shapes: pbrt-v4's `Shape` directive (`trianglemesh`, `plymesh`, `loopsubdiv`, `bilinearmesh`, `sphere`,
+//! `disk`), and the two-level BVH over the world's shapes and the `ObjectBegin`/`ObjectEnd` definitions placed by
+//! `ObjectInstance`. Each shape's material, `MediumInterface` and `AreaLightSource` are resolved here, so the
+//! geometry a ray hits knows what it is made of.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use geometry::mesh::BilinearMeshData;
+use geometry::subdiv::loop_subdivide;
+use geometry::{BilinearMesh, GeometryScene, Instance, MeshData, Object, Shape, Transform, TriangleMesh};
+use glam::{DVec3, Vec2, Vec3};
+use scene::{Loc, ParamSet, SceneDescription, SceneError, ShapeEntity};
+
+use super::lights::area_lights;
+use super::materials::Materials;
+use super::media::Media;
+use super::{err, unsupported, Result};
+use crate::light::Light;
+use crate::scene::{MediumInterface, SceneGeometry, ShapeInfo, NO_MATERIAL};
+
+/// The scene's shapes, ready for ray queries.
+pub(super) struct BuiltGeometry {
+    /// The BVH with each shape's material, area light and media.
+    pub(super) geometry: SceneGeometry,
+    /// Triangles in the scene (instances counted once).
+    pub(super) triangles: usize,
+    /// Radius of a sphere enclosing the geometry (1 for an empty scene), which lights at infinity need.
+    pub(super) scene_radius: f32,
+}
+
+/// Builds every shape into the BVH; the world's area lights are appended to `lights`, one per primitive.
+pub(super) fn make_geometry(
+    desc: &SceneDescription,
+    materials: &Materials,
+    named_media: &Media,
+    lights: &mut Vec<Light>,
+) -> Result<BuiltGeometry> {
+    // Shapes: object 0 holds the world's shapes; each ObjectBegin definition becomes another object. Area lights
+    // are only created for world shapes (pbrt-v4 drops them inside instances, with a warning at parse time).
+    let mut triangles = 0usize;
+    let mut object_shapes =
+        |shapes: &[ShapeEntity], lights: Option<&mut Vec<Light>>| -> Result<(Vec<Shape>, Vec<ShapeInfo>)> {
+            let mut lights = lights;
+            let (mut out, mut out_info) = (vec![], vec![]);
+            for se in shapes {
+                let Some(shape) = make_shape(se)? else { continue };
+                triangles += shape_triangles(&shape);
+                let material = materials.index(&se.material, &se.entity.loc)?;
+                let inside = named_media.of(&se.inside_medium, &se.entity.loc)?;
+                let outside = named_media.of(&se.outside_medium, &se.entity.loc)?;
+                let media = (inside.is_some() || outside.is_some() || material == NO_MATERIAL)
+                    .then_some(MediumInterface { inside, outside });
+                let area_light_base = match (&se.area_light, lights.as_deref_mut()) {
+                    (Some(al), Some(lights)) => Some(area_lights(al, &shape, lights)?),
+                    _ => None,
+                };
+                out_info.push(ShapeInfo { material, area_light_base, media });
+                out.push(shape);
+            }
+            Ok((out, out_info))
+        };
+    let (world_shapes, world_info) = object_shapes(&desc.shapes, Some(lights))?;
+    let mut objects = vec![Object::new(world_shapes)];
+    let mut info = vec![world_info];
+    let mut object_index: HashMap<&str, u32> = HashMap::new();
+    for od in &desc.objects {
+        let (shapes, oinfo) = object_shapes(&od.shapes, None)?;
+        object_index.insert(od.name.as_str(), objects.len() as u32);
+        objects.push(Object::new(shapes));
+        info.push(oinfo);
+    }
+    let mut instances = vec![Instance { object: 0, render_from_instance: Transform::IDENTITY }];
+    for iu in &desc.instances {
+        let Some(&o) = object_index.get(iu.name.as_str()) else {
+            return err(&iu.loc, format!("no object named '{}'", iu.name));
+        };
+        instances.push(Instance { object: o, render_from_instance: iu.render_from_instance });
+    }
+    let accel =
+        GeometryScene::build(objects, instances).map_err(|e| SceneError::at(desc.film.loc.clone(), e.to_string()))?;
+    let bounds = {
+        use geometry::Accel;
+        accel.bounds()
+    };
+    let (_, scene_radius) = if bounds.is_empty() { (Vec3::ZERO, 1.0) } else { bounds.bounding_sphere() };
+    Ok(BuiltGeometry { geometry: SceneGeometry::new(accel, info), triangles, scene_radius })
+}
+
+fn shape_triangles(s: &Shape) -> usize {
+    match s {
+        Shape::Mesh(m) => m.triangle_count(),
+        _ => 0,
+    }
+}
+
+fn geo_err(loc: &Loc, e: geometry::GeometryError) -> SceneError {
+    SceneError::at(loc.clone(), e.to_string())
+}
+
+fn to_vec3s(v: Vec<DVec3>) -> Vec<Vec3> {
+    v.into_iter().map(|p| p.as_vec3()).collect()
+}
+
+fn indices_u32(p: &ParamSet, loc: &Loc, name: &str) -> Result<Option<Vec<u32>>> {
+    let Some(ints) = p.get_ints(name) else { return Ok(None) };
+    ints.iter()
+        .map(|&i| {
+            u32::try_from(i)
+                .map_err(|_| SceneError::at(loc.clone(), format!("'{name}': index {i} is negative or too large")))
+        })
+        .collect::<Result<Vec<_>>>()
+        .map(Some)
+}
+
+/// The geometry of one shape entity.
+fn make_shape(se: &ShapeEntity) -> Result<Option<Shape>> {
+    let e = &se.entity;
+    let p = &e.params;
+    let loc = &e.loc;
+    let rfo = se.render_from_object;
+    let ro = se.reverse_orientation;
+    let mesh = |data: MeshData| -> Result<Option<Shape>> {
+        if data.indices.is_empty() {
+            return Ok(None);
+        }
+        Ok(Some(Shape::Mesh(Arc::new(TriangleMesh::new(&rfo, data, ro).map_err(|e| geo_err(loc, e))?))))
+    };
+    match e.name.as_str() {
+        "trianglemesh" => {
+            let Some(pos) = p.get_point3s("P")? else { return err(loc, "trianglemesh needs 'point3 P'") };
+            let indices = match indices_u32(p, loc, "indices")? {
+                Some(i) => i,
+                None if pos.len() == 3 => vec![0, 1, 2],
+                None => return err(loc, "trianglemesh needs 'integer indices' unless it has exactly 3 vertices"),
+            };
+            let normals = p.get_normals("N")?.map(to_vec3s);
+            let uvs =
+                p.get_point2s("uv")?.map(|v| v.into_iter().map(|a| Vec2::new(a[0] as f32, a[1] as f32)).collect());
+            mesh(MeshData { positions: to_vec3s(pos), normals, uvs, indices })
+        }
+        "plymesh" => {
+            let Some(path) = p.get_filename("filename")? else { return err(loc, "plymesh needs 'string filename'") };
+            let data = geometry::ply::read_ply_file(&path).map_err(|e| geo_err(loc, e))?;
+            if p.contains("displacement") {
+                p.mark_used("displacement");
+            }
+            mesh(data)
+        }
+        "loopsubdiv" => {
+            let Some(pos) = p.get_point3s("P")? else { return err(loc, "loopsubdiv needs 'point3 P'") };
+            let Some(indices) = indices_u32(p, loc, "indices")? else {
+                return err(loc, "loopsubdiv needs 'integer indices'");
+            };
+            let levels = p.get_int("levels", 3)?;
+            if !(0..=10).contains(&levels) {
+                return err(loc, format!("loopsubdiv 'levels' must be in 0..=10, got {levels}"));
+            }
+            let data = MeshData { positions: to_vec3s(pos), normals: None, uvs: None, indices };
+            mesh(loop_subdivide(&data, levels as u32).map_err(|e| geo_err(loc, e))?)
+        }
+        "bilinearmesh" => {
+            let Some(pos) = p.get_point3s("P")? else { return err(loc, "bilinearmesh needs 'point3 P'") };
+            let indices = match indices_u32(p, loc, "indices")? {
+                Some(i) => i,
+                None if pos.len() == 4 => vec![0, 1, 2, 3],
+                None => return err(loc, "bilinearmesh needs 'integer indices' unless it has exactly 4 vertices"),
+            };
+            let normals = p.get_normals("N")?.map(to_vec3s);
+            let uvs =
+                p.get_point2s("uv")?.map(|v| v.into_iter().map(|a| Vec2::new(a[0] as f32, a[1] as f32)).collect());
+            let bl = BilinearMeshData { positions: to_vec3s(pos), normals, uvs, indices };
+            if bl.indices.is_empty() {
+                return Ok(None);
+            }
+            Ok(Some(Shape::Bilinear(Arc::new(BilinearMesh::new(&rfo, bl, ro).map_err(|e| geo_err(loc, e))?))))
+        }
+        "sphere" => {
+            // Each error names its parameter at the parameter's own location when given.
+            let at = |name: &str| p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+            let r = p.get_float("radius", 1.0)?;
+            if !(r.is_finite() && r > 0.0) {
+                return err(&at("radius"), format!("sphere 'radius' must be a positive number, got {r}"));
+            }
+            let zmin = p.get_float("zmin", -r)?;
+            let zmax = p.get_float("zmax", r)?;
+            let phimax = p.get_float("phimax", 360.0)?;
+            for (name, v) in [("zmin", zmin), ("zmax", zmax)] {
+                if v.is_nan() {
+                    return err(&at(name), format!("sphere '{name}' must be a number, got {v}"));
+                }
+            }
+            if zmin.clamp(-r, r) >= zmax.clamp(-r, r) {
+                return err(
+                    &at("zmin"),
+                    format!(
+                        "sphere 'zmin' ({zmin}) must be less than 'zmax' ({zmax}) after clamping both to \
+                         [-radius, radius] = [{}, {r}]",
+                        -r
+                    ),
+                );
+            }
+            if !(phimax > 0.0 && phimax <= 360.0) {
+                return err(&at("phimax"), format!("sphere 'phimax' must be in (0, 360] degrees, got {phimax}"));
+            }
+            let s = geometry::Sphere::partial(r as f32, zmin as f32, zmax as f32, phimax as f32, rfo, ro)
+                .map_err(|e| geo_err(loc, e))?;
+            Ok(Some(Shape::Sphere(s)))
+        }
+        "disk" => {
+            let d = geometry::Disk::new(
+                p.get_float("height", 0.0)? as f32,
+                p.get_float("radius", 1.0)? as f32,
+                p.get_float("innerradius", 0.0)? as f32,
+                p.get_float("phimax", 360.0)? as f32,
+                rfo,
+                ro,
+            )
+            .map_err(|e| geo_err(loc, e))?;
+            Ok(Some(Shape::Disk(d)))
+        }
+        other => err(
+            loc,
+            unsupported("shape", other, &["trianglemesh", "plymesh", "loopsubdiv", "bilinearmesh", "sphere", "disk"]),
+        ),
+    }
+}
