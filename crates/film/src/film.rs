@@ -770,9 +770,9 @@ pub struct AovImages {
 #[derive(Clone, Debug)]
 pub struct SampleConversion {
     wavelengths: WavelengthSampler,
+    kind: FilmKind,
     nbuckets: usize,
-    lambda_min: f64,
-    lambda_max: f64,
+    /// Buckets per nm (1 / the bucket width).
     inv_width: f64,
     imaging_ratio: f64,
     max_component: f64,
@@ -783,18 +783,15 @@ pub struct SampleConversion {
 impl SampleConversion {
     fn new(spec: &FilmSpec) -> Self {
         let (imaging_ratio, max_component) = (spec.sensor.imaging_ratio, spec.max_component_value);
-        let (nbuckets, lambda_min, lambda_max, inv_width) = match spec.kind {
-            FilmKind::Rgb => (0, 0.0, 0.0, 0.0),
-            FilmKind::Spectral { nbuckets, lambda_min, lambda_max } => {
-                (nbuckets, lambda_min, lambda_max, nbuckets as f64 / (lambda_max - lambda_min))
-            }
+        let inv_width = match spec.kind {
+            FilmKind::Rgb => 0.0,
+            FilmKind::Spectral { nbuckets, lambda_min, lambda_max } => nbuckets as f64 / (lambda_max - lambda_min),
         };
         let white = spec.aovs.then(|| spectral::named::illuminant("stdillum-D65").expect("D65 is built in"));
         Self {
             wavelengths: WavelengthSampler::new(spec.wavelengths, spec.observer),
-            nbuckets,
-            lambda_min,
-            lambda_max,
+            kind: spec.kind.clone(),
+            nbuckets: spec.kind.nbuckets(),
             inv_width,
             imaging_ratio,
             max_component,
@@ -829,9 +826,7 @@ impl SampleConversion {
     /// it, per nm, whatever the wavelength strategy.
     pub fn add_estimates_to_buckets(&self, buckets: &mut [f64], spectral: &[(f32, f32)], weight: f64) {
         for &(lambda, value) in spectral {
-            let lambda = lambda as f64;
-            if lambda >= self.lambda_min && lambda < self.lambda_max {
-                let b = (((lambda - self.lambda_min) * self.inv_width) as usize).min(self.nbuckets - 1);
+            if let Some(b) = self.kind.bucket_of(lambda as f64) {
                 buckets[b] += value as f64 * self.inv_width * weight;
             }
         }

@@ -23,12 +23,12 @@ use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{finite_or_zero, render_splatting, CameraSampler, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
-use super::transport::{cross_boundary, next_medium, resolve_surface, RayCounts, Surface};
+use super::transport::{begin_bounce, sample_light_path, scatter, Bounce, PathRay, RayCounts};
 use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
 use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
-use crate::scene::{MediumInterface, RenderScene, SurfaceHit};
+use crate::scene::{MediumInterface, RenderScene};
 
 /// pbrt-v4's `bdpt` parameters.
 #[derive(Clone, Copy, Debug)]
@@ -36,9 +36,6 @@ pub struct BdptIntegrator {
     /// Maximum number of scattering events of a full path (default 5).
     pub max_depth: u32,
 }
-
-/// Dimensions drawn per bounce of either subpath.
-const DIMS_PER_BOUNCE: usize = 7;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kind {
@@ -412,12 +409,9 @@ impl BdptIntegrator {
         counts: &mut RayCounts,
     ) -> Vec<Vertex> {
         let mut path = Vec::with_capacity(self.max_depth as usize + 1);
-        let u_light = sampler.next_1d();
-        let u_pos = Vec2::from(sampler.next_2d());
-        let u_dir = Vec2::from(sampler.next_2d());
-        let Some((li, p_sel)) = scene.sample_light(u_light) else { return path };
+        let Some(start) = sample_light_path(scene, wl, sampler) else { return path };
+        let (li, p_sel, le) = (start.light, start.p_select, start.le);
         let light = &scene.lights[li as usize];
-        let Some(le) = light.sample_le(u_pos, u_dir, wl, scene.bounding_sphere) else { return path };
         if le.l.is_black() {
             return path;
         }
@@ -432,13 +426,9 @@ impl BdptIntegrator {
         }
         path.push(v0);
         let beta = le.flux_weight() * (1.0 / p_sel);
-        let o = match le.surface {
-            Some(sp) => geometry::offset_ray_origin(sp.p, sp.p_error, sp.n, le.d),
-            None => le.o,
-        };
         self.random_walk(
             scene,
-            o,
+            start.origin(),
             le.d,
             beta,
             le.pdf_dir,
@@ -476,13 +466,13 @@ impl BdptIntegrator {
     fn random_walk(
         &self,
         scene: &RenderScene,
-        mut o: Vec3,
-        mut d: Vec3,
+        o: Vec3,
+        d: Vec3,
         mut beta: SampledSpectrum,
         pdf_dir: f32,
         max_vertices: usize,
         mode: TransportMode,
-        mut medium: Option<u32>,
+        medium: Option<u32>,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
@@ -493,32 +483,24 @@ impl BdptIntegrator {
         }
         let mut pdf_fwd = pdf_dir;
         let mut added = 0usize;
-        let mut crossings = 0u32;
+        let mut ray = PathRay::new(o, d, medium);
         loop {
-            counts.intersect += 1;
-            let hit: Option<SurfaceHit> = scene.geometry.intersect(o, d, f32::INFINITY);
-            let Some(hit) = hit else {
+            let d = ray.d;
+            let Some(hit) = ray.intersect(scene, counts) else {
                 if mode == TransportMode::Radiance && !scene.infinite_lights.is_empty() {
                     let prev = path.last().expect("the subpath has its endpoint");
-                    let mut v = Vertex::endpoint(Kind::Escape, prev.p + d, Vec3::ZERO, beta, pdf_fwd, medium);
+                    let mut v = Vertex::endpoint(Kind::Escape, prev.p + d, Vec3::ZERO, beta, pdf_fwd, ray.medium);
                     v.w_escape = d;
                     path.push(v);
                 }
                 break;
             };
-            if let Some(m) = medium {
-                beta *= scene.media[m as usize].transmittance(hit.t, wl);
-            }
-            let u: [f32; DIMS_PER_BOUNCE] = std::array::from_fn(|_| sampler.next_1d());
-            let bxdf = match resolve_surface(scene, &hit, wl, u[5], u[6]) {
-                Surface::PassThrough => {
-                    if !cross_boundary(&hit, d, &mut medium, &mut o, &mut crossings) {
-                        break;
-                    }
-                    continue;
-                }
-                Surface::Absorb => None,
-                Surface::Scatter(b) => Some(b),
+            ray.attenuate(scene, &hit, wl, &mut beta);
+            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+                Bounce::PassedThrough => continue,
+                Bounce::Stop => break,
+                Bounce::Absorb => (None, None),
+                Bounce::Scatter(bxdf, u) => (Some(bxdf), Some(u)),
             };
             let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
             let mut v = Vertex {
@@ -536,7 +518,7 @@ impl BdptIntegrator {
                 pdf_rev: 0.0,
                 area_light: hit.area_light,
                 media: hit.media,
-                medium,
+                medium: ray.medium,
                 w_escape: Vec3::ZERO,
                 mode,
             };
@@ -544,30 +526,19 @@ impl BdptIntegrator {
             path.push(v);
             added += 1;
             let v = path.last().expect("just pushed");
-            let Some(bxdf) = &v.bxdf else { break };
+            let (Some(bxdf), Some(u)) = (&v.bxdf, u) else { break };
             if added >= max_vertices {
                 break;
             }
             let wo = frame.to_local(-d);
-            let Some(bs) = bxdf.sample_f(wo, u[0], Vec2::new(u[1], u[2]), mode) else { break };
-            if bs.pdf <= 0.0 || bs.f.is_black() {
-                break;
-            }
-            if let Some(slot) = bs.keep_slot {
-                wl.keep_only(slot);
-            }
-            let wi = frame.from_local(bs.wi);
-            let (mut fwd, mut rev) = if bs.pdf_is_proportional {
-                (bxdf.pdf(wo, bs.wi, mode), bxdf.pdf(bs.wi, wo, mode))
+            let Some(s) = scatter(bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { break };
+            let (mut fwd, mut rev) = if s.bs.pdf_is_proportional {
+                (bxdf.pdf(wo, s.bs.wi, mode), bxdf.pdf(s.bs.wi, wo, mode))
             } else {
-                (bs.pdf, bxdf.pdf(bs.wi, wo, mode))
+                (s.bs.pdf, bxdf.pdf(s.bs.wi, wo, mode))
             };
-            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-            if mode == TransportMode::Importance {
-                beta *= correct_shading_normal(-d, wi, hit.ns, hit.n);
-            }
             let n = path.len();
-            if bs.specular {
+            if s.bs.specular {
                 path[n - 1].delta = true;
                 fwd = 0.0;
                 rev = 0.0;
@@ -576,11 +547,7 @@ impl BdptIntegrator {
             // The previous vertex's reverse density: sampled from this one, towards it.
             let rev_area = path[n - 1].convert_density(rev, &path[n - 2], scene);
             path[n - 2].pdf_rev = rev_area;
-            if bs.transmission {
-                medium = next_medium(&hit, wi, medium);
-            }
-            o = hit.spawn_origin(wi);
-            d = wi;
+            ray.leave(&hit, s.wi, s.bs.transmission);
             if !beta.0.iter().all(|v| v.is_finite()) || beta.is_black() {
                 break;
             }

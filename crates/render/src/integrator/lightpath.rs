@@ -18,15 +18,14 @@ use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{render_splatting, CameraSampler, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
 use super::path::{CameraPaths, PathIntegrator};
-use super::transport::{cross_boundary, next_medium, resolve_surface, RayCounts, Surface};
+use super::transport::{
+    adjoint_cos, begin_bounce, next_medium, sample_light_path, scatter, Bounce, PathRay, RayCounts,
+};
 use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::TransportMode;
 use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
 use crate::scene::RenderScene;
-
-/// Dimensions drawn per bounce of a light path, so that a bounce always uses the same Sobol dimensions.
-const DIMS_PER_BOUNCE: u32 = 8;
 
 /// The `lightpath` integrator.
 #[derive(Clone, Copy, Debug)]
@@ -34,17 +33,6 @@ pub struct LightPathIntegrator {
     /// Maximum number of scattering events (pbrt's `maxdepth`, default 5), counting the vertex connected to the
     /// camera.
     pub max_depth: u32,
-}
-
-/// The adjoint BSDF's shading-normal correction times the cosine at the outgoing direction: for particle tracing
-/// with shading normals, `|wo·ns|·|wi·ng| / |wo·ng|` replaces `|wi·ns|` (Veach 1997 eq. 5.19), so that light and
-/// importance transport agree on meshes with interpolated normals.
-fn adjoint_cos(wo: Vec3, wi: Vec3, ns: Vec3, ng: Vec3) -> f32 {
-    let den = wo.dot(ng).abs();
-    if den == 0.0 {
-        return 0.0;
-    }
-    wo.dot(ns).abs() * wi.dot(ng).abs() / den
 }
 
 /// A scattering vertex of a light path, as [`walk_light_path`] shows it to its caller.
@@ -78,50 +66,27 @@ pub(crate) fn walk_light_path(
     counts: &mut RayCounts,
     mut visit: impl FnMut(&LightVertex, &SampledWavelengths, &mut RayCounts),
 ) {
-    let u_light = sampler.next_1d();
-    let u_pos = Vec2::from(sampler.next_2d());
-    let u_dir = Vec2::from(sampler.next_2d());
-    let Some((li, p_sel)) = scene.sample_light(u_light) else { return };
-    let light = &scene.lights[li as usize];
-    let Some(le) = light.sample_le(u_pos, u_dir, wl, scene.bounding_sphere) else { return };
-    let mut beta = le.flux_weight() * (1.0 / p_sel);
+    let Some(start) = sample_light_path(scene, wl, sampler) else { return };
+    let mut beta = start.le.flux_weight() * (1.0 / start.p_select);
     if beta.is_black() || !beta.0.iter().all(|v| v.is_finite()) {
         return;
     }
     // Russian roulette compares the throughput with what the path started with (it carries flux, not 1).
     let beta_start = beta.max_value();
-    let mut o = match le.surface {
-        Some(sp) => geometry::offset_ray_origin(sp.p, sp.p_error, sp.n, le.d),
-        None => le.o,
-    };
-    let mut d = le.d;
     // Lights sit where the camera does (pbrt's lights carry no medium interface here).
-    let mut medium = scene.camera_medium;
+    let mut ray = PathRay::new(start.origin(), start.le.d, scene.camera_medium);
     let mut depth = 0u32;
-    let mut crossings = 0u32;
     while depth < max_depth {
-        counts.intersect += 1;
-        let Some(hit) = scene.geometry.intersect(o, d, f32::INFINITY) else { break };
-        if let Some(m) = medium {
-            beta *= scene.media[m as usize].transmittance(hit.t, wl);
-        }
-        let mut u = [0.0f32; DIMS_PER_BOUNCE as usize];
-        for v in u.iter_mut() {
-            *v = sampler.next_1d();
-        }
-        let bxdf = match resolve_surface(scene, &hit, wl, u[6], u[7]) {
-            Surface::PassThrough => {
-                if !cross_boundary(&hit, d, &mut medium, &mut o, &mut crossings) {
-                    break;
-                }
-                continue;
-            }
-            Surface::Absorb => break,
-            Surface::Scatter(b) => b,
+        let Some(hit) = ray.intersect(scene, counts) else { break };
+        ray.attenuate(scene, &hit, wl, &mut beta);
+        let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+            Bounce::PassedThrough => continue,
+            Bounce::Stop | Bounce::Absorb => break,
+            Bounce::Scatter(bxdf, u) => (bxdf, u),
         };
         depth += 1;
         let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
-        let w_from = -d;
+        let w_from = -ray.d;
         let wo = frame.to_local(w_from);
         if !bxdf.is_specular() {
             let v = LightVertex {
@@ -130,34 +95,23 @@ pub(crate) fn walk_light_path(
                 bxdf: &bxdf,
                 w_from,
                 beta,
-                medium,
+                medium: ray.medium,
                 depth,
-                u: Vec2::new(u[0], u[1]),
+                u: Vec2::new(u.connect[0], u.connect[1]),
             };
             visit(&v, wl, counts);
         }
         if depth == max_depth {
             break;
         }
-        let Some(bs) = bxdf.sample_f(wo, u[2], Vec2::new(u[3], u[4]), TransportMode::Importance) else { break };
-        if bs.pdf <= 0.0 || bs.f.is_black() {
-            break;
-        }
-        if let Some(slot) = bs.keep_slot {
-            wl.keep_only(slot);
-        }
-        let wi = frame.from_local(bs.wi);
-        beta *= bs.f * (adjoint_cos(w_from, wi, hit.ns, hit.n) / bs.pdf);
-        if bs.transmission {
-            medium = next_medium(&hit, wi, medium);
-        }
-        o = hit.spawn_origin(wi);
-        d = wi;
+        let mode = TransportMode::Importance;
+        let Some(s) = scatter(&bxdf, &frame, &hit, wo, w_from, &u, mode, wl, &mut beta) else { break };
+        ray.leave(&hit, s.wi, s.bs.transmission);
         // Russian roulette after the first bounce.
         let rr = beta.max_value() / beta_start;
         if rr < 1.0 && depth > 1 {
             let q = (1.0 - rr).max(0.0);
-            if u[5] < q {
+            if u.rr < q {
                 break;
             }
             beta *= 1.0 / (1.0 - q);

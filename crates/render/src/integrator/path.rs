@@ -10,15 +10,12 @@ use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{finite_or_zero, render_rows, CameraSampler, RenderStats};
-use super::transport::{cross_boundary, next_medium, resolve_surface, sample_direct_light, RayCounts, Surface};
+use super::transport::{begin_bounce, sample_direct_light, scatter, Bounce, PathRay, RayCounts};
 use super::{Integrate, IntegratorParams, RenderJob};
 use crate::bxdf::TransportMode;
 use crate::sampler::Sampler;
 use crate::sampling::{power_heuristic, Frame};
 use crate::scene::RenderScene;
-
-/// Dimensions each bounce draws, so that a given bounce always uses the same Sobol dimensions.
-const DIMS_PER_BOUNCE: u32 = 9;
 
 /// What the camera ray hit first, for AOVs.
 #[derive(Clone, Copy, Debug)]
@@ -43,8 +40,8 @@ impl PathIntegrator {
     pub fn li(
         &self,
         scene: &RenderScene,
-        mut o: Vec3,
-        mut d: Vec3,
+        o: Vec3,
+        d: Vec3,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
@@ -57,12 +54,10 @@ impl PathIntegrator {
         let mut depth = 0u32;
         let mut prev_p = o;
         let mut p_b = 1.0f32;
-        let mut medium = scene.camera_medium;
-        let mut crossings = 0u32;
+        let mut ray = PathRay::new(o, d, scene.camera_medium);
         loop {
-            counts.intersect += 1;
-            let hit = scene.geometry.intersect(o, d, f32::INFINITY);
-            let Some(hit) = hit else {
+            let d = ray.d;
+            let Some(hit) = ray.intersect(scene, counts) else {
                 // Escaped: infinite lights, weighted against the BSDF sample that found them.
                 for &li in &scene.infinite_lights {
                     let light = &scene.lights[li as usize];
@@ -79,9 +74,7 @@ impl PathIntegrator {
                 }
                 break;
             };
-            if let Some(m) = medium {
-                beta *= scene.media[m as usize].transmittance(hit.t, wl);
-            }
+            ray.attenuate(scene, &hit, wl, &mut beta);
             // Emission from an area light that was hit.
             if let Some(li) = hit.area_light {
                 let light = &scene.lights[li as usize];
@@ -95,21 +88,11 @@ impl PathIntegrator {
                     }
                 }
             }
-            // Resolve the material (mixes choose one stochastically); interfaces are skipped.
-            let mut u = [0.0f32; DIMS_PER_BOUNCE as usize];
-            for v in u.iter_mut() {
-                *v = sampler.next_1d();
-            }
-            let bxdf = match resolve_surface(scene, &hit, wl, u[7], u[8]) {
-                Surface::PassThrough => {
-                    // Pass straight through, switching media; does not count as a bounce.
-                    if !cross_boundary(&hit, d, &mut medium, &mut o, &mut crossings) {
-                        break;
-                    }
-                    continue;
-                }
-                Surface::Absorb => break,
-                Surface::Scatter(b) => b,
+            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+                // A boundary between media does not count as a bounce.
+                Bounce::PassedThrough => continue,
+                Bounce::Stop | Bounce::Absorb => break,
+                Bounce::Scatter(bxdf, u) => (bxdf, u),
             };
             if depth == 0 {
                 if let Some(fh) = first_hit.take() {
@@ -124,33 +107,24 @@ impl PathIntegrator {
             let wo = frame.to_local(-d);
             // Next-event estimation.
             if !bxdf.is_specular() {
-                l +=
-                    beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, u[0], Vec2::new(u[1], u[2]), counts);
+                let [u_light, u0, u1] = u.connect;
+                l += beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, u_light, Vec2::new(u0, u1), counts);
             }
             // BSDF sampling for the next direction.
-            let Some(bs) = bxdf.sample_f(wo, u[3], Vec2::new(u[4], u[5]), TransportMode::Radiance) else { break };
-            if bs.pdf <= 0.0 || bs.f.is_black() {
-                break;
-            }
-            if let Some(slot) = bs.keep_slot {
-                wl.keep_only(slot);
-            }
-            let wi = frame.from_local(bs.wi);
-            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-            p_b = if bs.pdf_is_proportional { bxdf.pdf(wo, bs.wi, TransportMode::Radiance) } else { bs.pdf };
-            specular_bounce = bs.specular;
-            if bs.transmission {
-                eta_scale *= bs.eta * bs.eta;
-                medium = next_medium(&hit, wi, medium);
+            let mode = TransportMode::Radiance;
+            let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { break };
+            p_b = if s.bs.pdf_is_proportional { bxdf.pdf(wo, s.bs.wi, mode) } else { s.bs.pdf };
+            specular_bounce = s.bs.specular;
+            if s.bs.transmission {
+                eta_scale *= s.bs.eta * s.bs.eta;
             }
             prev_p = hit.p;
-            o = hit.spawn_origin(wi);
-            d = wi;
+            ray.leave(&hit, s.wi, s.bs.transmission);
             // Russian roulette on the throughput with refraction's radiance scaling undone.
             let rr_beta = (beta * eta_scale).max_value();
             if rr_beta < 1.0 && depth > 1 {
                 let q = (1.0 - rr_beta).max(0.0);
-                if u[6] < q {
+                if u.rr < q {
                     break;
                 }
                 beta *= 1.0 / (1.0 - q);

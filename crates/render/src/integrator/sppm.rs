@@ -26,8 +26,9 @@ use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths, Xyz};
 
 use super::drive::RenderStats;
+use super::drive::{CameraSample, CameraSampler};
 use super::lightpath::walk_light_path;
-use super::transport::{cross_boundary, next_medium, resolve_surface, sample_direct_light, RayCounts, Surface};
+use super::transport::{begin_bounce, sample_direct_light, scatter, Bounce, PathRay, RayCounts};
 use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
 use crate::sampler::{hash_words, Sampler};
@@ -74,6 +75,8 @@ struct PixelState {
     n: f64,
     tau_xyz: [f64; 3],
     ld_xyz: [f64; 3],
+    /// Sum of the camera samples' filter weights over the iterations.
+    weight: f64,
 }
 
 /// The progressive state of an SPPM render: iterations can be added until the image is written.
@@ -83,6 +86,8 @@ pub struct SppmState {
     nbuckets: usize,
     /// The film's conversion of path samples to colour and buckets.
     conversion: SampleConversion,
+    /// Camera samples for the film's filter.
+    camera: CameraSampler,
     pixels: Vec<PixelState>,
     /// τ per bucket (pixel-major), for spectral films.
     tau_buckets: Vec<f64>,
@@ -94,21 +99,23 @@ pub struct SppmState {
 
 impl SppmState {
     /// A fresh state for `film` with the integrator's initial radius.
-    pub fn new(film: &Film, integrator: &SppmIntegrator) -> Self {
+    pub fn new(film: &Film, integrator: &SppmIntegrator) -> Result<Self, FilmError> {
         let (w, h) = (film.width(), film.height());
         let npix = w as usize * h as usize;
         let nb = film.nbuckets();
-        Self {
+        Ok(Self {
             width: w,
             height: h,
             nbuckets: nb,
             conversion: film.conversion().clone(),
+            camera: CameraSampler::new(film)?,
             pixels: vec![
                 PixelState {
                     radius: integrator.initial_radius as f64,
                     n: 0.0,
                     tau_xyz: [0.0; 3],
-                    ld_xyz: [0.0; 3]
+                    ld_xyz: [0.0; 3],
+                    weight: 0.0,
                 };
                 npix
             ],
@@ -116,7 +123,7 @@ impl SppmState {
             ld_buckets: vec![0.0; npix * nb],
             iterations: 0,
             photons: 0,
-        }
+        })
     }
 
     /// Iterations done so far.
@@ -125,19 +132,24 @@ impl SppmState {
     }
 
     /// Writes the current estimate into `film` (one sample of weight 1 per pixel).
+    ///
+    /// Every iteration's camera sample carries its filter weight w into the direct light and the visible point's
+    /// throughput, so the pixel is the weighted mean over iterations (as the film forms it for the other
+    /// integrators): `Σ w·L_direct / Σ w + τ/(N_emitted·π·R²) · iterations / Σ w`.
     pub fn write_to(&self, film: &mut Film) {
         let nb = self.nbuckets;
-        let iters = self.iterations.max(1) as f64;
+        let iters = self.iterations as f64;
         let photons = self.photons.max(1) as f64;
         let mut buckets = vec![0.0; nb];
         for y in 0..self.height {
             for x in 0..self.width {
                 let i = (y * self.width + x) as usize;
                 let px = &self.pixels[i];
-                let k = 1.0 / (photons * PI * px.radius * px.radius);
-                let c = |j: usize| px.ld_xyz[j] / iters + px.tau_xyz[j] * k;
+                let per_weight = if px.weight != 0.0 { 1.0 / px.weight } else { 0.0 };
+                let k = iters * per_weight / (photons * PI * px.radius * px.radius);
+                let c = |j: usize| px.ld_xyz[j] * per_weight + px.tau_xyz[j] * k;
                 for (b, v) in buckets.iter_mut().enumerate() {
-                    *v = self.ld_buckets[i * nb + b] / iters + self.tau_buckets[i * nb + b] * k;
+                    *v = self.ld_buckets[i * nb + b] * per_weight + self.tau_buckets[i * nb + b] * k;
                 }
                 film.add_pixel_estimate(x, y, Xyz::new(c(0), c(1), c(2)), &buckets, 1.0);
             }
@@ -214,6 +226,10 @@ impl VisibleGrid {
     }
 }
 
+/// What a pixel's camera path gave in one iteration: its visible point, the direct light (times the filter
+/// weight), the wavelengths after it, ray counts, and the camera sample's filter weight.
+type CameraPass = (Option<VisiblePoint>, SampledSpectrum, SampledWavelengths, RayCounts, f32);
+
 /// A photon's contribution to one visible point.
 struct Gathered {
     vp: u32,
@@ -240,20 +256,24 @@ impl SppmIntegrator {
             let wl_iter = state.conversion.wavelengths().sample(u_wl as f64);
 
             // 1. Camera pass: visible points and direct light.
-            let camera: Vec<(Option<VisiblePoint>, SampledSpectrum, SampledWavelengths, RayCounts)> = (0..npix)
+            let camera_sampler = &state.camera;
+            let camera: Vec<CameraPass> = (0..npix)
                 .into_par_iter()
                 .map(|i| {
                     let (x, y) = ((i % w as u64) as u32, (i / w as u64) as u32);
                     let mut counts = RayCounts::default();
-                    let mut wl = wl_iter;
                     let mut sampler = Sampler::new(x, y, it, seed);
-                    let (vp, ld) = self.camera_path(scene, x, y, &mut wl, &mut sampler, &mut counts);
-                    (vp, ld, wl, counts)
+                    // The camera sample's own wavelengths are replaced by the iteration's.
+                    let cs = camera_sampler.sample(scene, x, y, &mut sampler);
+                    let mut wl = wl_iter;
+                    let (vp, ld) = self.camera_path(scene, &cs, &mut wl, &mut sampler, &mut counts);
+                    (vp, ld, wl, counts, cs.weight)
                 })
                 .collect();
             let mut points = Vec::with_capacity(camera.len());
-            for (i, (vp, ld, wl, counts)) in camera.into_iter().enumerate() {
+            for (i, (vp, ld, wl, counts, weight)) in camera.into_iter().enumerate() {
                 stats.rays += counts.intersect + counts.shadow;
+                state.pixels[i].weight += weight as f64;
                 if !ld.is_black() {
                     let xyz = state.conversion.xyz(&ld, &wl);
                     let px = &mut state.pixels[i];
@@ -347,50 +367,39 @@ impl SppmIntegrator {
         stats
     }
 
-    /// Traces the camera path of pixel (x, y): emission seen through specular bounces and direct light at the first
-    /// non-specular surface (both in `ld`), and the visible point there.
+    /// Traces the camera path of the camera sample `cs` (at the iteration's wavelengths `wl`): emission seen
+    /// through specular bounces and direct light at the first non-specular surface (both in `ld`), and the visible
+    /// point there.
     fn camera_path(
         &self,
         scene: &RenderScene,
-        x: u32,
-        y: u32,
+        cs: &CameraSample,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
     ) -> (Option<VisiblePoint>, SampledSpectrum) {
-        let film = Vec2::new(x as f32, y as f32) + Vec2::from(sampler.next_2d());
-        let ray = scene.camera.generate_ray(film, Vec2::from(sampler.next_2d()));
-        let (mut o, mut d) = (ray.origin, ray.direction);
-        let mut beta = SampledSpectrum::splat(1.0);
+        let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium);
+        // The camera sample's filter weight, as a camera sample of the other integrators carries it into the film.
+        let mut beta = SampledSpectrum::splat(cs.weight);
         let mut ld = SampledSpectrum::zero();
-        let mut medium = scene.camera_medium;
         let mut depth = 0u32;
-        let mut crossings = 0u32;
         loop {
-            counts.intersect += 1;
-            let Some(hit) = scene.geometry.intersect(o, d, f32::INFINITY) else {
+            let d = ray.d;
+            let Some(hit) = ray.intersect(scene, counts) else {
                 // Only specular bounces led here: the environment is seen directly.
                 for &li in &scene.infinite_lights {
                     ld += beta * scene.lights[li as usize].le(d, wl);
                 }
                 return (None, ld);
             };
-            if let Some(m) = medium {
-                beta *= scene.media[m as usize].transmittance(hit.t, wl);
-            }
+            ray.attenuate(scene, &hit, wl, &mut beta);
             if let Some(li) = hit.area_light {
                 ld += beta * scene.lights[li as usize].l_area(hit.n, -d, wl);
             }
-            let u: [f32; 8] = std::array::from_fn(|_| sampler.next_1d());
-            let bxdf = match resolve_surface(scene, &hit, wl, u[6], u[7]) {
-                Surface::PassThrough => {
-                    if !cross_boundary(&hit, d, &mut medium, &mut o, &mut crossings) {
-                        return (None, ld);
-                    }
-                    continue;
-                }
-                Surface::Absorb => return (None, ld),
-                Surface::Scatter(b) => b,
+            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+                Bounce::PassedThrough => continue,
+                Bounce::Stop | Bounce::Absorb => return (None, ld),
+                Bounce::Scatter(bxdf, u) => (bxdf, u),
             };
             if depth == self.max_depth {
                 return (None, ld);
@@ -399,27 +408,15 @@ impl SppmIntegrator {
             let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
             let wo = frame.to_local(-d);
             if !bxdf.is_specular() {
+                let [u_light, u0, u1] = u.connect;
                 ld +=
-                    beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, u[0], Vec2::new(u[1], u[2]), counts);
+                    beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, u_light, Vec2::new(u0, u1), counts);
                 let vp = VisiblePoint { p: hit.p, frame, wo, bxdf, beta, wl: *wl };
                 return (Some(vp), ld);
             }
-            let Some(bs) = bxdf.sample_f(wo, u[3], Vec2::new(u[4], u[5]), TransportMode::Radiance) else {
-                return (None, ld);
-            };
-            if bs.pdf <= 0.0 || bs.f.is_black() {
-                return (None, ld);
-            }
-            if let Some(slot) = bs.keep_slot {
-                wl.keep_only(slot);
-            }
-            let wi = frame.from_local(bs.wi);
-            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-            if bs.transmission {
-                medium = next_medium(&hit, wi, medium);
-            }
-            o = hit.spawn_origin(wi);
-            d = wi;
+            let mode = TransportMode::Radiance;
+            let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { return (None, ld) };
+            ray.leave(&hit, s.wi, s.bs.transmission);
         }
     }
 
@@ -503,7 +500,7 @@ impl Integrate for SppmIntegrator {
         film: &Film,
         seed: u32,
     ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
-        Ok(Box::new(SppmRender { integrator: self, scene, state: SppmState::new(film, self), seed }))
+        Ok(Box::new(SppmRender { integrator: self, scene, state: SppmState::new(film, self)?, seed }))
     }
 }
 

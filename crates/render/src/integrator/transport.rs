@@ -1,12 +1,15 @@
-//! What every integrator does along a path, written once: ray counters, resolving the material at a hit (mixes,
-//! material-less boundaries, absorption), crossing boundaries between media, and next-event estimation.
+//! What every integrator does along a path, written once: the ray and the medium it travels through, the
+//! agreed layout of random numbers per bounce, the start of a bounce (resolving the material at a hit: mixes,
+//! material-less boundaries, absorption), one scattering step (BSDF sample, wavelength reduction, throughput), and
+//! next-event estimation.
 
 use glam::{Vec2, Vec3};
 use spectral::{SampledSpectrum, SampledWavelengths};
 
-use crate::bxdf::{Bxdf, TransportMode};
-use crate::light::LightSampleContext;
+use crate::bxdf::{BsdfSample, Bxdf, TransportMode};
+use crate::light::{LightLeSample, LightSampleContext};
 use crate::material::Material;
+use crate::sampler::Sampler;
 use crate::sampling::{power_heuristic, Frame};
 use crate::scene::{RenderScene, SurfaceHit, NO_MATERIAL};
 use crate::texture::TextureEvalContext;
@@ -63,27 +66,230 @@ pub(crate) fn sample_direct_light(
     }
 }
 
+/// The start of a light path: a light chosen by power, and a ray of light leaving it.
+pub(crate) struct LightPathStart {
+    /// The light's index.
+    pub light: u32,
+    /// The probability of having chosen it.
+    pub p_select: f32,
+    /// The emitted ray with its radiance and densities.
+    pub le: LightLeSample,
+}
+
+impl LightPathStart {
+    /// The ray's origin, offset off the light's surface for area lights.
+    pub fn origin(&self) -> Vec3 {
+        match self.le.surface {
+            Some(sp) => geometry::offset_ray_origin(sp.p, sp.p_error, sp.n, self.le.d),
+            None => self.le.o,
+        }
+    }
+}
+
+/// Starts a light path (light tracing, photon mapping and bidirectional path tracing alike), drawing five
+/// dimensions of `sampler`: the light (1), the point on it (2), the direction (2).
+pub(crate) fn sample_light_path(
+    scene: &RenderScene,
+    wl: &SampledWavelengths,
+    sampler: &mut Sampler,
+) -> Option<LightPathStart> {
+    let u_light = sampler.next_1d();
+    let u_pos = Vec2::from(sampler.next_2d());
+    let u_dir = Vec2::from(sampler.next_2d());
+    let (light, p_select) = scene.sample_light(u_light)?;
+    let le = scene.lights[light as usize].sample_le(u_pos, u_dir, wl, scene.bounding_sphere)?;
+    Some(LightPathStart { light, p_select, le })
+}
+
 /// Longest run of material-less boundary crossings a path follows before it is dropped.
 const MAX_CROSSINGS: u32 = 256;
 
-/// Carries a path straight through a material-less boundary at `hit` (a change of medium only): updates the
-/// medium and the ray origin and counts the crossing. Returns false once the path has crossed too many boundaries
-/// and should be dropped.
-pub(crate) fn cross_boundary(
+/// The random numbers of one bounce, drawn together and always in this order (the agreed layout of every
+/// integrator), so that bounce k of a path uses the same sampler dimensions whatever happened before and whatever
+/// the integrator: Sobol dimensions stay stratified bounce by bounce.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BounceSamples {
+    /// The connection made at this vertex: a light and a point on it for next-event estimation (path, sppm's
+    /// camera paths), or a point on the lens (light tracing; the first two).
+    pub connect: [f32; 3],
+    /// The BSDF's lobe choice.
+    pub lobe: f32,
+    /// The BSDF's direction.
+    pub dir: Vec2,
+    /// Russian roulette.
+    pub rr: f32,
+    /// The choice of a mix's material (and of a nested mix's, rescaled).
+    pub mix: f32,
+    /// The wavelength kept by a material that must reduce the wavelengths up front (rough dispersive dielectrics).
+    pub wavelength: f32,
+}
+
+impl BounceSamples {
+    /// Dimensions drawn per bounce.
+    pub const DIMENSIONS: usize = 9;
+
+    /// Draws the next bounce's numbers from `sampler`.
+    pub fn draw(sampler: &mut Sampler) -> Self {
+        let u: [f32; Self::DIMENSIONS] = std::array::from_fn(|_| sampler.next_1d());
+        Self {
+            connect: [u[0], u[1], u[2]],
+            lobe: u[3],
+            dir: Vec2::new(u[4], u[5]),
+            rr: u[6],
+            mix: u[7],
+            wavelength: u[8],
+        }
+    }
+}
+
+/// A ray of a path with the medium it travels through: every integrator follows one from surface to surface.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PathRay {
+    /// Origin (offset off the surface it leaves).
+    pub o: Vec3,
+    /// Unit direction.
+    pub d: Vec3,
+    /// The medium along the ray (`None` for vacuum).
+    pub medium: Option<u32>,
+    /// Material-less boundaries crossed in a row.
+    crossings: u32,
+}
+
+impl PathRay {
+    /// A ray from `o` along `d` in `medium`.
+    pub fn new(o: Vec3, d: Vec3, medium: Option<u32>) -> Self {
+        Self { o, d, medium, crossings: 0 }
+    }
+
+    /// The closest surface along the ray, counted in `counts`.
+    pub fn intersect(&self, scene: &RenderScene, counts: &mut RayCounts) -> Option<SurfaceHit> {
+        counts.intersect += 1;
+        scene.geometry.intersect(self.o, self.d, f32::INFINITY)
+    }
+
+    /// Multiplies `beta` by the medium's transmittance over the segment to `hit` (Beer–Lambert).
+    pub fn attenuate(
+        &self,
+        scene: &RenderScene,
+        hit: &SurfaceHit,
+        wl: &SampledWavelengths,
+        beta: &mut SampledSpectrum,
+    ) {
+        if let Some(m) = self.medium {
+            *beta *= scene.media[m as usize].transmittance(hit.t, wl);
+        }
+    }
+
+    /// Carries the ray straight through a material-less boundary at `hit` (a change of medium only). Returns
+    /// false once the path has crossed too many boundaries in a row and should be dropped.
+    fn cross(&mut self, hit: &SurfaceHit) -> bool {
+        self.medium = next_medium(hit, self.d, self.medium);
+        self.o = hit.spawn_origin(self.d);
+        self.crossings += 1;
+        self.crossings <= MAX_CROSSINGS
+    }
+
+    /// Continues the path from `hit` in direction `wi`, entering the medium on the far side after a transmission.
+    pub fn leave(&mut self, hit: &SurfaceHit, wi: Vec3, transmission: bool) {
+        if transmission {
+            self.medium = next_medium(hit, wi, self.medium);
+        }
+        self.o = hit.spawn_origin(wi);
+        self.d = wi;
+    }
+}
+
+/// What the start of a bounce found at a surface.
+pub(crate) enum Bounce {
+    /// A material-less boundary: the ray was carried through it; trace on (this is not a scattering event).
+    PassedThrough,
+    /// The path ends here: too many boundaries crossed in a row.
+    Stop,
+    /// The path ends here: the material scatters nothing at these wavelengths (the surface is still a vertex, which
+    /// may emit).
+    Absorb,
+    /// A scattering surface with its BxDF at the path's wavelengths, and the bounce's random numbers.
+    Scatter(Bxdf, BounceSamples),
+}
+
+/// The start of every bounce at a surface, for every integrator: draws the bounce's random numbers (always all of
+/// them, see [`BounceSamples`]), resolves the material at `hit` (mixes, wavelength reduction up front), and carries
+/// the ray through material-less boundaries.
+pub(crate) fn begin_bounce(
+    scene: &RenderScene,
     hit: &SurfaceHit,
-    d: Vec3,
-    medium: &mut Option<u32>,
-    o: &mut Vec3,
-    crossings: &mut u32,
-) -> bool {
-    *medium = next_medium(hit, d, *medium);
-    *o = hit.spawn_origin(d);
-    *crossings += 1;
-    *crossings <= MAX_CROSSINGS
+    ray: &mut PathRay,
+    wl: &mut SampledWavelengths,
+    sampler: &mut Sampler,
+) -> Bounce {
+    let u = BounceSamples::draw(sampler);
+    match resolve_surface(scene, hit, wl, u.mix, u.wavelength) {
+        Surface::PassThrough => {
+            if ray.cross(hit) {
+                Bounce::PassedThrough
+            } else {
+                Bounce::Stop
+            }
+        }
+        Surface::Absorb => Bounce::Absorb,
+        Surface::Scatter(bxdf) => Bounce::Scatter(bxdf, u),
+    }
+}
+
+/// A direction sampled from a BSDF at a path vertex.
+pub(crate) struct Scattered {
+    /// The BSDF sample (local frame).
+    pub bs: BsdfSample,
+    /// The new direction in world space.
+    pub wi: Vec3,
+}
+
+/// One scattering step, the same for camera and light paths: samples `bxdf` at the vertex (`wo` the local
+/// direction back along the path, `w_from` the same in world space) with the bounce's numbers, keeps only the
+/// followed wavelength after a dispersive refraction, and multiplies the throughput `beta` by f·|cos|/pdf — for
+/// light paths with the adjoint BSDF's shading-normal correction |wo·ns||wi·ng|/|wo·ng| in place of |cos|
+/// (Veach 1997 eq. 5.19). `None` if the sample carries no energy.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn scatter(
+    bxdf: &Bxdf,
+    frame: &Frame,
+    hit: &SurfaceHit,
+    wo: Vec3,
+    w_from: Vec3,
+    u: &BounceSamples,
+    mode: TransportMode,
+    wl: &mut SampledWavelengths,
+    beta: &mut SampledSpectrum,
+) -> Option<Scattered> {
+    let bs = bxdf.sample_f(wo, u.lobe, u.dir, mode)?;
+    if bs.pdf <= 0.0 || bs.f.is_black() {
+        return None;
+    }
+    if let Some(slot) = bs.keep_slot {
+        wl.keep_only(slot);
+    }
+    let wi = frame.from_local(bs.wi);
+    let cos = match mode {
+        TransportMode::Radiance => bs.wi.z.abs(),
+        TransportMode::Importance => adjoint_cos(w_from, wi, hit.ns, hit.n),
+    };
+    *beta *= bs.f * (cos / bs.pdf);
+    Some(Scattered { bs, wi })
+}
+
+/// The adjoint BSDF's shading-normal correction times the cosine at the outgoing direction: for particle tracing
+/// with shading normals, `|wo·ns|·|wi·ng| / |wo·ng|` replaces `|wi·ns|` (Veach 1997 eq. 5.19), so that light and
+/// importance transport agree on meshes with interpolated normals.
+pub(crate) fn adjoint_cos(wo: Vec3, wi: Vec3, ns: Vec3, ng: Vec3) -> f32 {
+    let den = wo.dot(ng).abs();
+    if den == 0.0 {
+        return 0.0;
+    }
+    wo.dot(ns).abs() * wi.dot(ng).abs() / den
 }
 
 /// What a ray meets at a surface once mixes are resolved.
-pub(crate) enum Surface {
+enum Surface {
     /// A boundary between media without a material: the ray goes on unchanged.
     PassThrough,
     /// A material that scatters nothing at these wavelengths.
@@ -94,7 +300,7 @@ pub(crate) enum Surface {
 
 /// Resolves the material at `hit` (a mix picks one of its materials with `u_mix`, repeatedly) and builds its BxDF
 /// at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front).
-pub(crate) fn resolve_surface(
+fn resolve_surface(
     scene: &RenderScene,
     hit: &SurfaceHit,
     wl: &mut SampledWavelengths,
