@@ -390,10 +390,9 @@ impl Film {
         let conv = &self.conversion;
         let converted: Vec<XyzSplat> = splats
             .par_iter()
-            .map(|sp| XyzSplat {
-                raster: sp.raster,
-                xyz: conv.xyz(&sp.l, &sp.wl),
-                spectral: SpectralEstimates::new(&sp.l, &sp.wl),
+            .map(|sp| {
+                let (xyz, spectral) = conv.reduce(&sp.l, &sp.wl);
+                XyzSplat { raster: sp.raster, xyz, spectral }
             })
             .collect();
         self.add_xyz_splats(&converted)
@@ -583,8 +582,8 @@ impl Film {
 
     /// Adds one camera sample to pixel (x, y): see [`FilmRow::add_sample`]. Returns whether it was accumulated.
     pub fn add_sample(&mut self, x: u32, y: u32, l: &SampledSpectrum, wl: &SampledWavelengths, weight: f64) -> bool {
-        let xyz = self.conversion.xyz(l, wl);
-        self.add_xyz_sample(x, y, xyz, weight, SpectralEstimates::new(l, wl).as_slice())
+        let (xyz, spectral) = self.conversion.reduce(l, wl);
+        self.add_xyz_sample(x, y, xyz, weight, spectral.as_slice())
     }
 
     /// Adds one sample already reduced to XYZ and `(λ nm, L/pdf)` pairs to pixel (x, y): see
@@ -810,6 +809,12 @@ impl SampleConversion {
         self.wavelengths.to_xyz(l, wl)
     }
 
+    /// A path sample reduced to what the film accumulates: its colour ([`SampleConversion::xyz`]) and its
+    /// `(λ, L/pdf)` pairs for the spectral buckets.
+    pub fn reduce(&self, l: &SampledSpectrum, wl: &SampledWavelengths) -> (Xyz, SpectralEstimates) {
+        (self.xyz(l, wl), SpectralEstimates::new(l, wl))
+    }
+
     /// The sensor's response to a sample's colour: times the imaging ratio (pbrt-v4 `PixelSensor::ToSensorRGB` for
     /// the cie1931 sensor), then, if its largest component `m` exceeds `maxcomponentvalue`, scaled by max/m
     /// (pbrt-v4 `RGBFilm::AddSample`). Returns the colour times the imaging ratio and the clamp factor, which the
@@ -923,6 +928,11 @@ impl FilmRow<'_> {
         self.weight.len() as u32
     }
 
+    /// Draws the wavelengths of one path from one uniform number (see [`Film::sample_wavelengths`]).
+    pub fn sample_wavelengths(&self, u: f64) -> SampledWavelengths {
+        self.conv.wavelengths.sample(u)
+    }
+
     /// Adds one camera sample to pixel `x` of this row: radiance `l` at the path's wavelengths `wl` (the slots
     /// still active, with their effective densities), and its filter weight `weight`
     /// ([`crate::FilterSample::weight`]). The film converts it to XYZ with its wavelength strategy, applies the
@@ -932,8 +942,8 @@ impl FilmRow<'_> {
     /// A sample with any NaN or infinite value, or with `x` outside the row, is dropped and counted
     /// ([`Film::rejected_samples`]); the return value says whether the sample was accumulated.
     pub fn add_sample(&mut self, x: u32, l: &SampledSpectrum, wl: &SampledWavelengths, weight: f64) -> bool {
-        let xyz = self.conv.xyz(l, wl);
-        self.add_xyz_sample(x, xyz, weight, SpectralEstimates::new(l, wl).as_slice())
+        let (xyz, spectral) = self.conv.reduce(l, wl);
+        self.add_xyz_sample(x, xyz, weight, spectral.as_slice())
     }
 
     /// Adds one camera sample already reduced to colour and per-wavelength estimates to pixel `x` of this row.

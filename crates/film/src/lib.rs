@@ -3,13 +3,16 @@
 //! - [`Filter`] and [`FilterSampler`]: pbrt-v4's pixel filters, importance sampled so each camera sample lands in
 //!   its own pixel with weight f/pdf (lock-free, thread-count independent rendering).
 //! - [`Film`]: `f64` accumulators per pixel (XYZ, weight, and for a spectral film `nbuckets` wavelength buckets;
-//!   optionally albedo and normal AOVs), written row by row in parallel and mergeable across processes.
+//!   optionally albedo and normal AOVs), written row by row in parallel and mergeable across processes. The film
+//!   draws the wavelengths paths carry ([`Film::sample_wavelengths`]) and takes their radiance at those
+//!   wavelengths: the conversion to XYZ, the bucket assignment and the sensor's response are its own
+//!   ([`SampleConversion`]), written once for camera samples, splats and photon-mapping estimates.
 //! - [`write_image`]: EXR (linear float RGB, AOV layers, and the spectral layout of Fichet et al. 2021), PNG (sRGB,
 //!   dithered 8-bit) or PFM by extension, always atomically; readers for each format.
 //!
 //! ```
 //! use film::{Film, FilmKind, FilmSpec, FilterSampler};
-//! use spectral::Xyz;
+//! use spectral::SampledSpectrum;
 //!
 //! let mut spec = FilmSpec::new(4, 3, "out.exr");
 //! spec.kind = FilmKind::spectral_default();
@@ -18,11 +21,13 @@
 //! for mut row in film.rows_mut() {
 //!     for x in 0..row.width() {
 //!         let s = sampler.sample([0.3, 0.7]);
-//!         // One path sample: its XYZ, and (λ, L/pdf) for each active wavelength.
-//!         row.add_xyz_sample(x, Xyz::new(0.5, 0.5, 0.5), s.weight, &[(550.0, 1.0), (600.0, 2.0)]);
+//!         // One path sample: radiance 0.5 at the wavelengths the film drew for it.
+//!         let wl = row.sample_wavelengths(0.25);
+//!         row.add_sample(x, &SampledSpectrum::splat(0.5), &wl, s.weight);
 //!     }
 //! }
-//! assert!((film.pixel_xyz(1, 2).y - 0.5).abs() < 1e-12);
+//! // A constant spectrum of 0.5 has Y = 0.5 (up to the estimate's noise: one sample per pixel).
+//! assert!((film.pixel_xyz(1, 2).y - 0.5).abs() < 0.1);
 //! ```
 
 #![warn(missing_docs)]

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use render::builder::{build_scene, BuildOptions};
+use render::{build_scene, BuildOptions};
 use spectral::WavelengthStrategy;
 
 /// Arguments of `prismatic render`.

@@ -1,6 +1,29 @@
-//! Rendering for Prismatic: samplers, BSDFs, lights, cameras and integrators over a render-ready scene.
+//! Rendering for Prismatic: from a scene description to radiance in a film.
 //!
-//! Knows nothing of file formats: it consumes the plain scene description and writes into a film.
+//! Knows nothing of file formats: it consumes the plain scene description of the `scene` crate and writes into a
+//! `film::Film`. The road through it, top to bottom:
+//!
+//! - [`build_scene`] ([`builder`], one file per directive family) turns a description into a [`RenderScene`]
+//!   (geometry behind the [`Geometry`] trait, materials, lights with a power-based light sampler, media, camera)
+//!   and reads the [`Integrator`].
+//! - [`Integrator`] ([`integrator`], one file per algorithm: `path`, `lightpath`, `bdpt`, `sppm`) starts a
+//!   [`RenderJob`] that renders ranges of passes into the film and finishes into it.
+//! - Underneath: [`bxdf`], [`layered`] and [`microfacet`] (scattering models), [`material`] and [`texture`] (what
+//!   builds them at a hit), [`light`], [`camera`], [`sampler`] (the per-sample random numbers) and [`sampling`]
+//!   (warps and MIS heuristics).
+//!
+//! ```no_run
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! # let desc: scene::SceneDescription = unimplemented!();
+//! let built = render::build_scene(&desc, &render::BuildOptions::default())?;
+//! let mut film = film::Film::new(built.film.clone())?;
+//! built.integrator.render(&built.scene, &mut film, 0..built.spp, 0, &|_| {})?;
+//! film::write_image(&film, &built.film.filename)?;
+//! # Ok(())
+//! # }
+//! ```
+
+#![warn(missing_docs)]
 
 pub mod builder;
 pub mod bxdf;
@@ -14,3 +37,7 @@ pub mod sampler;
 pub mod sampling;
 pub mod scene;
 pub mod texture;
+
+pub use builder::{build_scene, BuildOptions, BuiltScene};
+pub use integrator::{Integrate, Integrator, Needs, PassUnit, RenderJob, RenderStats};
+pub use scene::{Geometry, RenderScene, SceneGeometry, SurfaceHit};

@@ -15,18 +15,17 @@ use scene::{Entity, Loc, SceneError};
 
 use crate::scene::RenderScene;
 
+// The integrators, one file each (listed again in `integrators!` below).
 pub mod bdpt;
-pub mod drive;
 pub mod lightpath;
 pub mod path;
 pub mod sppm;
+
+// What they share.
+pub mod drive;
 pub mod transport;
 
-pub use bdpt::BdptIntegrator;
 pub use drive::RenderStats;
-pub use lightpath::LightPathIntegrator;
-pub use path::PathIntegrator;
-pub use sppm::SppmIntegrator;
 pub use transport::RayCounts;
 
 /// What an integrator needs of the scene and how its passes count.
@@ -132,10 +131,13 @@ pub trait Integrate: Sync + std::fmt::Debug {
     ) -> Result<Box<dyn RenderJob + 'a>, FilmError>;
 }
 
-/// Declares [`Integrator`] with one variant per integrator, its pbrt-v4 name (and aliases), and the dispatch to
-/// [`Integrate`]: adding an integrator is one file and one line here.
+/// Declares, per integrator, the re-export of its type from its module, a variant of [`Integrator`], its pbrt-v4
+/// name (and aliases), and the dispatch to [`Integrate`]. (The `mod` lines stay outside the macro so that
+/// `cargo fmt` sees the files.)
 macro_rules! integrators {
-    ($($(#[$doc:meta])* $variant:ident($ty:ty) = $name:literal $(| $alias:literal)*;)*) => {
+    ($($(#[$doc:meta])* $variant:ident($module:ident::$ty:ident) = $name:literal $(| $alias:literal)*;)*) => {
+        $(pub use $module::$ty;)*
+
         /// The integrators the renderer can run, chosen by the scene's `Integrator` directive.
         #[derive(Clone, Copy, Debug)]
         pub enum Integrator {
@@ -172,13 +174,13 @@ macro_rules! integrators {
 
 integrators! {
     /// Unidirectional path tracing from the camera (pbrt-v4's `volpath` renders as `path`: media absorb only).
-    Path(PathIntegrator) = "path" | "volpath";
+    Path(path::PathIntegrator) = "path" | "volpath";
     /// Particle tracing from the lights, splatted onto the film.
-    LightPath(LightPathIntegrator) = "lightpath";
+    LightPath(lightpath::LightPathIntegrator) = "lightpath";
     /// Bidirectional path tracing with MIS over all connection strategies.
-    Bdpt(BdptIntegrator) = "bdpt";
+    Bdpt(bdpt::BdptIntegrator) = "bdpt";
     /// Stochastic progressive photon mapping; a pass is one iteration.
-    Sppm(SppmIntegrator) = "sppm";
+    Sppm(sppm::SppmIntegrator) = "sppm";
 }
 
 impl Integrator {
