@@ -34,7 +34,7 @@ const HEIGHT: u32 = 18;
 /// Side of a comparison block in pixels.
 const BLOCK: u32 = 6;
 
-/// What to put in the room besides the floor, the back wall, the area light and the green diffuse sphere.
+/// What to put in the room besides its walls, the area light and the green diffuse sphere.
 #[derive(Clone, Copy, Default)]
 struct Extras {
     /// A point light and a spot light (delta lights: no strategy can hit them).
@@ -70,10 +70,12 @@ fn diffuse(rgb: [f64; 3]) -> Material {
     }
 }
 
-/// A small room: a grey floor (8 × 8) and back wall, a green diffuse sphere, and a 1.2 × 1.2 quad light (5000 K)
-/// facing down from y = 3, seen from (0, 1.5, −4) through a 45° lens on a 24 × 18 film; `extras` adds to it.
+/// A closed room of diffuse walls (grey, one red), a green diffuse sphere, and a 1.2 × 1.2 quad light (5000 K)
+/// facing down from y = 3, seen from (0, 1.5, −4) through a 45° lens on a 24 × 18 film; `extras` adds to it. The
+/// room is closed so that light bounces many times: every bounce up to the maximum depth matters (the fourth
+/// bounce adds several per cent), so integrators that disagree on what the maximum depth counts disagree visibly.
 fn room(extras: Extras) -> RenderScene {
-    let mut materials = vec![diffuse([0.7, 0.7, 0.7]), diffuse([0.2, 0.6, 0.3])];
+    let mut materials = vec![diffuse([0.7, 0.7, 0.7]), diffuse([0.2, 0.6, 0.3]), diffuse([0.7, 0.25, 0.2])];
     let (mut shapes, mut info, mut lights) = (vec![], vec![], vec![]);
     let mut add = |shape: Shape, material: u32, emission: Option<Spectrum>, lights: &mut Vec<Light>| {
         let area_light_base = emission.map(|l| {
@@ -93,8 +95,15 @@ fn room(extras: Extras) -> RenderScene {
     };
     let light = quad([[-0.6, 3.0, -0.6], [0.6, 3.0, -0.6], [0.6, 3.0, 0.6], [-0.6, 3.0, 0.6]]);
     add(light, 0, Some(Spectrum::blackbody(5000.0).unwrap().scaled(4.0)), &mut lights);
-    add(quad([[-4.0, 0.0, -4.0], [-4.0, 0.0, 4.0], [4.0, 0.0, 4.0], [4.0, 0.0, -4.0]]), 0, None, &mut lights);
-    add(quad([[-4.0, 0.0, 2.0], [-4.0, 4.0, 2.0], [4.0, 4.0, 2.0], [4.0, 0.0, 2.0]]), 0, None, &mut lights);
+    // The closed box x ∈ [−3, 3], y ∈ [0, 3.2], z ∈ [−4.5, 2]: floor, ceiling, back, front (behind the camera),
+    // a red left wall and a grey right wall.
+    let (x0, x1, y1, z0, z1) = (-3.0, 3.0, 3.2, -4.5, 2.0);
+    add(quad([[x0, 0.0, z0], [x0, 0.0, z1], [x1, 0.0, z1], [x1, 0.0, z0]]), 0, None, &mut lights);
+    add(quad([[x0, y1, z0], [x0, y1, z1], [x1, y1, z1], [x1, y1, z0]]), 0, None, &mut lights);
+    add(quad([[x0, 0.0, z1], [x0, y1, z1], [x1, y1, z1], [x1, 0.0, z1]]), 0, None, &mut lights);
+    add(quad([[x0, 0.0, z0], [x0, y1, z0], [x1, y1, z0], [x1, 0.0, z0]]), 0, None, &mut lights);
+    add(quad([[x0, 0.0, z0], [x0, 0.0, z1], [x0, y1, z1], [x0, y1, z0]]), 2, None, &mut lights);
+    add(quad([[x1, 0.0, z0], [x1, 0.0, z1], [x1, y1, z1], [x1, y1, z0]]), 0, None, &mut lights);
     add(sphere([-0.8, 0.5, 0.5], 0.5), 1, None, &mut lights);
     if extras.rough_gold {
         let named = |n: &str| SpectrumTexture::Constant(optics::catalogue::named_spectrum(n).unwrap());
@@ -251,29 +260,29 @@ fn agrees_with_path(
 }
 
 /// Light tracing estimates the path tracer's image of the diffuse room: the whole image and each block within
-/// 4.5σ plus 0.5% (an allowance for differences that are not noise: the two directions of tracing meet edges and
-/// the sphere's contact with the floor through different ray offsets). The whole image's tolerance is asserted
-/// below 4%, so a light tracer off by π, a missing cosine, a wrong importance normalisation or a lost bounce fails.
+/// 4.5σ, with no allowance for bias (both are unbiased estimators of the same image). The whole image's tolerance
+/// is asserted below 3%, so a light tracer off by π, a missing cosine, a wrong importance normalisation or a lost
+/// bounce fails.
 #[test]
 fn lightpath_agrees_with_path_on_a_diffuse_room() {
-    agrees_with_path(&room(Extras::default()), &lightpath(4), 128, 128, 0.005, 0.04);
+    agrees_with_path(&room(Extras::default()), &lightpath(4), 128, 128, 0.0, 0.03);
 }
 
 /// Bidirectional path tracing estimates the path tracer's image of the diffuse room (same tolerances as light
 /// tracing): its MIS weights over all connection strategies must sum to one.
 #[test]
 fn bdpt_agrees_with_path_on_a_diffuse_room() {
-    agrees_with_path(&room(Extras::default()), &bdpt(4), 128, 32, 0.005, 0.04);
+    agrees_with_path(&room(Extras::default()), &bdpt(4), 128, 32, 0.0, 0.03);
 }
 
 /// The room with a point light and a spot light besides the area light, a rough gold sphere and a thin-lens
 /// camera: BDPT's weights for the strategies that cannot hit a delta light or reach the lens must leave its image
-/// equal to the path tracer's (same tolerances as light tracing). The delta lights are asserted to add more than
-/// 20% to the image, so dropping or double-counting them fails.
+/// equal to the path tracer's (same tolerances as light tracing; more samples, so that an error of 1–2% in how the
+/// delta lights' paths are weighted is resolved). The delta lights are asserted to add more than 20% to the image.
 #[test]
 fn bdpt_agrees_with_path_with_delta_lights_a_rough_metal_and_a_thin_lens() {
     let extras = Extras { delta_lights: true, rough_gold: true, thin_lens: true, glass: false };
-    agrees_with_path(&room(extras), &bdpt(4), 128, 64, 0.005, 0.04);
+    agrees_with_path(&room(extras), &bdpt(4), 256, 128, 0.0, 0.03);
     // Not a vacuous pass: the delta lights light a good part of the image.
     let without = room(Extras { delta_lights: false, ..extras });
     let (with, without) = (render(&room(extras), &path(4), 0..16, 1), render(&without, &path(4), 0..16, 1));
@@ -284,10 +293,10 @@ fn bdpt_agrees_with_path_with_delta_lights_a_rough_metal_and_a_thin_lens() {
 }
 
 /// Photon mapping converges to the path tracer's image of the diffuse room: the whole image and each block within
-/// 4.5σ plus 2% for the density estimate's bias (the gather disc blurs the illumination and, near the wall's
-/// corner with the floor and around the sphere, gathers photons that landed on the other surface; the radius shrinks from
-/// 0.15 over 64 iterations) and for the photons shared by neighbouring pixels, which the noise estimate ignores.
-/// The whole image's tolerance is asserted below 5%.
+/// 4.5σ plus 2% for the density estimate's bias (the gather disc blurs the illumination and, in the room's
+/// corners and around the sphere, gathers photons that landed on the other surface; the radius shrinks from 0.15
+/// over 64 iterations) and for the photons shared by neighbouring pixels, which the noise estimate ignores. The
+/// whole image's tolerance is asserted below 5%.
 #[test]
 fn sppm_agrees_with_path_on_a_diffuse_room() {
     agrees_with_path(&room(Extras::default()), &sppm(4), 128, 64, 0.02, 0.05);
