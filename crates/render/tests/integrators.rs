@@ -21,7 +21,7 @@ use render::material::{ConductorSpec, DielectricIor, Material, Roughness};
 use render::sampling::Frame;
 use render::scene::{RenderScene, SceneGeometry, ShapeInfo};
 use render::texture::{FloatTexture, SpectrumTexture};
-use spectral::rgb_uplift::RgbAlbedoSpectrum;
+use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum};
 use spectral::{Spectrum, WavelengthStrategy};
 
 // ------------------------------------------------------------------------------------------------------------------
@@ -124,7 +124,7 @@ fn room(extras: Extras) -> RenderScene {
         lights.push(Light::Spot {
             p: from,
             frame: Frame::from_z((to - from).normalize()),
-            i: Spectrum::RgbAlbedo(RgbAlbedoSpectrum::new([0.4, 0.6, 1.0]).unwrap()).scaled(5.0),
+            i: Spectrum::RgbIlluminant(RgbIlluminantSpectrum::new([2.0, 3.0, 5.0]).unwrap()),
             cos_falloff_start: 20f32.to_radians().cos(),
             cos_falloff_end: 25f32.to_radians().cos(),
         });
@@ -162,20 +162,17 @@ fn sppm(max_depth: u32) -> Integrator {
 }
 
 /// A film of the scene's size with a box filter of radius ½ (each sample counts in its own pixel only, so pixels
-/// are independent) and hero wavelengths; `spectral` adds 16 spectral buckets.
-fn film(spectral: bool) -> Film {
+/// are independent) and hero wavelengths.
+fn film() -> Film {
     let mut spec = FilmSpec::new(WIDTH, HEIGHT, "integrators.exr");
     spec.filter = Filter::new_box([0.5, 0.5]).unwrap();
     spec.wavelengths = WavelengthStrategy::Hero;
-    if spectral {
-        spec.kind = FilmKind::spectral_default();
-    }
     Film::new(spec).unwrap()
 }
 
 /// Renders passes `passes` (samples per pixel, or photon-mapping iterations) with `seed`.
 fn render(scene: &RenderScene, integrator: &Integrator, passes: Range<u32>, seed: u32) -> Film {
-    let mut film = film(false);
+    let mut film = film();
     integrator.render(scene, &mut film, passes, seed, &|_| {}).unwrap();
     film
 }
@@ -338,11 +335,20 @@ fn assert_same(a: &Film, b: &Film, rel: f64, what: &str) {
     assert!(lit > WIDTH * HEIGHT / 2, "{what}: only {lit} pixels are lit");
 }
 
-/// Renders passes `0..passes` of `integrator` on a spectral film, in a rayon pool of `threads` threads.
+/// A spectral film (16 buckets) with pbrt-v4's default gaussian filter (radius 1.5, σ 0.5), whose splats spread
+/// over several pixels: the most that can go wrong in the order of additions.
+fn determinism_film() -> Film {
+    let mut spec = FilmSpec::new(WIDTH, HEIGHT, "determinism.exr");
+    spec.kind = FilmKind::spectral_default();
+    spec.filter = Filter::gaussian([1.5, 1.5], 0.5).unwrap();
+    Film::new(spec).unwrap()
+}
+
+/// Renders passes `0..passes` of `integrator` on a [`determinism_film`], in a rayon pool of `threads` threads.
 fn render_with_threads(scene: &RenderScene, integrator: &Integrator, passes: u32, seed: u32, threads: usize) -> Film {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     pool.install(|| {
-        let mut film = film(true);
+        let mut film = determinism_film();
         integrator.render(scene, &mut film, 0..passes, seed, &|_| {}).unwrap();
         film
     })
@@ -378,9 +384,9 @@ fn a_render_split_into_two_runs_equals_one_run() {
     let scene = determinism_room();
     for integrator in all_integrators() {
         let name = integrator.name();
-        let mut whole = film(true);
+        let mut whole = determinism_film();
         integrator.render(&scene, &mut whole, 0..8, 5, &|_| {}).unwrap();
-        let mut split = film(true);
+        let mut split = determinism_film();
         let mut job: Box<dyn RenderJob + '_> = integrator.begin(&scene, &split, 5).unwrap();
         job.run(&mut split, 0..4, &|_| {});
         job.run(&mut split, 4..8, &|_| {});
@@ -391,7 +397,7 @@ fn a_render_split_into_two_runs_equals_one_run() {
         // by far more.
         let rel = if matches!(integrator, Integrator::LightPath(_) | Integrator::Bdpt(_)) { 1e-12 } else { 0.0 };
         assert_same(&whole, &split, rel, name);
-        let mut half = film(true);
+        let mut half = determinism_film();
         integrator.render(&scene, &mut half, 0..4, 5, &|_| {}).unwrap();
         assert!(
             (0..WIDTH).any(|x| half.pixel_xyz(x, HEIGHT / 2).to_array() != whole.pixel_xyz(x, HEIGHT / 2).to_array()),
