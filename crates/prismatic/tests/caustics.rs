@@ -1,6 +1,7 @@
-//! End-to-end tests of the light-tracing integrators (issue 4): they agree with the path tracer where both can
-//! render a scene, they put each wavelength of a beam refracted by a prism where Snell's law says, and their images
-//! do not depend on the number of threads.
+//! End-to-end tests of the light-tracing integrators (issue 4) through the pbrt parser: they put each wavelength
+//! of a beam refracted by a prism where Snell's law says, and light tracing refuses a camera light cannot reach.
+//! Their agreement with the path tracer, their determinism and their furnace tests run on scenes built in code, in
+//! `crates/render/tests/integrators.rs` and `furnace.rs`.
 
 use std::path::Path;
 
@@ -24,7 +25,7 @@ fn render(built: &BuiltScene, spp: u32, seed: u32) -> Film {
     film
 }
 
-/// A diffuse room without specular surfaces: a floor, a back wall, a coloured box and a quad light facing down.
+/// A diffuse room (a floor, a back wall, a coloured sphere and a quad light facing down) rendered by `integrator`.
 fn diffuse_room(integrator: &str) -> String {
     format!(
         r#"LookAt 0 1.5 -4  0 1 0  0 1 0
@@ -45,83 +46,6 @@ Translate -0.8 0.5 0.5
 Shape "sphere" "float radius" 0.5
 "#
     )
-}
-
-/// Mean Y over a block of pixels and its standard error, from two renders with independent seeds: the pixel
-/// differences aₚ − bₚ have zero mean and variance Var aₚ + Var bₚ whatever the image, so the standard error of the
-/// mean of (a + b)/2 over n pixels is √(Σ (aₚ − bₚ)²)/(2n).
-fn block_y(a: &Film, b: &Film, xs: std::ops::Range<u32>, ys: std::ops::Range<u32>) -> (f64, f64) {
-    let (mut sum, mut d2, mut n) = (0.0, 0.0, 0.0);
-    for y in ys {
-        for x in xs.clone() {
-            let (va, vb) = (a.pixel_xyz(x, y).y, b.pixel_xyz(x, y).y);
-            sum += 0.5 * (va + vb);
-            d2 += (va - vb).powi(2);
-            n += 1.0;
-        }
-    }
-    (sum / n, d2.sqrt() / (2.0 * n))
-}
-
-/// Light tracing and path tracing estimate the same image of a diffuse scene: per 6×6 block (12 blocks), the means
-/// agree within 4.5 standard errors of their difference plus 1%. A light tracer off by a factor of π, a missing
-/// cosine or a wrong importance normalisation would miss by far more than that (the blocks' relative standard
-/// errors are asserted to be below 4%).
-#[test]
-fn lightpath_agrees_with_path_on_a_diffuse_scene() {
-    agrees_with_path(&diffuse_room("path"), &diffuse_room("lightpath"), 64);
-}
-
-/// Bidirectional path tracing estimates the same image as path tracing on the diffuse room (same tolerances).
-#[test]
-fn bdpt_agrees_with_path_on_a_diffuse_scene() {
-    agrees_with_path(&diffuse_room("path"), &diffuse_room("bdpt"), 32);
-}
-
-/// The diffuse room with delta lights (a point light and a spot light) besides the area light, a rough gold
-/// sphere and a thin-lens camera: BDPT's weights for strategies that cannot hit a delta light or reach a pinhole
-/// must leave its image equal to the path tracer's.
-#[test]
-fn bdpt_agrees_with_path_with_delta_lights_and_a_glossy_metal() {
-    let room = |integrator: &str| {
-        diffuse_room(integrator)
-            .replace(
-                r#"Camera "perspective" "float fov" 45"#,
-                r#"Camera "perspective" "float fov" 45 "float lensradius" 0.05 "float focaldistance" 4.5"#,
-            )
-            .replace(
-                "WorldBegin\n",
-                "WorldBegin\nLightSource \"point\" \"point3 from\" [ 1.2 2.2 -0.5 ] \"blackbody I\" 3000 \"float scale\" 3\n\
-                 LightSource \"spot\" \"point3 from\" [ -2 3 -2 ] \"point3 to\" [ 0 0 1 ] \"float coneangle\" 25 \
-                 \"rgb I\" [ 2 3 5 ]\n\
-                 AttributeBegin\n  Material \"conductor\" \"spectrum eta\" \"metal-Au-eta\" \
-                 \"spectrum k\" \"metal-Au-k\" \"float roughness\" 0.3\n  Translate 0.9 0.6 0.2\n  \
-                 Shape \"sphere\" \"float radius\" 0.6\nAttributeEnd\n",
-            )
-    };
-    assert!(room("bdpt").contains("LightSource \"spot\"") && room("bdpt").contains("lensradius"));
-    agrees_with_path(&room("path"), &room("bdpt"), 128);
-}
-
-/// Renders `reference` (a path-traced scene, 128 spp) and `other` (`spp`) with two seeds each and compares 12 blocks of 6×6
-/// pixels: means within 4.5 standard errors of their difference plus 1%, relative standard errors below 4% (so
-/// the comparison resolves a few per cent).
-fn agrees_with_path(reference: &str, other: &str, spp: u32) {
-    let path = build(reference);
-    let light = build(other);
-    let (pa, pb) = (render(&path, 128, 1), render(&path, 128, 2));
-    let (la, lb) = (render(&light, spp, 3), render(&light, spp, 4));
-    for by in 0..3 {
-        for bx in 0..4 {
-            let (xs, ys) = (bx * 6..bx * 6 + 6, by * 6..by * 6 + 6);
-            let (yp, sp) = block_y(&pa, &pb, xs.clone(), ys.clone());
-            let (yl, sl) = block_y(&la, &lb, xs, ys);
-            assert!(yp > 0.0 && sp / yp < 0.04 && sl / yl < 0.04, "block ({bx},{by}): {yp}±{sp} vs {yl}±{sl}");
-            let tol = 4.5 * (sp * sp + sl * sl).sqrt() + 0.01 * yp;
-            eprintln!("block ({bx},{by}): path {yp:.5} ± {sp:.5}, other {yl:.5} ± {sl:.5}");
-            assert!((yp - yl).abs() < tol, "block ({bx},{by}): path {yp} ± {sp}, lightpath {yl} ± {sl}");
-        }
-    }
 }
 
 /// 2D vector helpers in the x–z plane of the prism tests.
@@ -364,43 +288,6 @@ AttributeBegin
     }
     // The spectrum is spread over many pixels, so the check distinguishes the buckets.
     assert!(spread > 10.0, "spectrum spans only {spread} px");
-}
-
-/// Light-path splats and photons are added in a fixed order: one and two threads give bit-identical films.
-#[test]
-fn light_tracing_images_do_not_depend_on_the_thread_count() {
-    for integrator in ["lightpath", "sppm", "bdpt"] {
-        let built = build(&diffuse_room(integrator));
-        let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| render(&built, 4, 9))
-        };
-        let (one, two) = (run(1), run(2));
-        assert_eq!(one.to_rgb_image(), two.to_rgb_image(), "{integrator}");
-        assert!(one.to_rgb_image().iter().any(|p| p[1] > 0.0));
-    }
-}
-
-/// Photon mapping converges to the path tracer's image of a diffuse scene: per 6×6 block, within 4.5 standard
-/// errors plus 4% (the density estimate's blur and bias with a radius shrinking from 0.15 over 48 iterations; the
-/// measured difference is below that).
-#[test]
-fn sppm_agrees_with_path_on_a_diffuse_scene() {
-    let path = build(&diffuse_room("path"));
-    let text = diffuse_room("sppm").replace(r#""integer maxdepth" 4"#, r#""integer maxdepth" 4 "float radius" 0.15"#);
-    let sppm = build(&text);
-    let (pa, pb) = (render(&path, 128, 1), render(&path, 128, 2));
-    let (sa, sb) = (render(&sppm, 48, 3), render(&sppm, 48, 4));
-    for by in 0..3 {
-        for bx in 0..4 {
-            let (xs, ys) = (bx * 6..bx * 6 + 6, by * 6..by * 6 + 6);
-            let (yp, sp) = block_y(&pa, &pb, xs.clone(), ys.clone());
-            let (ys_, ss) = block_y(&sa, &sb, xs, ys);
-            let tol = 4.5 * (sp * sp + ss * ss).sqrt() + 0.04 * yp;
-            eprintln!("sppm block ({bx},{by}): path {yp} ± {sp}, sppm {ys_} ± {ss}");
-            assert!((yp - ys_).abs() < tol, "block ({bx},{by}): path {yp} ± {sp}, sppm {ys_} ± {ss}");
-        }
-    }
 }
 
 /// Light tracing needs a camera that light paths can reach: an orthographic camera is an error naming the camera's

@@ -1,13 +1,15 @@
 //! End-to-end tests of the renderer in process: pbrt text → `pbrt::parse_str` → `build_scene` → `render_film` →
 //! film, checked against closed forms (issue 3, section 7).
 //!
-//! - determinism over thread counts (and a different seed gives a different image);
 //! - the three wavelength strategies agree on a non-dispersive scene, and each matches the closed form;
 //! - with dispersion, the three strategies converge to the same image;
 //! - a prism-like slab images a slit where Snell's law with N-SF11's n(λ) puts it, bucket by bucket of the
 //!   spectral film, for every strategy;
 //! - the layered materials (`coateddiffuse` with a scattering layer, `coatedconductor`) build and render, reflect
 //!   no more than arrives, and a white coated furnace reflects everything; a bad `g` is an error naming it.
+//!
+//! (Determinism over thread counts and passes is tested in `crates/render/tests/integrators.rs`, on scenes built in
+//! code.)
 //!
 //! Statistical tolerances come from the measured noise of each render (two independent seeds per strategy; see
 //! [`region_stats`]), never from numbers copied from an earlier run.
@@ -139,86 +141,7 @@ fn region_stats(a: &Film, b: &Film, pixels: &[(u32, u32)]) -> RegionStats {
 const K_SIGMA: f64 = 4.5;
 
 // ------------------------------------------------------------------------------------------------------------------
-// 1. Determinism over thread counts
-// ------------------------------------------------------------------------------------------------------------------
-
-const DETERMINISM_SCENE: &str = r#"
-LookAt 0 1.3 -4  0 0.6 0  0 1 0
-Camera "perspective" "float fov" 40
-Film "spectral" "integer xresolution" 32 "integer yresolution" 24 "integer nbuckets" 16
-Sampler "zsobol" "integer pixelsamples" 8
-Integrator "path" "integer maxdepth" 6
-PixelFilter "gaussian"
-WorldBegin
-AttributeBegin
-  AreaLightSource "diffuse" "blackbody L" 5500 "float scale" 6
-  Translate 0.5 3 0
-  Rotate 90 1 0 0
-  Shape "disk" "float radius" 0.8
-AttributeEnd
-AttributeBegin
-  Material "diffuse" "rgb reflectance" [ 0.7 0.6 0.4 ]
-  Shape "trianglemesh" "point3 P" [ -5 0 -5  5 0 -5  5 0 5  -5 0 5 ] "integer indices" [ 0 2 1 0 3 2 ]
-AttributeEnd
-AttributeBegin
-  Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ]
-  Shape "trianglemesh" "point3 P" [ -5 0 3  -5 6 3  5 6 3  5 0 3 ] "integer indices" [ 0 1 2 0 2 3 ]
-AttributeEnd
-AttributeBegin
-  Material "dielectric" "string glass" "N-SF11"
-  Translate 0 0.7 0
-  Shape "sphere" "float radius" 0.7
-AttributeEnd
-AttributeBegin
-  Material "diffuse" "rgb reflectance" [ 0.1 0.3 0.8 ]
-  Translate -1.3 0.35 0.8
-  Shape "sphere" "float radius" 0.35
-AttributeEnd
-"#;
-
-/// The same scene (a dispersive glass sphere, diffuse floor, wall and sphere, a disk light; spectral film) rendered
-/// by rayon pools of 1 and 2 threads gives bit-identical films; another seed does not.
-#[test]
-fn images_do_not_depend_on_the_thread_count() {
-    let built = build(DETERMINISM_SCENE, "determinism.pbrt");
-    let render_in = |threads: usize, seed: u32| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| render(&built, WavelengthStrategy::Hero, built.spp, seed))
-    };
-    let one = render_in(1, 11);
-    let two = render_in(2, 11);
-    let other_seed = render_in(2, 12);
-    let (w, h) = (one.width(), one.height());
-    let mut lit = 0;
-    let mut differing = 0;
-    for y in 0..h {
-        for x in 0..w {
-            let (a, b) = (one.pixel_xyz(x, y).to_array(), two.pixel_xyz(x, y).to_array());
-            // Exact: every random number depends only on (pixel, sample index, seed).
-            assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "pixel ({x}, {y}): {a:?} vs {b:?}");
-            assert_eq!(one.pixel_weight(x, y).to_bits(), two.pixel_weight(x, y).to_bits());
-            if a[1] > 0.0 {
-                lit += 1;
-            }
-            if other_seed.pixel_xyz(x, y).to_array() != a {
-                differing += 1;
-            }
-        }
-    }
-    // The spectral buckets too.
-    let (sa, sb) = (one.to_spectral_image(), two.to_spectral_image());
-    assert_eq!(sa.len(), (w * h * 16) as usize);
-    assert!(sa.iter().zip(&sb).all(|(a, b)| a.to_bits() == b.to_bits()), "spectral buckets differ");
-    let n = w * h;
-    // Guard against a vacuous pass (a black image is trivially deterministic): most pixels see light.
-    assert!(lit > n * 3 / 4, "only {lit} of {n} pixels are lit");
-    // Another seed gives independent noise: almost every lit pixel changes (only pixels whose every sample gives
-    // exactly the same value, such as a directly seen emitter under a constant filter weight, may not).
-    assert!(differing > n * 3 / 4, "only {differing} of {n} pixels changed with the seed");
-}
-
-// ------------------------------------------------------------------------------------------------------------------
-// 2. The three strategies agree on a non-dispersive scene (and match the closed form)
+// 1. The three strategies agree on a non-dispersive scene (and match the closed form)
 // ------------------------------------------------------------------------------------------------------------------
 
 /// Reflectances (linear sRGB, uplifted as albedo spectra) of the four quadrants, saturated on purpose: that is
@@ -341,7 +264,7 @@ fn wavelength_strategies_agree_without_dispersion() {
 }
 
 // ------------------------------------------------------------------------------------------------------------------
-// 3. With dispersion the three strategies converge to the same image
+// 2. With dispersion the three strategies converge to the same image
 // ------------------------------------------------------------------------------------------------------------------
 
 /// A smooth N-SF11 sphere (radius 1, at the origin) in front of two emitters side by side, orange on the left and
@@ -513,7 +436,7 @@ fn wavelength_strategies_converge_with_dispersion() {
 }
 
 // ------------------------------------------------------------------------------------------------------------------
-// 4. Snell's law, bucket by bucket, from the spectral film
+// 3. Snell's law, bucket by bucket, from the spectral film
 // ------------------------------------------------------------------------------------------------------------------
 
 /// The prism geometry (world = camera space: x right, y up, the orthographic camera looks along +z).
@@ -703,7 +626,7 @@ AttributeBegin
 }
 
 // ------------------------------------------------------------------------------------------------------------------
-// 5. Layered materials build and render
+// 4. Layered materials build and render
 // ------------------------------------------------------------------------------------------------------------------
 
 /// A quad filling an orthographic view, made of `material`, under a uniform white environment (luminance 1).

@@ -8,7 +8,7 @@ use film::{Film, FilmSpec, Filter};
 use geometry::Transform;
 use glam::{DVec3, Vec2, Vec3};
 use render::camera::{Camera, Projection, ScreenWindow};
-use render::integrator::{Integrator, PathIntegrator};
+use render::integrator::{BdptIntegrator, Integrator, LightPathIntegrator, PathIntegrator, SppmIntegrator};
 use render::light::Light;
 use render::material::{DielectricIor, Material, Roughness};
 use render::scene::{Geometry, RenderScene, SurfaceHit};
@@ -81,11 +81,16 @@ fn scene(material: Material) -> RenderScene {
 
 /// Mean Y over the central 4×4 pixels (all on the sphere) and its standard error across pixels.
 fn mean_y(scene: &RenderScene, strategy: WavelengthStrategy, spp: u32, max_depth: u32) -> (f64, f64) {
+    mean_y_with(scene, &Integrator::Path(PathIntegrator { max_depth }), strategy, spp)
+}
+
+/// [`mean_y`] with any integrator (`passes` samples per pixel, or photon-mapping iterations).
+fn mean_y_with(scene: &RenderScene, integrator: &Integrator, strategy: WavelengthStrategy, passes: u32) -> (f64, f64) {
     let mut spec = FilmSpec::new(8, 8, "furnace.exr");
     spec.filter = Filter::new_box([0.5, 0.5]).unwrap();
     spec.wavelengths = strategy;
     let mut film = Film::new(spec).unwrap();
-    Integrator::Path(PathIntegrator { max_depth }).render(scene, &mut film, 0..spp, 1, &|_| {}).unwrap();
+    integrator.render(scene, &mut film, 0..passes, 1, &|_| {}).unwrap();
     let mut values = vec![];
     for y in 2..6 {
         for x in 2..6 {
@@ -124,4 +129,51 @@ fn glass_spheres_in_a_furnace_are_invisible() {
             assert!((y - 1.0).abs() < 4.0 * se + 0.01, "{strategy}: Y = {y} ± {se}");
         }
     }
+}
+
+/// The diffuse sphere in the furnace through the integrators that start paths at the lights: the uniform
+/// environment emits light paths from a disc on the scene's bounding sphere, so light tracing and BDPT must see the
+/// same ρ·L as the path tracer. Light tracing reaches these pixels only through its splats and BDPT weighs all its
+/// strategies; an error in the environment's emission pdf or area (π r² of the disc), in the splats'
+/// normalisation or in a strategy's weight moves the answer by more than the tolerance: 4 standard errors across
+/// the 16 pixels (asserted below 2% of ρ) plus 0.5% of ρ for the colour conversion.
+#[test]
+fn light_and_bidirectional_tracing_in_a_furnace_reflect_albedo_times_l() {
+    for rho in [0.25, 0.8] {
+        let s = scene(Material::Diffuse { reflectance: SpectrumTexture::Constant(Spectrum::Constant(rho)) });
+        for (integrator, passes) in [
+            (Integrator::LightPath(LightPathIntegrator { max_depth: 5 }), 4096),
+            (Integrator::Bdpt(BdptIntegrator { max_depth: 5 }), 64),
+        ] {
+            furnace_check(&s, &integrator, passes, rho, 0.0);
+        }
+    }
+}
+
+/// Photon mapping in the furnace: ρ·L within 4 standard errors plus 0.5% of ρ plus 2% of ρ for the gather disc's bias on
+/// the curved surface.
+///
+/// Ignored because it fails today (Y ≈ 0.18·ρ): at the visible point photon mapping adds next-event estimation
+/// weighted by the power heuristic against BSDF sampling (`sample_direct_light`), but nothing adds the
+/// BSDF-sampled share of direct light (photons are only gathered from their second bounce on). With a small area
+/// light the light-sampling weight is close to 1 and the loss is invisible (the diffuse-room agreement test
+/// passes); with an environment most of the direct light is lost.
+#[test]
+#[ignore = "sppm loses the BSDF-sampled share of direct light from non-delta lights"]
+fn photon_mapping_in_a_furnace_reflects_albedo_times_l() {
+    let sppm = SppmIntegrator { max_depth: 5, photons_per_iteration: Some(4096), initial_radius: 0.05, iterations: 64 };
+    for rho in [0.25, 0.8] {
+        let s = scene(Material::Diffuse { reflectance: SpectrumTexture::Constant(Spectrum::Constant(rho)) });
+        furnace_check(&s, &Integrator::Sppm(sppm), 64, rho, 0.02);
+    }
+}
+
+/// Renders the furnace with `integrator` and checks Y = ρ within 4 standard errors (asserted below 2% of ρ, so the
+/// check resolves a few per cent) plus 0.5% of ρ for the colour conversion plus `bias`·ρ.
+fn furnace_check(s: &RenderScene, integrator: &Integrator, passes: u32, rho: f64, bias: f64) {
+    let (y, se) = mean_y_with(s, integrator, WavelengthStrategy::Hero, passes);
+    let name = integrator.name();
+    eprintln!("{name}: ρ = {rho}: Y = {y:.5} ± {se:.5}, |Δ| = {:.2} SE", (y - rho).abs() / se);
+    assert!(se < 0.02 * rho, "{name}: ρ = {rho}: standard error {se} too large to resolve a few per cent");
+    assert!((y - rho).abs() < 4.0 * se + (0.005 + bias) * rho, "{name}: ρ = {rho}: Y = {y} ± {se}");
 }
