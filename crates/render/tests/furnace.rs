@@ -153,13 +153,11 @@ fn light_and_bidirectional_tracing_in_a_furnace_reflect_albedo_times_l() {
 /// Photon mapping in the furnace: ρ·L within 4 standard errors plus 0.5% of ρ plus 2% of ρ for the gather disc's bias on
 /// the curved surface.
 ///
-/// Ignored because it fails today (Y ≈ 0.18·ρ): at the visible point photon mapping adds next-event estimation
-/// weighted by the power heuristic against BSDF sampling (`sample_direct_light`), but nothing adds the
-/// BSDF-sampled share of direct light (photons are only gathered from their second bounce on). With a small area
-/// light the light-sampling weight is close to 1 and the loss is invisible (the diffuse-room agreement test
-/// passes); with an environment most of the direct light is lost.
+/// This caught a bias (Y ≈ 0.18·ρ): photon mapping's visible points weighted their next-event estimation by the
+/// power heuristic against BSDF sampling, but nothing added the BSDF-sampled share of direct light (photons are
+/// gathered from their second bounce on). With a small area light the weight is close to 1 and the loss was
+/// invisible; under an environment most of the direct light was lost.
 #[test]
-#[ignore = "sppm loses the BSDF-sampled share of direct light from non-delta lights"]
 fn photon_mapping_in_a_furnace_reflects_albedo_times_l() {
     let sppm = SppmIntegrator { max_depth: 5, photons_per_iteration: Some(4096), initial_radius: 0.05, iterations: 64 };
     for rho in [0.25, 0.8] {

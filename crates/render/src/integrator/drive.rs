@@ -134,52 +134,64 @@ impl SampleRecords {
     }
 }
 
+/// What [`render_splatting`] calls for every pixel sample: `(x, y, s, counts, records)`.
+pub(crate) type PixelSample<'f> = dyn Fn(u32, u32, u32, &mut RayCounts, &mut SampleRecords) + Sync + 'f;
+
 /// Runs `per_sample(x, y, s, counts, records)` for every pixel sample, rows in parallel in batches small enough to
-/// hold their records in memory, then adds the camera samples and splats in row order: the same sums in the same
-/// order for any number of threads. Counts `samples` light paths per pixel for the splats' scale.
+/// hold their records in memory, and adds the camera samples and splats to the film in the order (sample index,
+/// row, column) whatever the batching: the same sums in the same order for any number of threads, and for a render
+/// split into several runs of consecutive sample ranges. Counts `samples` light paths per pixel for the splats'
+/// scale.
 pub(crate) fn render_splatting(
     film: &mut Film,
     samples: Range<u32>,
     progress: &(dyn Fn(u64) + Sync),
-    per_sample: &(dyn Fn(u32, u32, u32, &mut RayCounts, &mut SampleRecords) + Sync),
+    per_sample: &PixelSample,
 ) -> RenderStats {
     let (w, h) = (film.width(), film.height());
     let spp = (samples.end - samples.start) as u64;
-    // Batches of at least 32 rows (work for every thread) and at most ~128k pixel samples (memory for their
-    // records): the sample range is split into chunks when the rows are wide or the sample count high. Batching
-    // depends only on the film size and the sample range, never on the thread count.
+    // A batch holds at most ~128k pixel samples' records: a band of rows of one sample pass for large films, or
+    // several whole passes for small ones (work for every thread either way). Records are kept per pass within a
+    // row, so the batch adds them pass by pass, and the global order of additions is (pass, row, column).
     const BATCH_PATHS: u64 = 1 << 17;
-    let batch_rows = 32u32.min(h).max(1);
-    let chunk = (BATCH_PATHS / (w as u64 * batch_rows as u64).max(1)).clamp(1, spp.max(1)) as u32;
+    let rows_per_batch = (BATCH_PATHS / w as u64).clamp(1, h as u64) as u32;
+    let passes_per_batch =
+        if rows_per_batch < h { 1 } else { (BATCH_PATHS / (w as u64 * h as u64)).clamp(1, spp.max(1)) as u32 };
     let mut stats = RenderStats::default();
     let mut s0 = samples.start;
     while s0 < samples.end {
-        let s1 = (s0 + chunk).min(samples.end);
+        let s1 = (s0 + passes_per_batch).min(samples.end);
         let mut y0 = 0;
         while y0 < h {
-            let y1 = (y0 + batch_rows).min(h);
-            let rows: Vec<(SampleRecords, RayCounts)> = (y0..y1)
+            let y1 = (y0 + rows_per_batch).min(h);
+            // Per row: one record set per pass s0..s1.
+            let rows: Vec<(Vec<SampleRecords>, RayCounts)> = (y0..y1)
                 .into_par_iter()
                 .map(|y| {
-                    let mut records = SampleRecords::default();
                     let mut counts = RayCounts::default();
-                    for x in 0..w {
-                        for s in s0..s1 {
-                            per_sample(x, y, s, &mut counts, &mut records);
-                        }
-                    }
+                    let records = (s0..s1)
+                        .map(|s| {
+                            let mut records = SampleRecords::default();
+                            for x in 0..w {
+                                per_sample(x, y, s, &mut counts, &mut records);
+                            }
+                            records
+                        })
+                        .collect();
                     progress(w as u64 * (s1 - s0) as u64);
                     (records, counts)
                 })
                 .collect();
             let mut splats = Vec::new();
-            for (y, (records, counts)) in (y0..y1).zip(rows) {
-                for c in &records.camera {
-                    film.add_sample(c.x, y, &c.l, &c.wl, c.weight as f64);
+            for pass in 0..(s1 - s0) as usize {
+                for (y, (records, _)) in (y0..y1).zip(&rows) {
+                    for c in &records[pass].camera {
+                        film.add_sample(c.x, y, &c.l, &c.wl, c.weight as f64);
+                    }
+                    splats.extend_from_slice(&records[pass].splats);
                 }
-                splats.extend(records.splats);
-                stats.rays += counts.intersect + counts.shadow;
             }
+            stats.rays += rows.iter().map(|(_, c)| c.intersect + c.shadow).sum::<u64>();
             film.add_splats(&splats);
             y0 = y1;
         }

@@ -10,7 +10,7 @@ use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{finite_or_zero, render_rows, CameraSampler, RenderStats};
-use super::transport::{begin_bounce, sample_direct_light, scatter, Bounce, PathRay, RayCounts};
+use super::transport::{begin_bounce, sample_direct_light, scatter, Bounce, DirectLight, PathRay, RayCounts};
 use super::{Integrate, IntegratorParams, RenderJob};
 use crate::bxdf::TransportMode;
 use crate::sampler::Sampler;
@@ -108,7 +108,19 @@ impl PathIntegrator {
             // Next-event estimation.
             if !bxdf.is_specular() {
                 let [u_light, u0, u1] = u.connect;
-                l += beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, u_light, Vec2::new(u0, u1), counts);
+                l += beta
+                    * sample_direct_light(
+                        scene,
+                        &hit,
+                        &frame,
+                        &bxdf,
+                        wo,
+                        wl,
+                        u_light,
+                        Vec2::new(u0, u1),
+                        DirectLight::Mis,
+                        counts,
+                    );
             }
             // BSDF sampling for the next direction.
             let mode = TransportMode::Radiance;

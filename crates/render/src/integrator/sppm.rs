@@ -28,7 +28,7 @@ use spectral::{SampledSpectrum, SampledWavelengths, Xyz};
 use super::drive::RenderStats;
 use super::drive::{CameraSample, CameraSampler};
 use super::lightpath::walk_light_path;
-use super::transport::{begin_bounce, sample_direct_light, scatter, Bounce, PathRay, RayCounts};
+use super::transport::{begin_bounce, sample_direct_light, scatter, Bounce, DirectLight, PathRay, RayCounts};
 use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
 use crate::sampler::{hash_words, Sampler};
@@ -409,8 +409,19 @@ impl SppmIntegrator {
             let wo = frame.to_local(-d);
             if !bxdf.is_specular() {
                 let [u_light, u0, u1] = u.connect;
-                ld +=
-                    beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, u_light, Vec2::new(u0, u1), counts);
+                ld += beta
+                    * sample_direct_light(
+                        scene,
+                        &hit,
+                        &frame,
+                        &bxdf,
+                        wo,
+                        wl,
+                        u_light,
+                        Vec2::new(u0, u1),
+                        DirectLight::LightSamplingOnly,
+                        counts,
+                    );
                 let vp = VisiblePoint { p: hit.p, frame, wo, bxdf, beta, wl: *wl };
                 return (Some(vp), ld);
             }

@@ -23,9 +23,19 @@ pub struct RayCounts {
     pub shadow: u64,
 }
 
+/// How next-event estimation shares direct light with BSDF sampling.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum DirectLight {
+    /// The caller also finds emitters by BSDF sampling: weight by the power heuristic (Veach 1997 §9.2).
+    Mis,
+    /// Light sampling is the only estimate of direct light at this vertex (photon mapping's visible points, whose
+    /// photons count from their second bounce): unweighted.
+    LightSamplingOnly,
+}
+
 /// Next-event estimation at a surface: picks a light with `u_light`, samples a point on it with `u`, and returns
-/// its contribution `f·|cos|·L / p` weighted by the power heuristic against BSDF sampling (Veach 1997 §9.2; delta
-/// lights unweighted), or zero if occluded.
+/// its contribution `f·|cos|·L / p` (weighted as `weighting` says; delta lights always unweighted), or zero if
+/// occluded.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn sample_direct_light(
     scene: &RenderScene,
@@ -36,6 +46,7 @@ pub(crate) fn sample_direct_light(
     wl: &SampledWavelengths,
     u_light: f32,
     u: Vec2,
+    weighting: DirectLight,
     counts: &mut RayCounts,
 ) -> SampledSpectrum {
     let Some((li, p_sel)) = scene.sample_light(u_light) else { return SampledSpectrum::zero() };
@@ -58,7 +69,7 @@ pub(crate) fn sample_direct_light(
         return SampledSpectrum::zero();
     }
     let p_l = p_sel * ls.pdf;
-    if ls.delta {
+    if ls.delta || weighting == DirectLight::LightSamplingOnly {
         f * ls.l * (1.0 / p_l)
     } else {
         let p_b = bxdf.pdf(wo, wi_local, TransportMode::Radiance);
