@@ -14,7 +14,7 @@ use glam::{DVec3, Vec2, Vec3};
 use crate::bounds::Bounds3;
 use crate::mesh::BilinearMeshData;
 use crate::ray::gamma;
-use crate::shapes::{coordinate_system, ShapeSample, SurfaceGeom};
+use crate::shapes::{coordinate_system, ElementHit, ShapeKind, ShapeRay, ShapeSample, SurfaceGeom};
 use crate::transform::Transform;
 use crate::GeometryError;
 
@@ -379,6 +379,41 @@ impl BilinearMesh {
         }
         let g = self.geom(k, Vec2::new(u as f32, v as f32));
         Some(ShapeSample { p: g.p, p_error: g.p_error, n: g.n, uv: g.uv, pdf: pdf as f32 })
+    }
+}
+
+impl ShapeKind for BilinearMesh {
+    fn primitive_count(&self) -> usize {
+        self.patch_count()
+    }
+
+    fn bounds(&self) -> Bounds3 {
+        BilinearMesh::bounds(self)
+    }
+
+    fn element_bounds(&self, e: usize) -> Bounds3 {
+        self.patch_bounds(e)
+    }
+
+    fn area(&self, e: usize) -> f32 {
+        self.patch_area(e)
+    }
+
+    #[inline]
+    fn intersect_element(&self, e: usize, ray: &ShapeRay, t_max: f32) -> Option<ElementHit> {
+        self.intersect(e, ray.ray.o, ray.ray.d, t_max).map(|(t, uv)| ElementHit::at_coords(t, [uv.x, uv.y, 0.0]))
+    }
+
+    fn surface_geom(&self, e: usize, hit: &ElementHit) -> SurfaceGeom {
+        self.geom(e, Vec2::new(hit.b[0], hit.b[1]))
+    }
+
+    fn sample_area(&self, e: usize, u: Vec2) -> Option<ShapeSample> {
+        BilinearMesh::sample_area(self, e, u)
+    }
+
+    fn pdf_area(&self, e: usize, hit: &ElementHit) -> f32 {
+        BilinearMesh::pdf_area(self, e, Vec2::new(hit.b[0], hit.b[1]))
     }
 }
 
