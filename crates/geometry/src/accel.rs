@@ -6,8 +6,10 @@
 //! built in parallel (rayon), and each BVH build is itself parallel (`obvhs`'s PLOC builder).
 //!
 //! Traversal uses `obvhs`'s `traverse!` loop with our own node test (an SSE-width slab test through glam's `Vec4`
-//! with no minimum-`t` epsilon, and pbrt's `1 + 2γ(3)` widening of the far distance), our watertight triangle test
-//! and f64 sphere, disk and bilinear-patch tests, so hits are found down to `t → 0⁺` and rays spawned with
+//! with no minimum-`t` epsilon, and pbrt's `1 + 2γ(3)` widening of the far distance). Leaves ask the shapes: plain
+//! triangles (`Shape::element_triangle`) are copied into the BVH and tested there with the watertight triangle
+//! test, every other primitive through its [`Shape`]'s element queries (f64 sphere, disk and bilinear-patch tests),
+//! so this file never looks at shape kinds. Hits are found down to `t → 0⁺` and rays spawned with
 //! [`crate::spawn_ray`] never re-hit their surface.
 //!
 //! ## IDs in a [`Hit`]
