@@ -6,8 +6,10 @@
 //! built in parallel (rayon), and each BVH build is itself parallel (`obvhs`'s PLOC builder).
 //!
 //! Traversal uses `obvhs`'s `traverse!` loop with our own node test (an SSE-width slab test through glam's `Vec4`
-//! with no minimum-`t` epsilon, and pbrt's `1 + 2γ(3)` widening of the far distance), our watertight triangle test
-//! and f64 sphere, disk and bilinear-patch tests, so hits are found down to `t → 0⁺` and rays spawned with
+//! with no minimum-`t` epsilon, and pbrt's `1 + 2γ(3)` widening of the far distance). Leaves ask the shapes: plain
+//! triangles (`Shape::element_triangle`) are copied into the BVH and tested there with the watertight triangle
+//! test, every other primitive through its [`Shape`]'s element queries (f64 sphere, disk and bilinear-patch tests),
+//! so this file never looks at shape kinds. Hits are found down to `t → 0⁺` and rays spawned with
 //! [`crate::spawn_ray`] never re-hit their surface.
 //!
 //! ## IDs in a [`Hit`]
@@ -22,7 +24,7 @@ use std::ops::Range;
 use std::sync::Arc;
 use std::time::Duration;
 
-use glam::{DMat3, DMat4, DVec3, Mat3, UVec2, Vec2, Vec3, Vec3A, Vec4};
+use glam::{DMat3, DMat4, Mat3, UVec2, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::cwbvh::CwBvh;
@@ -33,7 +35,7 @@ use crate::bounds::Bounds3;
 use crate::mesh::TriangleMesh;
 use crate::ray::{gamma, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
 pub use crate::shapes::Shape;
-use crate::shapes::{coordinate_system, intersect_triangle, triangle_geom, SurfaceGeom, TriRay};
+use crate::shapes::{coordinate_system, intersect_inline_triangle, ElementHit, ShapeRay, SurfaceGeom};
 use crate::transform::Transform;
 use crate::GeometryError;
 
@@ -127,8 +129,9 @@ pub struct Instance {
     pub render_from_instance: Transform,
 }
 
-/// Bit marking a BVH slot that holds a sphere, disk or bilinear patch rather than a triangle.
-const ANALYTIC: u32 = 1 << 31;
+/// Bit marking a BVH slot whose primitive is intersected through its shape rather than as an inline triangle (see
+/// [`Shape::element_triangle`]).
+const INDIRECT: u32 = 1 << 31;
 
 /// Bottom-level structure of one object.
 struct Blas {
@@ -136,9 +139,9 @@ struct Blas {
     /// Flattened primitive index where each shape starts; one more entry at the end (the total).
     shape_starts: Vec<u32>,
     bvh: CwBvh,
-    /// Triangle vertices per BVH slot (zeros for analytic slots).
+    /// Triangle vertices per BVH slot (zeros for indirect slots), so triangles are tested without a lookup.
     slot_tris: Vec<[Vec3; 3]>,
-    /// Flattened primitive index per BVH slot, `| ANALYTIC` for spheres, disks and bilinear patches.
+    /// Flattened primitive index per BVH slot, `| INDIRECT` for primitives that are not plain triangles.
     slot_prim: Vec<u32>,
     bounds: Bounds3,
 }
@@ -206,7 +209,7 @@ impl Blas {
         for s in &shapes {
             shape_starts.push(total as u32);
             total += s.primitive_count() as u64;
-            if total >= u64::from(ANALYTIC) {
+            if total >= u64::from(INDIRECT) {
                 return Err(GeometryError::InvalidMesh(format!("an object has too many primitives ({total})")));
             }
         }
@@ -221,25 +224,17 @@ impl Blas {
             prims.par_iter().map(|&(s, e)| to_aabb(&shapes[s as usize].element_bounds(e as usize))).collect();
         let bounds = shapes.iter().fold(Bounds3::EMPTY, |b, s| b.union(&s.bounds()));
         let mut bvh = build_bvh(&aabbs);
-        let slot_prim: Vec<u32> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| match &shapes[prims[i as usize].0 as usize] {
-                Shape::Mesh(_) => i,
-                _ => i | ANALYTIC,
-            })
-            .collect();
-        let slot_tris: Vec<[Vec3; 3]> = bvh
+        let (slot_prim, slot_tris): (Vec<u32>, Vec<[Vec3; 3]>) = bvh
             .primitive_indices
             .par_iter()
             .map(|&i| {
                 let (s, e) = prims[i as usize];
-                match &shapes[s as usize] {
-                    Shape::Mesh(m) => m.triangle_positions(e as usize),
-                    _ => [Vec3::ZERO; 3],
+                match shapes[s as usize].element_triangle(e as usize) {
+                    Some(tri) => (i, tri),
+                    None => (i | INDIRECT, [Vec3::ZERO; 3]),
                 }
             })
-            .collect();
+            .unzip();
         bvh.primitive_indices = Vec::new();
         Ok(Self { shapes, shape_starts, bvh, slot_tris, slot_prim, bounds })
     }
@@ -320,11 +315,16 @@ fn node_hits(node: &CwBvhNode, r: &NodeRay, t_max: f32, oct_inv4: u32) -> u32 {
 /// Closest hit so far.
 #[derive(Clone, Copy)]
 struct Closest {
-    t: f32,
+    hit: ElementHit,
     instance: u32,
     prim: u32,
-    b: [f32; 3],
-    p_obj: DVec3,
+}
+
+impl Closest {
+    /// No hit yet: anything nearer than `t_max` is closer.
+    fn none(t_max: f32) -> Self {
+        Self { hit: ElementHit::at_coords(t_max, [0.0; 3]), instance: u32::MAX, prim: 0 }
+    }
 }
 
 impl Blas {
@@ -334,40 +334,23 @@ impl Blas {
         if self.bvh.nodes.is_empty() {
             return;
         }
-        let tri_ray = TriRay::new(o, d);
+        let ray = ShapeRay::new(o, d);
         let node_ray = NodeRay::new(o, d);
-        let ray = Ray::new(o, d);
         let bvh = &self.bvh;
         let mut state = bvh.new_traversal(Vec3A::from(d));
         let mut node;
-        obvhs::traverse!(bvh, node, state, node_hits(node, &node_ray, best.t, state.oct_inv4), {
+        obvhs::traverse!(bvh, node, state, node_hits(node, &node_ray, best.hit.t, state.oct_inv4), {
             let slot = state.primitive_id as usize;
             let prim = self.slot_prim[slot];
-            if prim & ANALYTIC == 0 {
-                let [p0, p1, p2] = self.slot_tris[slot];
-                if let Some((t, b)) = intersect_triangle(&tri_ray, p0, p1, p2, best.t) {
-                    *best = Closest { t, instance, prim, b, p_obj: DVec3::ZERO };
+            if prim & INDIRECT == 0 {
+                if let Some(hit) = intersect_inline_triangle(&ray, &self.slot_tris[slot], best.hit.t) {
+                    *best = Closest { hit, instance, prim };
                 }
             } else {
-                let prim = prim & !ANALYTIC;
+                let prim = prim & !INDIRECT;
                 let (s, e) = self.locate(prim);
-                match &self.shapes[s as usize] {
-                    Shape::Sphere(sp) => {
-                        if let Some((t, p_obj)) = sp.intersect_t(&ray, best.t) {
-                            *best = Closest { t, instance, prim, b: [0.0; 3], p_obj };
-                        }
-                    }
-                    Shape::Disk(dk) => {
-                        if let Some((t, p_obj)) = dk.intersect_t(&ray, best.t) {
-                            *best = Closest { t, instance, prim, b: [0.0; 3], p_obj };
-                        }
-                    }
-                    Shape::Bilinear(m) => {
-                        if let Some((t, uv)) = m.intersect(e as usize, o, d, best.t) {
-                            *best = Closest { t, instance, prim, b: [uv.x, uv.y, 0.0], p_obj: DVec3::ZERO };
-                        }
-                    }
-                    Shape::Mesh(_) => {}
+                if let Some(hit) = self.shapes[s as usize].intersect_element(e as usize, &ray, best.hit.t) {
+                    *best = Closest { hit, instance, prim };
                 }
             }
         });
@@ -379,9 +362,8 @@ impl Blas {
         if self.bvh.nodes.is_empty() {
             return false;
         }
-        let tri_ray = TriRay::new(o, d);
+        let ray = ShapeRay::new(o, d);
         let node_ray = NodeRay::new(o, d);
-        let ray = Ray::new(o, d);
         let bvh = &self.bvh;
         let mut state = bvh.new_traversal(Vec3A::from(d));
         let mut node;
@@ -390,17 +372,11 @@ impl Blas {
             obvhs::traverse!(bvh, node, state, node_hits(node, &node_ray, t_max, state.oct_inv4), {
                 let slot = state.primitive_id as usize;
                 let prim = self.slot_prim[slot];
-                let found = if prim & ANALYTIC == 0 {
-                    let [p0, p1, p2] = self.slot_tris[slot];
-                    intersect_triangle(&tri_ray, p0, p1, p2, t_max).is_some()
+                let found = if prim & INDIRECT == 0 {
+                    intersect_inline_triangle(&ray, &self.slot_tris[slot], t_max).is_some()
                 } else {
-                    let (s, e) = self.locate(prim & !ANALYTIC);
-                    match &self.shapes[s as usize] {
-                        Shape::Sphere(sp) => sp.intersect_t(&ray, t_max).is_some(),
-                        Shape::Disk(dk) => dk.intersect_t(&ray, t_max).is_some(),
-                        Shape::Bilinear(m) => m.intersect(e as usize, o, d, t_max).is_some(),
-                        Shape::Mesh(_) => false,
-                    }
+                    let (s, e) = self.locate(prim & !INDIRECT);
+                    self.shapes[s as usize].occludes_element(e as usize, &ray, t_max)
                 };
                 if found {
                     hit = true;
@@ -563,18 +539,12 @@ impl GeometryScene {
         let inst = &self.instances[c.instance as usize];
         let blas = &self.objects[inst.object as usize];
         let (shape, element) = blas.locate(c.prim);
-        let g = match &blas.shapes[shape as usize] {
-            Shape::Mesh(m) => triangle_geom(m, element as usize, c.b),
-            Shape::Bilinear(m) => m.geom(element as usize, Vec2::new(c.b[0], c.b[1])),
-            Shape::Sphere(s) => s.geom(c.p_obj),
-            Shape::Disk(d) => d.geom(c.p_obj),
-        };
-        let g = inst.geom_to_render(g);
+        let g = inst.geom_to_render(blas.shapes[shape as usize].surface_geom(element as usize, &c.hit));
         let mut tangent = g.dpdu - g.ns * g.ns.dot(g.dpdu);
         tangent = tangent.try_normalize().unwrap_or_else(|| coordinate_system(g.ns).0);
         let _ = ray;
         Hit {
-            t: c.t,
+            t: c.hit.t,
             p: g.p,
             p_error: g.p_error,
             n: g.n,
@@ -600,7 +570,7 @@ impl Accel for GeometryScene {
         if !Self::valid_ray(ray, t_max) {
             return None;
         }
-        let mut best = Closest { t: t_max, instance: u32::MAX, prim: 0, b: [0.0; 3], p_obj: DVec3::ZERO };
+        let mut best = Closest::none(t_max);
         if self.tlas_slot_instance.len() == 1 {
             let i = self.tlas_slot_instance[0];
             let inst = &self.instances[i as usize];
@@ -611,7 +581,7 @@ impl Accel for GeometryScene {
             let tlas = &self.tlas;
             let mut state = tlas.new_traversal(Vec3A::from(ray.d));
             let mut node;
-            obvhs::traverse!(tlas, node, state, node_hits(node, &node_ray, best.t, state.oct_inv4), {
+            obvhs::traverse!(tlas, node, state, node_hits(node, &node_ray, best.hit.t, state.oct_inv4), {
                 let i = self.tlas_slot_instance[state.primitive_id as usize];
                 let inst = &self.instances[i as usize];
                 let (o, d) = inst.to_instance(ray.o, ray.d);
@@ -672,38 +642,15 @@ impl GeometryScene {
         if !Self::valid_ray(ray, t_max) {
             return None;
         }
-        let mut best = Closest { t: t_max, instance: u32::MAX, prim: 0, b: [0.0; 3], p_obj: DVec3::ZERO };
+        let mut best = Closest::none(t_max);
         for (i, inst) in self.instances.iter().enumerate() {
             let (o, d) = inst.to_instance(ray.o, ray.d);
             let blas = &self.objects[inst.object as usize];
-            let tri_ray = TriRay::new(o, d);
-            let r = Ray::new(o, d);
+            let ray = ShapeRay::new(o, d);
             for (s, shape) in blas.shapes.iter().enumerate() {
                 for e in 0..shape.primitive_count() {
-                    let prim = blas.shape_starts[s] + e as u32;
-                    match shape {
-                        Shape::Mesh(m) => {
-                            let [p0, p1, p2] = m.triangle_positions(e);
-                            if let Some((t, b)) = intersect_triangle(&tri_ray, p0, p1, p2, best.t) {
-                                best = Closest { t, instance: i as u32, prim, b, p_obj: DVec3::ZERO };
-                            }
-                        }
-                        Shape::Sphere(sp) => {
-                            if let Some((t, p_obj)) = sp.intersect_t(&r, best.t) {
-                                best = Closest { t, instance: i as u32, prim, b: [0.0; 3], p_obj };
-                            }
-                        }
-                        Shape::Disk(dk) => {
-                            if let Some((t, p_obj)) = dk.intersect_t(&r, best.t) {
-                                best = Closest { t, instance: i as u32, prim, b: [0.0; 3], p_obj };
-                            }
-                        }
-                        Shape::Bilinear(m) => {
-                            if let Some((t, uv)) = m.intersect(e, o, d, best.t) {
-                                best =
-                                    Closest { t, instance: i as u32, prim, b: [uv.x, uv.y, 0.0], p_obj: DVec3::ZERO };
-                            }
-                        }
+                    if let Some(hit) = shape.intersect_element(e, &ray, best.hit.t) {
+                        best = Closest { hit, instance: i as u32, prim: blas.shape_starts[s] + e as u32 };
                     }
                 }
             }

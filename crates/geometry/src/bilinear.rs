@@ -6,33 +6,22 @@
 //! method of Reshetov (2019, "Cool Patches", Ray Tracing Gems ch. 8) in f64: a quadratic in `u` says where the ray
 //! meets the segment `v ↦ p(u, v)`, and the closest-approach of ray and segment gives `t` and `v`.
 //!
-//! The mesh is stored like a [`crate::TriangleMesh`]: shared render-space vertices, four `u32` indices per patch,
-//! optional per-vertex normals and uvs.
+//! The mesh is an [`IndexedMesh`] like [`crate::TriangleMesh`]: shared render-space vertices, four `u32` indices per
+//! patch, optional per-vertex normals and uvs. Its [`crate::shapes::Shape`] queries are at the end of this file.
 
 use glam::{DVec3, Vec2, Vec3};
 
 use crate::bounds::Bounds3;
-use crate::mesh::BilinearMeshData;
+use crate::mesh::IndexedMesh;
 use crate::ray::gamma;
-use crate::shapes::{coordinate_system, ShapeSample, SurfaceGeom};
-use crate::transform::Transform;
-use crate::GeometryError;
+use crate::shapes::{coordinate_system, ElementHit, ShapeKind, ShapeRay, ShapeSample, SurfaceGeom};
 
 /// A bilinear patch mesh with its vertices in render space (pbrt-v4's `BilinearPatchMesh`).
 ///
 /// The geometric normal at `(u, v)` is `normalize(∂p/∂u × ∂p/∂v)`, negated when
 /// `reverse_orientation() != transform_swaps_handedness()`; with per-vertex normals it is instead turned to the side
 /// of the interpolated shading normal (as for triangles).
-#[derive(Clone, Debug, PartialEq)]
-pub struct BilinearMesh {
-    positions: Vec<Vec3>,
-    normals: Option<Vec<Vec3>>,
-    uvs: Option<Vec<Vec2>>,
-    indices: Vec<u32>,
-    reverse_orientation: bool,
-    transform_swaps_handedness: bool,
-    bounds: Bounds3,
-}
+pub type BilinearMesh = IndexedMesh<4>;
 
 /// Tolerance (in the patch parameters) by which a root may fall outside `[0, 1]` and still count as a hit, clamped
 /// to the edge: it covers the f64 rounding of the solve, so that a ray through an edge shared by two patches hits at
@@ -147,86 +136,23 @@ fn sample_linear(xi: f64, a: f64, b: f64) -> f64 {
     (xi * (a + b) / den).clamp(0.0, 1.0)
 }
 
-impl BilinearMesh {
-    /// Transforms object-space `data` to render space with `render_from_object`. `reverse_orientation` is pbrt's
-    /// `ReverseOrientation`; per-vertex normals are negated when it is set. Errors if the data is invalid (see
-    /// [`BilinearMeshData::validate`]) or the transform produces non-finite positions.
-    pub fn new(
-        render_from_object: &Transform,
-        data: BilinearMeshData,
-        reverse_orientation: bool,
-    ) -> Result<Self, GeometryError> {
-        data.validate()?;
-        let BilinearMeshData { mut positions, mut normals, uvs, indices } = data;
-        if !render_from_object.is_identity() {
-            for p in &mut positions {
-                *p = render_from_object.point(p.as_dvec3()).as_vec3();
-            }
-            if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-                return Err(GeometryError::InvalidMesh(format!(
-                    "bilinear mesh: position {i} is not finite after the transform: {:?}",
-                    positions[i]
-                )));
-            }
-        }
-        if let Some(ns) = &mut normals {
-            for n in ns.iter_mut() {
-                let mut m = if render_from_object.is_identity() {
-                    *n
-                } else {
-                    render_from_object.normal(n.as_dvec3()).as_vec3()
-                };
-                if reverse_orientation {
-                    m = -m;
-                }
-                *n = m.normalize_or_zero();
-            }
-        }
-        let bounds = Bounds3::from_points(indices.iter().map(|&i| positions[i as usize]));
-        Ok(Self {
-            positions,
-            normals,
-            uvs,
-            indices,
-            reverse_orientation,
-            transform_swaps_handedness: render_from_object.swaps_handedness(),
-            bounds,
-        })
-    }
-
+impl IndexedMesh<4> {
     /// Number of patches.
     pub fn patch_count(&self) -> usize {
-        self.indices.len() / 4
-    }
-
-    /// Render-space vertex positions.
-    pub fn positions(&self) -> &[Vec3] {
-        &self.positions
-    }
-
-    /// True if the geometric normal `∂p/∂u × ∂p/∂v` must be negated (pbrt's
-    /// `reverseOrientation ^ transformSwapsHandedness`).
-    pub fn flip_normal(&self) -> bool {
-        self.reverse_orientation ^ self.transform_swaps_handedness
-    }
-
-    /// Bounds of all referenced vertices (a patch lies in the convex hull of its corners).
-    pub fn bounds(&self) -> Bounds3 {
-        self.bounds
+        self.face_count()
     }
 
     /// The vertex indices `p00 p10 p01 p11` of patch `k`. Panics if `k >= patch_count()` (an internal index, never
     /// user data).
     #[inline]
     pub fn patch(&self, k: usize) -> [u32; 4] {
-        let i = 4 * k;
-        [self.indices[i], self.indices[i + 1], self.indices[i + 2], self.indices[i + 3]]
+        self.face(k)
     }
 
     /// The four render-space corners `p00 p10 p01 p11` of patch `k`.
     #[inline]
     pub fn patch_positions(&self, k: usize) -> [Vec3; 4] {
-        self.patch(k).map(|i| self.positions[i as usize])
+        self.face_positions(k)
     }
 
     fn corners(&self, k: usize) -> [DVec3; 4] {
@@ -299,7 +225,7 @@ impl BilinearMesh {
             n = -n;
         }
         // Texture coordinates and ∂p/∂s in texture space: [∂p/∂u ∂p/∂v] = [∂p/∂s ∂p/∂t]·J, J = ∂(s,t)/∂(u,v).
-        let (tex_uv, mut dpds) = match &self.uvs {
+        let (tex_uv, mut dpds) = match self.uvs() {
             Some(uvs) => {
                 let t = self.patch(k).map(|i| uvs[i as usize].as_dvec2());
                 let st = bilerp(t, u, v);
@@ -316,7 +242,7 @@ impl BilinearMesh {
             dpds = coordinate_system(n).0.as_dvec3();
         }
         let mut ns = n;
-        if let Some(normals) = &self.normals {
+        if let Some(normals) = self.normals() {
             let nv = self.patch(k).map(|i| normals[i as usize]);
             if let Some(m) = bilerp(nv.map(|x| x.as_dvec3()), u, v).as_vec3().try_normalize() {
                 ns = m;
@@ -382,9 +308,46 @@ impl BilinearMesh {
     }
 }
 
+impl ShapeKind for BilinearMesh {
+    fn primitive_count(&self) -> usize {
+        self.patch_count()
+    }
+
+    fn bounds(&self) -> Bounds3 {
+        BilinearMesh::bounds(self)
+    }
+
+    fn element_bounds(&self, e: usize) -> Bounds3 {
+        self.patch_bounds(e)
+    }
+
+    fn area(&self, e: usize) -> f32 {
+        self.patch_area(e)
+    }
+
+    #[inline]
+    fn intersect_element(&self, e: usize, ray: &ShapeRay, t_max: f32) -> Option<ElementHit> {
+        self.intersect(e, ray.ray.o, ray.ray.d, t_max).map(|(t, uv)| ElementHit::at_coords(t, [uv.x, uv.y, 0.0]))
+    }
+
+    fn surface_geom(&self, e: usize, hit: &ElementHit) -> SurfaceGeom {
+        self.geom(e, Vec2::new(hit.b[0], hit.b[1]))
+    }
+
+    fn sample_area(&self, e: usize, u: Vec2) -> Option<ShapeSample> {
+        BilinearMesh::sample_area(self, e, u)
+    }
+
+    fn pdf_area(&self, e: usize, hit: &ElementHit) -> f32 {
+        BilinearMesh::pdf_area(self, e, Vec2::new(hit.b[0], hit.b[1]))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::BilinearMeshData;
+    use crate::transform::Transform;
 
     fn square(normals: Option<Vec<Vec3>>, uvs: Option<Vec<Vec2>>, reverse: bool) -> BilinearMesh {
         let data = BilinearMeshData {

@@ -3,10 +3,12 @@
 //! Knows nothing of materials, spectra or scene files. Render-time geometry is f32; transforms are f64.
 //!
 //! - [`ray`]: [`Ray`], floating-point error bounds and robust ray spawning ([`spawn_ray`], [`spawn_ray_to`]).
-//! - [`mesh`]: [`TriangleMesh`] in render space from object-space [`MeshData`]; PLY loading ([`ply`]), Loop
+//! - [`mesh`]: [`TriangleMesh`] and [`BilinearMesh`] in render space from object-space [`MeshData`] and
+//!   [`BilinearMeshData`] (one [`IndexedMesh`] type with one validation for both); PLY loading ([`ply`]), Loop
 //!   subdivision ([`subdiv`]).
 //! - [`bilinear`]: [`BilinearMesh`], bilinear patches intersected exactly (Reshetov 2019), and their sampling.
-//! - [`shapes`]: [`Sphere`], [`Disk`], triangle intersection, and area / solid-angle sampling ([`ShapeSample`]).
+//! - [`shapes`]: [`Shape`], which answers intersection, surface-geometry and sampling queries ([`ShapeSample`]) for
+//!   every kind of shape ([`Sphere`], [`Disk`], triangles, bilinear patches), one file per kind.
 //! - [`accel`]: the [`Accel`] trait and [`GeometryScene`], a two-level BVH (compressed wide BVH from `obvhs`) with
 //!   instancing.
 
@@ -27,7 +29,7 @@ pub use accel::{Accel, GeometryScene, Hit, Instance, Object, Shape};
 pub use bilinear::BilinearMesh;
 pub use bounds::Bounds3;
 pub use glam::{DMat4, DVec3, Vec2, Vec3, Vec3A};
-pub use mesh::{BilinearMeshData, MeshData, TriangleMesh};
+pub use mesh::{BilinearMeshData, IndexedMesh, IndexedMeshData, MeshData, TriangleMesh};
 pub use ray::{offset_ray_origin, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
 pub use shapes::{Disk, ShapeSample, Sphere};
 pub use transform::Transform;

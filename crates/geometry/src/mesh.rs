@@ -1,5 +1,7 @@
-//! Triangle meshes in render space, built from object-space data and a transform; bilinear-patch mesh data (the
-//! shape itself is [`crate::bilinear::BilinearMesh`]).
+//! Indexed meshes: object-space [`IndexedMeshData`] as a scene file gives it, and [`IndexedMesh`], its vertices in
+//! render space.
+//! Both are generic over the vertices per face, `N`: triangle meshes ([`TriangleMesh`], `N = 3`) and bilinear
+//! patch meshes ([`crate::BilinearMesh`], `N = 4`) share the validation and the transform to render space.
 
 use glam::{Vec2, Vec3};
 
@@ -7,27 +9,45 @@ use crate::bounds::Bounds3;
 use crate::transform::Transform;
 use crate::GeometryError;
 
-/// Object-space triangle mesh data, as a scene file gives it: positions, optional per-vertex normals and uvs, and
-/// three `u32` vertex indices per triangle (counter-clockwise seen from the side the normal points to, as pbrt).
+/// Object-space mesh data, as a scene file gives it: positions, optional per-vertex normals and uvs, and `N` `u32`
+/// vertex indices per face. Used as [`MeshData`] (triangles) and [`BilinearMeshData`] (bilinear patches).
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct MeshData {
+pub struct IndexedMeshData<const N: usize> {
     /// Vertex positions.
     pub positions: Vec<Vec3>,
     /// Per-vertex shading normals (same length as `positions`), if any.
     pub normals: Option<Vec<Vec3>>,
     /// Per-vertex texture coordinates (same length as `positions`), if any.
     pub uvs: Option<Vec<Vec2>>,
-    /// Vertex indices, three per triangle.
+    /// Vertex indices, `N` per face.
     pub indices: Vec<u32>,
 }
 
-impl MeshData {
-    /// Checks the data: indices a multiple of 3 and in range, optional arrays of the right length, every value
+/// Object-space triangle mesh data: three indices per triangle, counter-clockwise seen from the side the normal
+/// points to (as pbrt).
+pub type MeshData = IndexedMeshData<3>;
+
+/// Object-space bilinear patch mesh data (pbrt-v4's `bilinearmesh`): four indices per patch in the order
+/// `p00 p10 p01 p11`, optional per-vertex uvs and normals.
+pub type BilinearMeshData = IndexedMeshData<4>;
+
+/// How error messages name a mesh with `N` vertices per face: bilinear meshes are named, triangle meshes (the
+/// common case, whose messages predate bilinear meshes) are not.
+fn label<const N: usize>() -> &'static str {
+    if N == 4 {
+        "bilinear mesh: "
+    } else {
+        ""
+    }
+}
+
+impl<const N: usize> IndexedMeshData<N> {
+    /// Checks the data: indices a multiple of `N` and in range, optional arrays of the right length, every value
     /// finite. The error names the first problem found.
     pub fn validate(&self) -> Result<(), GeometryError> {
-        let err = |m: String| Err(GeometryError::InvalidMesh(m));
-        if self.indices.len() % 3 != 0 {
-            return err(format!("{} vertex indices is not a multiple of 3", self.indices.len()));
+        let err = |m: String| Err(GeometryError::InvalidMesh(format!("{}{m}", label::<N>())));
+        if self.indices.len() % N != 0 {
+            return err(format!("{} vertex indices is not a multiple of {N}", self.indices.len()));
         }
         let n = self.positions.len();
         if let Some((i, &v)) = self.indices.iter().enumerate().find(|(_, &v)| v as usize >= n) {
@@ -55,20 +75,30 @@ impl MeshData {
         Ok(())
     }
 
-    /// Number of triangles.
-    pub fn triangle_count(&self) -> usize {
-        self.indices.len() / 3
+    /// Number of faces.
+    pub fn face_count(&self) -> usize {
+        self.indices.len() / N
     }
 }
 
-/// A triangle mesh with its vertices in render space (pbrt-v4's `TriangleMesh`).
-///
-/// The geometric normal of triangle `(p0, p1, p2)` is `normalize(cross(p0 − p2, p1 − p2))`, negated when
-/// `reverse_orientation() != transform_swaps_handedness()`; if the mesh has per-vertex normals, the geometric normal
-/// is instead flipped to the side of the interpolated shading normal (pbrt-v4's convention, which decides the side
-/// an area light emits to).
+impl IndexedMeshData<3> {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.face_count()
+    }
+}
+
+impl IndexedMeshData<4> {
+    /// Number of patches.
+    pub fn patch_count(&self) -> usize {
+        self.face_count()
+    }
+}
+
+/// A mesh with its vertices in render space and `N` vertex indices per face: used as [`TriangleMesh`] and
+/// [`crate::BilinearMesh`] (pbrt-v4's `TriangleMesh` and `BilinearPatchMesh`).
 #[derive(Clone, Debug, PartialEq)]
-pub struct TriangleMesh {
+pub struct IndexedMesh<const N: usize> {
     positions: Vec<Vec3>,
     normals: Option<Vec<Vec3>>,
     uvs: Option<Vec<Vec2>>,
@@ -78,24 +108,33 @@ pub struct TriangleMesh {
     bounds: Bounds3,
 }
 
-impl TriangleMesh {
+/// A triangle mesh with its vertices in render space (pbrt-v4's `TriangleMesh`).
+///
+/// The geometric normal of triangle `(p0, p1, p2)` is `normalize(cross(p0 − p2, p1 − p2))`, negated when
+/// `reverse_orientation() != transform_swaps_handedness()`; if the mesh has per-vertex normals, the geometric normal
+/// is instead flipped to the side of the interpolated shading normal (pbrt-v4's convention, which decides the side
+/// an area light emits to).
+pub type TriangleMesh = IndexedMesh<3>;
+
+impl<const N: usize> IndexedMesh<N> {
     /// Transforms object-space `data` to render space with `render_from_object`. `reverse_orientation` is pbrt's
     /// `ReverseOrientation` state; per-vertex normals are negated when it is set (as pbrt-v4 does). Errors if the
-    /// data is invalid (see [`MeshData::validate`]) or the transform produces non-finite positions.
+    /// data is invalid (see [`IndexedMeshData::validate`]) or the transform produces non-finite positions.
     pub fn new(
         render_from_object: &Transform,
-        data: MeshData,
+        data: IndexedMeshData<N>,
         reverse_orientation: bool,
     ) -> Result<Self, GeometryError> {
         data.validate()?;
-        let MeshData { mut positions, mut normals, uvs, indices } = data;
+        let IndexedMeshData { mut positions, mut normals, uvs, indices } = data;
         if !render_from_object.is_identity() {
             for p in &mut positions {
                 *p = render_from_object.point(p.as_dvec3()).as_vec3();
             }
             if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
                 return Err(GeometryError::InvalidMesh(format!(
-                    "position {i} is not finite after the transform: {:?}",
+                    "{}position {i} is not finite after the transform: {:?}",
+                    label::<N>(),
                     positions[i]
                 )));
             }
@@ -140,14 +179,14 @@ impl TriangleMesh {
         self.uvs.as_deref()
     }
 
-    /// Vertex indices, three per triangle.
+    /// Vertex indices, `N` per face.
     pub fn indices(&self) -> &[u32] {
         &self.indices
     }
 
-    /// Number of triangles.
-    pub fn triangle_count(&self) -> usize {
-        self.indices.len() / 3
+    /// Number of faces.
+    pub fn face_count(&self) -> usize {
+        self.indices.len() / N
     }
 
     /// True if pbrt's `ReverseOrientation` was in effect.
@@ -166,24 +205,42 @@ impl TriangleMesh {
         self.reverse_orientation ^ self.transform_swaps_handedness
     }
 
-    /// Bounds of all referenced vertices.
+    /// Bounds of all referenced vertices (a triangle or a bilinear patch lies in the convex hull of its corners).
     pub fn bounds(&self) -> Bounds3 {
         self.bounds
+    }
+
+    /// The vertex indices of face `k`. Panics if `k >= face_count()` (an internal index, never user data).
+    #[inline]
+    pub fn face(&self, k: usize) -> [u32; N] {
+        let i = N * k;
+        std::array::from_fn(|j| self.indices[i + j])
+    }
+
+    /// The `N` render-space vertices of face `k`.
+    #[inline]
+    pub fn face_positions(&self, k: usize) -> [Vec3; N] {
+        self.face(k).map(|i| self.positions[i as usize])
+    }
+}
+
+impl IndexedMesh<3> {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.face_count()
     }
 
     /// The vertex indices of triangle `tri`. Panics if `tri >= triangle_count()` (an internal index, never user
     /// data).
     #[inline]
     pub fn triangle(&self, tri: usize) -> [u32; 3] {
-        let i = 3 * tri;
-        [self.indices[i], self.indices[i + 1], self.indices[i + 2]]
+        self.face(tri)
     }
 
     /// The three render-space vertices of triangle `tri`.
     #[inline]
     pub fn triangle_positions(&self, tri: usize) -> [Vec3; 3] {
-        let [a, b, c] = self.triangle(tri);
-        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
+        self.face_positions(tri)
     }
 
     /// The uvs of triangle `tri`: the mesh's, or pbrt's default (0,0), (1,0), (1,1).
@@ -218,63 +275,6 @@ impl TriangleMesh {
     }
 }
 
-/// Object-space bilinear patch mesh data (pbrt-v4's `bilinearmesh`): four indices per patch in the order
-/// `p00 p10 p01 p11`, optional per-vertex uvs and normals.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct BilinearMeshData {
-    /// Vertex positions.
-    pub positions: Vec<Vec3>,
-    /// Per-vertex normals, if any.
-    pub normals: Option<Vec<Vec3>>,
-    /// Per-vertex uvs, if any.
-    pub uvs: Option<Vec<Vec2>>,
-    /// Vertex indices, four per patch: `p00 p10 p01 p11`.
-    pub indices: Vec<u32>,
-}
-
-impl BilinearMeshData {
-    /// Checks the data: indices a multiple of 4 and in range, optional arrays of the right length, every value
-    /// finite. The error names the first problem found.
-    pub fn validate(&self) -> Result<(), GeometryError> {
-        if self.indices.len() % 4 != 0 {
-            return Err(GeometryError::InvalidMesh(format!(
-                "bilinear mesh: {} vertex indices is not a multiple of 4",
-                self.indices.len()
-            )));
-        }
-        let err = |m: String| Err(GeometryError::InvalidMesh(format!("bilinear mesh: {m}")));
-        let n = self.positions.len();
-        if let Some((i, &v)) = self.indices.iter().enumerate().find(|(_, &v)| v as usize >= n) {
-            return err(format!("vertex index {v} (entry {i}) is out of range: the mesh has {n} vertices"));
-        }
-        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
-            return err(format!("position {i} is not finite: {:?}", self.positions[i]));
-        }
-        if let Some(normals) = &self.normals {
-            if normals.len() != n {
-                return err(format!("{} normals for {n} vertices", normals.len()));
-            }
-            if let Some(i) = normals.iter().position(|p| !p.is_finite()) {
-                return err(format!("normal {i} is not finite: {:?}", normals[i]));
-            }
-        }
-        if let Some(uvs) = &self.uvs {
-            if uvs.len() != n {
-                return err(format!("{} uvs for {n} vertices", uvs.len()));
-            }
-            if let Some(i) = uvs.iter().position(|p| !p.is_finite()) {
-                return err(format!("uv {i} is not finite: {:?}", uvs[i]));
-            }
-        }
-        Ok(())
-    }
-
-    /// Number of patches.
-    pub fn patch_count(&self) -> usize {
-        self.indices.len() / 4
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -299,7 +299,7 @@ mod tests {
         let mut m = quad();
         m.indices.push(1);
         let e = m.validate().unwrap_err().to_string();
-        assert!(e.contains("multiple of 3"), "{e}");
+        assert!(e.ends_with(": 7 vertex indices is not a multiple of 3"), "{e}");
         let mut m = quad();
         m.indices[4] = 9;
         let e = m.validate().unwrap_err().to_string();
@@ -332,7 +332,7 @@ mod tests {
         };
         assert!(b.validate().is_ok() && b.patch_count() == 1);
         let e = BilinearMeshData { indices: vec![0, 1, 2], ..b.clone() }.validate().unwrap_err().to_string();
-        assert!(e.contains("multiple of 4"), "{e}");
+        assert!(e.contains("bilinear mesh: 3 vertex indices is not a multiple of 4"), "{e}");
         let e = BilinearMeshData { indices: vec![0, 1, 2, 4], ..b.clone() }.validate().unwrap_err().to_string();
         assert!(e.contains("out of range"), "{e}");
         let e = BilinearMeshData { uvs: Some(vec![Vec2::ZERO; 3]), ..b.clone() }.validate().unwrap_err().to_string();

@@ -6,12 +6,64 @@
 //! - `eta` is the **relative** index η = n_inside / n_outside, i.e. index of the side the normal points away from,
 //!   divided by the index of the side it points into. Functions flip η to 1/η themselves when `cos_theta_i < 0`.
 //! - Reflectances are for unpolarised light unless the name says `_s` / `_p`.
-//! - Directions are `[f64; 3]` unit vectors pointing **away** from the surface (both the incident `wi` and the
-//!   returned transmitted `wt`).
+//! - Directions are `[T; 3]` unit vectors pointing **away** from the surface (both the incident `wi` and the
+//!   returned transmitted `wt`), with `T` either float type ([`Float`]): f64 here, f32 in the renderer, one code.
+
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 use crate::complex::Complex;
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+/// The float types [`reflect`] and [`refract`] work in (`f32` and `f64`), so the renderer's f32 directions and the
+/// f64 optics share one implementation.
+pub trait Float:
+    Copy
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// 0.
+    const ZERO: Self;
+    /// 1.
+    const ONE: Self;
+    /// 2.
+    const TWO: Self;
+    /// Square root.
+    fn sqrt(self) -> Self;
+    /// The larger of the two (the other if one is NaN).
+    fn max(self, other: Self) -> Self;
+    /// True unless infinite or NaN.
+    fn is_finite(self) -> bool;
+}
+
+macro_rules! impl_float {
+    ($t:ty) => {
+        impl Float for $t {
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const TWO: Self = 2.0;
+            #[inline]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline]
+            fn max(self, other: Self) -> Self {
+                <$t>::max(self, other)
+            }
+            #[inline]
+            fn is_finite(self) -> bool {
+                <$t>::is_finite(self)
+            }
+        }
+    };
+}
+impl_float!(f32);
+impl_float!(f64);
+
+#[inline]
+fn dot<T: Float>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -123,8 +175,9 @@ pub fn fresnel_conductor(cos_theta_i: f64, n: f64, k: f64) -> f64 {
 }
 
 /// Mirror reflection of `wo` about the normal `n`: 2(wo·n)n − wo (both unit; result points away from the surface).
-pub fn reflect(wo: [f64; 3], n: [f64; 3]) -> [f64; 3] {
-    let d = 2.0 * dot(wo, n);
+#[inline]
+pub fn reflect<T: Float>(wo: [T; 3], n: [T; 3]) -> [T; 3] {
+    let d = T::TWO * dot(wo, n);
     [d * n[0] - wo[0], d * n[1] - wo[1], d * n[2] - wo[2]]
 }
 
@@ -134,23 +187,30 @@ pub fn reflect(wo: [f64; 3], n: [f64; 3]) -> [f64; 3] {
 /// transmitted direction `wt`, pointing away from the surface on the other side, with
 /// wt = −wi/η + (cos θi/η − cos θt)·n (Snell's law in vector form, pbrt-v4 `Refract`), or `None` for total internal
 /// reflection.
-pub fn refract(wi: [f64; 3], n: [f64; 3], eta: f64) -> Option<[f64; 3]> {
+#[inline]
+pub fn refract<T: Float>(wi: [T; 3], n: [T; 3], eta: T) -> Option<[T; 3]> {
+    refract_with_eta(wi, n, eta).map(|(wt, _)| wt)
+}
+
+/// [`refract`], also returning the relative index actually crossed: `eta`, or `1/eta` when `wi` is inside.
+#[inline]
+pub fn refract_with_eta<T: Float>(wi: [T; 3], n: [T; 3], eta: T) -> Option<([T; 3], T)> {
     let mut cos_i = dot(n, wi);
     let (mut eta, mut n) = (eta, n);
-    if cos_i < 0.0 {
-        eta = 1.0 / eta;
+    if cos_i < T::ZERO {
+        eta = T::ONE / eta;
         cos_i = -cos_i;
         n = [-n[0], -n[1], -n[2]];
     }
     // sin²θt = sin²θi/η² (Snell, n₁ sin θ₁ = n₂ sin θ₂).
-    let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
+    let sin2_i = (T::ONE - cos_i * cos_i).max(T::ZERO);
     let sin2_t = sin2_i / (eta * eta);
-    if sin2_t >= 1.0 || !sin2_t.is_finite() {
+    if sin2_t >= T::ONE || !sin2_t.is_finite() {
         return None;
     }
-    let cos_t = (1.0 - sin2_t).sqrt();
+    let cos_t = (T::ONE - sin2_t).sqrt();
     let a = cos_i / eta - cos_t;
-    Some([-wi[0] / eta + a * n[0], -wi[1] / eta + a * n[1], -wi[2] / eta + a * n[2]])
+    Some(([-wi[0] / eta + a * n[0], -wi[1] / eta + a * n[1], -wi[2] / eta + a * n[2]], eta))
 }
 
 /// Snell's law for the sine: sin θ₂ = n₁ sin θ₁ / n₂; `None` when that exceeds 1 (total internal reflection).

@@ -9,7 +9,8 @@
 //!   the critical and Brewster angles.
 //! - [`complex`]: the small complex-number type the above need.
 //!
-//! Everything is `f64`; wavelengths are in nanometres in vacuo throughout the public API.
+//! Everything is `f64` except [`reflect`] and [`refract`], which are generic over the float type so the renderer's
+//! f32 directions use the same code; wavelengths are in nanometres in vacuo throughout the public API.
 //!
 //! ```
 //! use optics::{catalogue, fresnel_dielectric, LAMBDA_D_NM};
@@ -36,7 +37,8 @@ pub use complex::Complex;
 pub use error::OpticsError;
 pub use fresnel::{
     brewster_angle, critical_angle, fresnel_complex, fresnel_complex_sp, fresnel_conductor, fresnel_dielectric,
-    fresnel_dielectric_p, fresnel_dielectric_s, fresnel_dielectric_transmittance, reflect, refract, snell_sin_t,
+    fresnel_dielectric_p, fresnel_dielectric_s, fresnel_dielectric_transmittance, reflect, refract, refract_with_eta,
+    snell_sin_t, Float,
 };
 pub use ior::{
     Cauchy, ConstantIor, Ior, MaterialConstants, Sellmeier, TabulatedComplexIor, TabulatedIor, LAMBDA_C_NM,

@@ -66,28 +66,18 @@ fn same_hemisphere(a: Vec3, b: Vec3) -> bool {
     a.z * b.z > 0.0
 }
 
-/// Reflection of `wo` about `n`.
+/// Reflection of `wo` about `n` (`optics::reflect` in f32).
+#[inline]
 pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
-    -wo + 2.0 * wo.dot(n) * n
+    Vec3::from_array(optics::reflect(wo.to_array(), n.to_array()))
 }
 
 /// Refraction of `wi` through a surface with normal `n` and relative index `eta` = n_inside/n_outside (n on the
 /// outside). Returns the transmitted direction and the relative index actually crossed, or `None` for total
-/// internal reflection. Snell's law in vector form (pbrt-v4 §9.3.2).
-pub fn refract(wi: Vec3, mut n: Vec3, mut eta: f32) -> Option<(Vec3, f32)> {
-    let mut cos_i = n.dot(wi);
-    if cos_i < 0.0 {
-        eta = 1.0 / eta;
-        cos_i = -cos_i;
-        n = -n;
-    }
-    let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
-    let sin2_t = sin2_i / (eta * eta);
-    if sin2_t >= 1.0 {
-        return None;
-    }
-    let cos_t = (1.0 - sin2_t).sqrt();
-    Some((-wi / eta + (cos_i / eta - cos_t) * n, eta))
+/// internal reflection (`optics::refract_with_eta` in f32: Snell's law in vector form, pbrt-v4 §9.3.2).
+#[inline]
+pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<(Vec3, f32)> {
+    optics::refract_with_eta(wi.to_array(), n.to_array(), eta).map(|(wt, eta)| (Vec3::from_array(wt), eta))
 }
 
 /// Unpolarised dielectric Fresnel reflectance (f32 wrapper of `optics::fresnel_dielectric`).
