@@ -805,12 +805,14 @@ impl SampleConversion {
 
     /// The colour of a path sample: `L(λᵢ)/pdfᵢ` weighted by the strategy's colour matching functions (before the
     /// sensor's response).
+    #[inline]
     pub fn xyz(&self, l: &SampledSpectrum, wl: &SampledWavelengths) -> Xyz {
         self.wavelengths.to_xyz(l, wl)
     }
 
     /// A path sample reduced to what the film accumulates: its colour ([`SampleConversion::xyz`]) and its
     /// `(λ, L/pdf)` pairs for the spectral buckets.
+    #[inline]
     pub fn reduce(&self, l: &SampledSpectrum, wl: &SampledWavelengths) -> (Xyz, SpectralEstimates) {
         (self.xyz(l, wl), SpectralEstimates::new(l, wl))
     }
@@ -819,6 +821,7 @@ impl SampleConversion {
     /// the cie1931 sensor), then, if its largest component `m` exceeds `maxcomponentvalue`, scaled by max/m
     /// (pbrt-v4 `RGBFilm::AddSample`). Returns the colour times the imaging ratio and the clamp factor, which the
     /// caller applies to the colour and the sample's spectral buckets alike.
+    #[inline]
     fn respond(&self, xyz: Xyz) -> (Xyz, f64) {
         let xyz = xyz.scaled(self.imaging_ratio);
         let m = xyz.x.max(xyz.y).max(xyz.z);

@@ -140,6 +140,7 @@ impl BounceSamples {
     pub const DIMENSIONS: usize = 9;
 
     /// Draws the next bounce's numbers from `sampler`.
+    #[inline]
     pub fn draw(sampler: &mut Sampler) -> Self {
         let u: [f32; Self::DIMENSIONS] = std::array::from_fn(|_| sampler.next_1d());
         Self {
@@ -168,17 +169,20 @@ pub(crate) struct PathRay {
 
 impl PathRay {
     /// A ray from `o` along `d` in `medium`.
+    #[inline]
     pub fn new(o: Vec3, d: Vec3, medium: Option<u32>) -> Self {
         Self { o, d, medium, crossings: 0 }
     }
 
     /// The closest surface along the ray, counted in `counts`.
+    #[inline]
     pub fn intersect(&self, scene: &RenderScene, counts: &mut RayCounts) -> Option<SurfaceHit> {
         counts.intersect += 1;
         scene.geometry.intersect(self.o, self.d, f32::INFINITY)
     }
 
     /// Multiplies `beta` by the medium's transmittance over the segment to `hit` (Beer–Lambert).
+    #[inline]
     pub fn attenuate(
         &self,
         scene: &RenderScene,
@@ -193,6 +197,7 @@ impl PathRay {
 
     /// Carries the ray straight through a material-less boundary at `hit` (a change of medium only). Returns
     /// false once the path has crossed too many boundaries in a row and should be dropped.
+    #[inline]
     fn cross(&mut self, hit: &SurfaceHit) -> bool {
         self.medium = next_medium(hit, self.d, self.medium);
         self.o = hit.spawn_origin(self.d);
@@ -201,6 +206,7 @@ impl PathRay {
     }
 
     /// Continues the path from `hit` in direction `wi`, entering the medium on the far side after a transmission.
+    #[inline]
     pub fn leave(&mut self, hit: &SurfaceHit, wi: Vec3, transmission: bool) {
         if transmission {
             self.medium = next_medium(hit, wi, self.medium);
@@ -226,6 +232,7 @@ pub(crate) enum Bounce {
 /// The start of every bounce at a surface, for every integrator: draws the bounce's random numbers (always all of
 /// them, see [`BounceSamples`]), resolves the material at `hit` (mixes, wavelength reduction up front), and carries
 /// the ray through material-less boundaries.
+#[inline]
 pub(crate) fn begin_bounce(
     scene: &RenderScene,
     hit: &SurfaceHit,
@@ -261,6 +268,7 @@ pub(crate) struct Scattered {
 /// light paths with the adjoint BSDF's shading-normal correction |wo·ns||wi·ng|/|wo·ng| in place of |cos|
 /// (Veach 1997 eq. 5.19). `None` if the sample carries no energy.
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub(crate) fn scatter(
     bxdf: &Bxdf,
     frame: &Frame,
@@ -291,6 +299,7 @@ pub(crate) fn scatter(
 /// The adjoint BSDF's shading-normal correction times the cosine at the outgoing direction: for particle tracing
 /// with shading normals, `|wo·ns|·|wi·ng| / |wo·ng|` replaces `|wi·ns|` (Veach 1997 eq. 5.19), so that light and
 /// importance transport agree on meshes with interpolated normals.
+#[inline]
 pub(crate) fn adjoint_cos(wo: Vec3, wi: Vec3, ns: Vec3, ng: Vec3) -> f32 {
     let den = wo.dot(ng).abs();
     if den == 0.0 {
@@ -311,6 +320,7 @@ enum Surface {
 
 /// Resolves the material at `hit` (a mix picks one of its materials with `u_mix`, repeatedly) and builds its BxDF
 /// at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front).
+#[inline]
 fn resolve_surface(
     scene: &RenderScene,
     hit: &SurfaceHit,
@@ -340,6 +350,7 @@ fn resolve_surface(
 }
 
 /// The medium a ray enters when it leaves `hit` in direction `d` (unchanged if the surface has no interface).
+#[inline]
 pub(crate) fn next_medium(hit: &SurfaceHit, d: Vec3, current: Option<u32>) -> Option<u32> {
     match hit.media {
         Some(mi) => {
