@@ -421,6 +421,22 @@ impl ParamSet {
         }
     }
 
+    /// A positive `integer` count (1 to 2²⁰), or `default` when absent; an out-of-range value is an error at the
+    /// parameter (or at `directive` for a bad default).
+    pub fn get_count(&self, name: &str, default: i64, directive: &Loc) -> Result<usize, SceneError> {
+        let v = self.get_int(name, default)?;
+        if v <= 0 || v > 1 << 20 {
+            let message = format!("'{name}' must be a positive integer, got {v}");
+            return Err(SceneError::at(self.loc_of(name, directive), message));
+        }
+        Ok(v as usize)
+    }
+
+    /// Where parameter `name` was written, or the directive's location `directive` if it was not.
+    pub fn loc_of(&self, name: &str, directive: &Loc) -> Loc {
+        self.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| directive.clone())
+    }
+
     /// A single `bool`, or `default` when absent.
     pub fn get_bool(&self, name: &str, default: bool) -> Result<bool, SceneError> {
         match self.typed(name, &[ParamType::Bool])? {

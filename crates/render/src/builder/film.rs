@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use film::{FilmKind, FilmSpec, Filter, PixelSensor};
 use scene::{Entity, SceneDescription, SceneError};
 
-use super::{err, p_count, param_loc, unsupported, BuildOptions, Result};
+use super::{err, unsupported, BuildOptions, Result};
 
 /// The film to render into; `options` override the resolution and the output file.
 pub(super) fn make_film(desc: &SceneDescription, options: &BuildOptions) -> Result<FilmSpec> {
@@ -15,15 +15,15 @@ pub(super) fn make_film(desc: &SceneDescription, options: &BuildOptions) -> Resu
     let kind = match desc.film.name.as_str() {
         "rgb" => FilmKind::Rgb,
         "spectral" => FilmKind::Spectral {
-            nbuckets: p_count(fp, "nbuckets", 16, &desc.film.loc)?,
+            nbuckets: fp.get_count("nbuckets", 16, &desc.film.loc)?,
             lambda_min: fp.get_float("lambdamin", 360.0)?,
             lambda_max: fp.get_float("lambdamax", 830.0)?,
         },
         other => return err(&desc.film.loc, unsupported("film", other, &["rgb", "spectral"])),
     };
     let (mut w, mut h) = (
-        p_count(fp, "xresolution", 1280, &desc.film.loc)? as u32,
-        p_count(fp, "yresolution", 720, &desc.film.loc)? as u32,
+        fp.get_count("xresolution", 1280, &desc.film.loc)? as u32,
+        fp.get_count("yresolution", 720, &desc.film.loc)? as u32,
     );
     if let Some((rw, rh)) = options.resolution {
         (w, h) = (rw, rh);
@@ -51,7 +51,7 @@ fn make_sensor(desc: &SceneDescription) -> Result<PixelSensor> {
     let sensor = fp.get_string("sensor", "cie1931")?;
     if sensor != "cie1931" {
         return err(
-            &param_loc(fp, "sensor", floc),
+            &fp.loc_of("sensor", floc),
             format!("'sensor' \"{sensor}\" is not supported: only \"cie1931\" (measured camera sensors need response data we do not have)"),
         );
     }
@@ -60,20 +60,20 @@ fn make_sensor(desc: &SceneDescription) -> Result<PixelSensor> {
     let exposure = close - open;
     if !(exposure.is_finite() && exposure > 0.0) {
         return err(
-            &param_loc(cp, "shutterclose", &desc.camera.entity.loc),
+            &cp.loc_of("shutterclose", &desc.camera.entity.loc),
             format!("'shutterclose' ({close}) must be later than 'shutteropen' ({open}): the shutter never opens"),
         );
     }
     let iso = fp.get_float("iso", 100.0)?;
     if !(iso.is_finite() && iso > 0.0) {
-        return err(&param_loc(fp, "iso", floc), format!("'iso' must be a positive number, got {iso}"));
+        return err(&fp.loc_of("iso", floc), format!("'iso' must be a positive number, got {iso}"));
     }
     let temperature = fp.get_float("whitebalance", 0.0)?;
     let white_balance_from = if temperature == 0.0 {
         None
     } else {
         let xy = spectral::daylight::white_balance_chromaticity(temperature)
-            .map_err(|e| SceneError::at(param_loc(fp, "whitebalance", floc), e.to_string()))?;
+            .map_err(|e| SceneError::at(fp.loc_of("whitebalance", floc), e.to_string()))?;
         Some(xy)
     };
     Ok(PixelSensor { imaging_ratio: PixelSensor::imaging_ratio(exposure, iso), white_balance_from })

@@ -84,7 +84,7 @@ fn conductor_spec(t: &Textures, p: &ParamSet, loc: &Loc, eta_name: &str, k_name:
 /// The medium of a layered material: `thickness` (> 0, default 0.01), `albedo` (default 0), `g` (in (−1, 1),
 /// default 0), `maxdepth` (default 10) and `nsamples` (default 1), pbrt-v4's names and defaults.
 fn layer_medium(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<LayerMedium> {
-    let at = |name: &str| p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+    let at = |name: &str| p.loc_of(name, loc);
     let thickness = finite_positive(&at("thickness"), "thickness", p.get_float("thickness", 0.01)?)?;
     let g = t.float_param(p, "g", 0.0)?;
     if let FloatTexture::Constant(v) = g {
@@ -105,7 +105,7 @@ fn layer_medium(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<LayerMedium> {
 /// `sellmeierB`/`sellmeierC`, and `abbe` with `eta` as n_d (docs/scene-format.md).
 fn dielectric_ior(p: &ParamSet, loc: &Loc, default: f64) -> Result<DielectricIor> {
     let bad = |name: &str, e: optics::OpticsError| {
-        let l = p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+        let l = p.loc_of(name, loc);
         SceneError::at(l, format!("'{name}': {e}"))
     };
     if p.contains("glass") {
@@ -142,7 +142,7 @@ fn named_eta(p: &ParamSet, loc: &Loc, name: &str, default: f64) -> Result<Dielec
         Some(ParamType::Float) | None => {
             let n = p.get_float(name, default)?;
             let ior = optics::Ior::constant(n).map_err(|e| {
-                let l = p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+                let l = p.loc_of(name, loc);
                 SceneError::at(l, format!("'{name}': {e}"))
             })?;
             Ok(DielectricIor::Model(ior))

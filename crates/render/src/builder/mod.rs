@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use ::film::FilmSpec;
-use scene::{Loc, ParamSet, SceneDescription, SceneError};
+use scene::{Loc, SceneDescription, SceneError};
 
 use crate::integrator::{Integrator, IntegratorParams};
 use crate::scene::RenderScene;
@@ -67,21 +67,6 @@ fn unsupported(what: &str, name: &str, supported: &[&str]) -> String {
     format!("{what} '{name}' is not supported; supported: {}", supported.join(", "))
 }
 
-/// A count parameter: a positive integer (at most 2^20, which no sane resolution or sample count exceeds).
-fn p_count(p: &ParamSet, name: &str, default: i64, loc: &Loc) -> Result<usize> {
-    let v = p.get_int(name, default)?;
-    if v <= 0 || v > 1 << 20 {
-        let l = p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
-        return err(&l, format!("'{name}' must be a positive integer, got {v}"));
-    }
-    Ok(v as usize)
-}
-
-/// Where parameter `name` was written, or the directive's location if it was not.
-fn param_loc(p: &ParamSet, name: &str, directive: &Loc) -> Loc {
-    p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| directive.clone())
-}
-
 /// Builds the render-ready scene from a parsed description.
 pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<BuiltScene> {
     if desc.color_space != "srgb" {
@@ -91,7 +76,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     let film = film::make_film(desc, options)?;
 
     // Sampler and integrator.
-    let scene_spp = p_count(&desc.sampler.params, "pixelsamples", 16, &desc.sampler.loc)? as u32;
+    let scene_spp = desc.sampler.params.get_count("pixelsamples", 16, &desc.sampler.loc)? as u32;
     let integrator = Integrator::read(&mut IntegratorParams {
         entity: &desc.integrator,
         scene_has_media: !desc.media.is_empty(),

@@ -177,7 +177,7 @@ fn make_shape(se: &ShapeEntity) -> Result<Option<Shape>> {
         }
         "sphere" => {
             // Each error names its parameter at the parameter's own location when given.
-            let at = |name: &str| p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+            let at = |name: &str| p.loc_of(name, loc);
             let r = p.get_float("radius", 1.0)?;
             if !(r.is_finite() && r > 0.0) {
                 return err(&at("radius"), format!("sphere 'radius' must be a positive number, got {r}"));

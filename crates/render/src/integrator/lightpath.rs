@@ -19,7 +19,7 @@ use spectral::{SampledSpectrum, SampledWavelengths};
 use super::drive::{render_splatting, CameraSampler, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
 use super::path::{CameraPaths, PathIntegrator};
 use super::transport::{
-    adjoint_cos, begin_bounce, next_medium, sample_light_path, scatter, Bounce, PathRay, RayCounts,
+    adjoint_cos, begin_bounce, next_medium, russian_roulette, sample_light_path, scatter, Bounce, PathRay, RayCounts,
 };
 use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::TransportMode;
@@ -108,13 +108,8 @@ pub(crate) fn walk_light_path(
         let Some(s) = scatter(&bxdf, &frame, &hit, wo, w_from, &u, mode, wl, &mut beta) else { break };
         ray.leave(&hit, s.wi, s.bs.transmission);
         // Russian roulette after the first bounce.
-        let rr = beta.max_value() / beta_start;
-        if rr < 1.0 && depth > 1 {
-            let q = (1.0 - rr).max(0.0);
-            if u.rr < q {
-                break;
-            }
-            beta *= 1.0 / (1.0 - q);
+        if !russian_roulette(beta.max_value() / beta_start, depth, &u, &mut beta) {
+            break;
         }
         if !beta.0.iter().all(|v| v.is_finite()) {
             break;

@@ -82,7 +82,7 @@ pub struct IntegratorParams<'a> {
 impl IntegratorParams<'_> {
     /// Where parameter `name` was written, or the directive's location if it was not.
     pub fn loc_of(&self, name: &str) -> Loc {
-        self.entity.params.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| self.entity.loc.clone())
+        self.entity.params.loc_of(name, &self.entity.loc)
     }
 
     /// pbrt-v4's `maxdepth` (default 5; negative values are an error; capped at 1000).
@@ -96,11 +96,7 @@ impl IntegratorParams<'_> {
 
     /// A positive integer parameter (at most 2²⁰), or `default`.
     pub fn count(&self, name: &str, default: i64) -> Result<u32, SceneError> {
-        let v = self.entity.params.get_int(name, default)?;
-        if v <= 0 || v > 1 << 20 {
-            return Err(SceneError::at(self.loc_of(name), format!("'{name}' must be a positive integer, got {v}")));
-        }
-        Ok(v as u32)
+        Ok(self.entity.params.get_count(name, default, &self.entity.loc)? as u32)
     }
 }
 

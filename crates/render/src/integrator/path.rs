@@ -5,12 +5,14 @@
 use std::ops::Range;
 
 use film::{Film, FilmError};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{finite_or_zero, render_rows, CameraSampler, RenderStats};
-use super::transport::{begin_bounce, sample_direct_light, scatter, Bounce, DirectLight, PathRay, RayCounts};
+use super::transport::{
+    begin_bounce, russian_roulette, sample_direct_light, scatter, Bounce, DirectLight, PathRay, RayCounts,
+};
 use super::{Integrate, IntegratorParams, RenderJob};
 use crate::bxdf::TransportMode;
 use crate::sampler::Sampler;
@@ -107,20 +109,7 @@ impl PathIntegrator {
             let wo = frame.to_local(-d);
             // Next-event estimation.
             if !bxdf.is_specular() {
-                let [u_light, u0, u1] = u.connect;
-                l += beta
-                    * sample_direct_light(
-                        scene,
-                        &hit,
-                        &frame,
-                        &bxdf,
-                        wo,
-                        wl,
-                        u_light,
-                        Vec2::new(u0, u1),
-                        DirectLight::Mis,
-                        counts,
-                    );
+                l += beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, &u, DirectLight::Mis, counts);
             }
             // BSDF sampling for the next direction.
             let mode = TransportMode::Radiance;
@@ -133,13 +122,8 @@ impl PathIntegrator {
             prev_p = hit.p;
             ray.leave(&hit, s.wi, s.bs.transmission);
             // Russian roulette on the throughput with refraction's radiance scaling undone.
-            let rr_beta = (beta * eta_scale).max_value();
-            if rr_beta < 1.0 && depth > 1 {
-                let q = (1.0 - rr_beta).max(0.0);
-                if u.rr < q {
-                    break;
-                }
-                beta *= 1.0 / (1.0 - q);
+            if !russian_roulette((beta * eta_scale).max_value(), depth, &u, &mut beta) {
+                break;
             }
             if !beta.0.iter().all(|v| v.is_finite()) {
                 break;

@@ -20,7 +20,7 @@ use std::f64::consts::PI;
 use std::ops::Range;
 
 use film::{Film, FilmError, SampleConversion};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths, Xyz};
@@ -408,20 +408,8 @@ impl SppmIntegrator {
             let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
             let wo = frame.to_local(-d);
             if !bxdf.is_specular() {
-                let [u_light, u0, u1] = u.connect;
-                ld += beta
-                    * sample_direct_light(
-                        scene,
-                        &hit,
-                        &frame,
-                        &bxdf,
-                        wo,
-                        wl,
-                        u_light,
-                        Vec2::new(u0, u1),
-                        DirectLight::LightSamplingOnly,
-                        counts,
-                    );
+                let weighting = DirectLight::LightSamplingOnly;
+                ld += beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, &u, weighting, counts);
                 let vp = VisiblePoint { p: hit.p, frame, wo, bxdf, beta, wl: *wl };
                 return (Some(vp), ld);
             }

@@ -33,7 +33,8 @@ pub(crate) enum DirectLight {
     LightSamplingOnly,
 }
 
-/// Next-event estimation at a surface: picks a light with `u_light`, samples a point on it with `u`, and returns
+/// Next-event estimation at a surface: picks a light and a point on it with the bounce's connection numbers, and
+/// returns
 /// its contribution `f·|cos|·L / p` (weighted as `weighting` says; delta lights always unweighted), or zero if
 /// occluded.
 #[allow(clippy::too_many_arguments)]
@@ -44,11 +45,12 @@ pub(crate) fn sample_direct_light(
     bxdf: &Bxdf,
     wo: Vec3,
     wl: &SampledWavelengths,
-    u_light: f32,
-    u: Vec2,
+    u: &BounceSamples,
     weighting: DirectLight,
     counts: &mut RayCounts,
 ) -> SampledSpectrum {
+    let [u_light, u0, u1] = u.connect;
+    let u = Vec2::new(u0, u1);
     let Some((li, p_sel)) = scene.sample_light(u_light) else { return SampledSpectrum::zero() };
     let light = &scene.lights[li as usize];
     let ctx = LightSampleContext { p: hit.p, n: hit.n };
@@ -252,6 +254,21 @@ pub(crate) fn begin_bounce(
         Surface::Absorb => Bounce::Absorb,
         Surface::Scatter(bxdf) => Bounce::Scatter(bxdf, u),
     }
+}
+
+/// Russian roulette (pbrt-v4 §13.4.2): from the second bounce on, a path whose throughput has fallen to
+/// `ratio` < 1 of its start survives with probability `ratio` and is reweighted by its inverse. Returns false if the
+/// path ends.
+#[inline]
+pub(crate) fn russian_roulette(ratio: f32, depth: u32, u: &BounceSamples, beta: &mut SampledSpectrum) -> bool {
+    if ratio < 1.0 && depth > 1 {
+        let q = (1.0 - ratio).max(0.0);
+        if u.rr < q {
+            return false;
+        }
+        *beta *= 1.0 / (1.0 - q);
+    }
+    true
 }
 
 /// A direction sampled from a BSDF at a path vertex.
