@@ -32,6 +32,7 @@ pub mod integrator;
 pub mod layered;
 pub mod light;
 pub mod material;
+pub mod medium;
 pub mod microfacet;
 pub mod sampler;
 pub mod sampling;

@@ -3,11 +3,12 @@
 
 use geometry::GeometryScene;
 use glam::{Vec2, Vec3};
-use spectral::{Distribution1D, SampledSpectrum, SampledWavelengths, Spectrum};
+use spectral::Distribution1D;
 
 use crate::camera::Camera;
 use crate::light::Light;
 use crate::material::Material;
+use crate::medium::Medium;
 
 /// Material index meaning "no surface" (a boundary between media only).
 pub const NO_MATERIAL: u32 = u32::MAX;
@@ -118,20 +119,6 @@ impl Geometry for SceneGeometry {
     }
 }
 
-/// A homogeneous medium that only absorbs (Beer–Lambert): coloured glass interiors.
-#[derive(Clone, Debug)]
-pub struct AbsorbingMedium {
-    /// Absorption coefficient per unit scene length.
-    pub sigma_a: Spectrum,
-}
-
-impl AbsorbingMedium {
-    /// Transmittance over distance `d`: exp(−σa(λ)·d).
-    pub fn transmittance(&self, d: f32, wl: &SampledWavelengths) -> SampledSpectrum {
-        (self.sigma_a.sample(wl) * -d).exp()
-    }
-}
-
 /// Everything the integrators need.
 pub struct RenderScene {
     /// Ray queries.
@@ -145,7 +132,7 @@ pub struct RenderScene {
     /// Indices of the infinite lights.
     pub infinite_lights: Vec<u32>,
     /// Media.
-    pub media: Vec<AbsorbingMedium>,
+    pub media: Vec<Medium>,
     /// The medium the camera sits in.
     pub camera_medium: Option<u32>,
     /// The camera.
@@ -161,7 +148,7 @@ impl RenderScene {
         geometry: Box<dyn Geometry>,
         materials: Vec<Material>,
         lights: Vec<Light>,
-        media: Vec<AbsorbingMedium>,
+        media: Vec<Medium>,
         camera_medium: Option<u32>,
         camera: Camera,
     ) -> Self {

@@ -15,9 +15,12 @@ use film::{Film, FilmKind, FilmSpec, Filter};
 use geometry::{GeometryScene, MeshData, Shape, Sphere, Transform, TriangleMesh};
 use glam::{DVec3, Vec3};
 use render::camera::{Camera, Projection, ScreenWindow};
-use render::integrator::{BdptIntegrator, Integrator, LightPathIntegrator, PathIntegrator, RenderJob, SppmIntegrator};
+use render::integrator::{
+    BdptIntegrator, Integrator, LightPathIntegrator, PathIntegrator, RenderJob, SppmIntegrator, VolPathIntegrator,
+};
 use render::light::Light;
 use render::material::{ConductorSpec, DielectricIor, Material, Roughness};
+use render::medium::{HomogeneousMedium, Medium, PhaseFunction};
 use render::sampling::Frame;
 use render::scene::{RenderScene, SceneGeometry, ShapeInfo};
 use render::texture::{FloatTexture, SpectrumTexture};
@@ -46,6 +49,9 @@ struct Extras {
     /// A smooth dispersive glass sphere (N-SF11): only for the determinism tests, where specular paths and
     /// wavelength-dependent refraction must be deterministic too.
     glass: bool,
+    /// Thin chromatic fog filling the room (the camera sits in it): for the determinism tests, where `volpath`'s
+    /// delta and ratio tracking must be deterministic too (the other integrators ignore scattering media).
+    fog: bool,
 }
 
 /// A quad as a two-triangle mesh (0 1 2, 0 2 3); its geometric normal is cross(p0 − p2, p1 − p2), which decides
@@ -140,11 +146,26 @@ fn room(extras: Extras) -> RenderScene {
         lens_radius,
         focal_distance,
     );
-    RenderScene::new(Box::new(SceneGeometry::new(accel, vec![info])), materials, lights, vec![], None, camera)
+    let (media, camera_medium) = if extras.fog {
+        let fog = Medium::Homogeneous(HomogeneousMedium {
+            sigma_a: Spectrum::Constant(0.02),
+            sigma_s: Spectrum::piecewise_linear(vec![400.0, 700.0], vec![0.25, 0.08]).unwrap(),
+            le: None,
+            phase: PhaseFunction::HenyeyGreenstein(0.3),
+        });
+        (vec![fog], Some(0))
+    } else {
+        (vec![], None)
+    };
+    RenderScene::new(Box::new(SceneGeometry::new(accel, vec![info])), materials, lights, media, camera_medium, camera)
 }
 
 fn path(max_depth: u32) -> Integrator {
     Integrator::Path(PathIntegrator { max_depth })
+}
+
+fn volpath(max_depth: u32) -> Integrator {
+    Integrator::VolPath(VolPathIntegrator { max_depth })
 }
 
 fn lightpath(max_depth: u32) -> Integrator {
@@ -265,6 +286,16 @@ fn lightpath_agrees_with_path_on_a_diffuse_room() {
     agrees_with_path(&room(Extras::default()), &lightpath(4), 128, 128, 0.0, 0.03);
 }
 
+/// Without media, volumetric path tracing is path tracing with the balance heuristic in place of the power
+/// heuristic: it estimates the same image (same tolerances as light tracing), with delta lights, a rough metal and
+/// a thin lens as well.
+#[test]
+fn volpath_agrees_with_path_without_media() {
+    agrees_with_path(&room(Extras::default()), &volpath(4), 128, 128, 0.0, 0.03);
+    let extras = Extras { delta_lights: true, rough_gold: true, thin_lens: true, ..Extras::default() };
+    agrees_with_path(&room(extras), &volpath(4), 128, 128, 0.0, 0.03);
+}
+
 /// Bidirectional path tracing estimates the path tracer's image of the diffuse room (same tolerances as light
 /// tracing): its MIS weights over all connection strategies must sum to one.
 #[test]
@@ -278,7 +309,7 @@ fn bdpt_agrees_with_path_on_a_diffuse_room() {
 /// delta lights' paths are weighted is resolved). The delta lights are asserted to add more than 20% to the image.
 #[test]
 fn bdpt_agrees_with_path_with_delta_lights_a_rough_metal_and_a_thin_lens() {
-    let extras = Extras { delta_lights: true, rough_gold: true, thin_lens: true, glass: false };
+    let extras = Extras { delta_lights: true, rough_gold: true, thin_lens: true, ..Extras::default() };
     agrees_with_path(&room(extras), &bdpt(4), 256, 128, 0.0, 0.03);
     // Not a vacuous pass: the delta lights light a good part of the image.
     let without = room(Extras { delta_lights: false, ..extras });
@@ -303,15 +334,15 @@ fn sppm_agrees_with_path_on_a_diffuse_room() {
 // Determinism
 // ------------------------------------------------------------------------------------------------------------------
 
-/// The four integrators, each with maximum depth 5.
-fn all_integrators() -> [Integrator; 4] {
-    [path(5), lightpath(5), bdpt(5), sppm(5)]
+/// The five integrators, each with maximum depth 5.
+fn all_integrators() -> [Integrator; 5] {
+    [path(5), volpath(5), lightpath(5), bdpt(5), sppm(5)]
 }
 
 /// The room with every extra (delta lights, rough gold, thin lens, and a dispersive glass sphere whose refraction
 /// keeps one wavelength): every kind of path and splat the integrators have.
 fn determinism_room() -> RenderScene {
-    room(Extras { delta_lights: true, rough_gold: true, thin_lens: true, glass: true })
+    room(Extras { delta_lights: true, rough_gold: true, thin_lens: true, glass: true, fog: true })
 }
 
 /// Asserts that two films hold the same colours, weights and spectral buckets: bit-identical when `rel` is 0,

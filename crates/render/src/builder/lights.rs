@@ -35,7 +35,7 @@ fn photometric(s: &Spectrum) -> f64 {
 }
 
 /// Scales an emission spectrum so that `scale` is its luminance in nits (pbrt-v4: `scale /= SpectrumToPhotometric`).
-fn normalise_emission(loc: &Loc, s: Spectrum, scale: f64) -> Result<Spectrum> {
+pub(super) fn normalise_emission(loc: &Loc, s: Spectrum, scale: f64) -> Result<Spectrum> {
     let y = photometric(&s);
     if y.is_nan() || y <= 0.0 {
         return err(loc, "emission spectrum has no luminance (it is zero across the visible range)");

@@ -77,9 +77,10 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
 
     // Sampler and integrator.
     let scene_spp = desc.sampler.params.get_count("pixelsamples", 16, &desc.sampler.loc)? as u32;
+    let media = media::Media::build(desc)?;
     let integrator = Integrator::read(&mut IntegratorParams {
         entity: &desc.integrator,
-        scene_has_media: !desc.media.is_empty(),
+        media_scatter: media.any_scattering(),
         warnings: &mut warnings,
     })?;
     // Photon mapping renders `iterations` passes (pbrt-v4 ignores the sampler's pixel samples there).
@@ -95,7 +96,6 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
 
     let textures = textures::Textures::build(desc)?;
     let materials = materials::Materials::build(desc, &textures)?;
-    let media = media::Media::build(desc)?;
     let camera_medium = media.of(&desc.camera.medium, &desc.camera.entity.loc)?;
     // Area lights are made with their shapes, so they come before the `LightSource` lights.
     let mut lights = vec![];

@@ -299,7 +299,7 @@ fn transmittance(
     let w = b.p - a.p;
     let mut tr = SampledSpectrum::splat(1.0);
     if let Some(m) = a.medium_towards(w) {
-        tr *= scene.media[m as usize].transmittance(w.length(), wl);
+        tr *= scene.media[m as usize].absorption_transmittance(w.length(), wl);
     }
     Some(tr)
 }
@@ -646,7 +646,7 @@ impl BdptIntegrator {
                 return zero;
             }
             if let (Some(m), false) = (pt.medium_towards(ls.wi), far) {
-                c *= scene.media[m as usize].transmittance(ls.dist, wl);
+                c *= scene.media[m as usize].absorption_transmittance(ls.dist, wl);
             }
             sampled = Some(v);
             c

@@ -16,7 +16,7 @@ use glam::{Vec2, Vec3};
 use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
-use super::drive::{render_splatting, CameraSampler, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
+use super::drive::{render_splatting, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
 use super::path::{CameraPaths, PathIntegrator};
 use super::transport::{
     adjoint_cos, begin_bounce, next_medium, russian_roulette, sample_light_path, scatter, Bounce, PathRay, RayCounts,
@@ -144,7 +144,7 @@ impl LightPathIntegrator {
             }
             let mut c = v.beta * f * (adjoint_cos(v.w_from, cs.wi, hit.ns, hit.n) * cs.we / cs.pdf);
             if let Some(m) = next_medium(hit, cs.wi, v.medium) {
-                c *= scene.media[m as usize].transmittance(cs.dist, wl);
+                c *= scene.media[m as usize].absorption_transmittance(cs.dist, wl);
             }
             splat(cs.raster, c, wl);
         });
@@ -168,7 +168,7 @@ impl Integrate for LightPathIntegrator {
     ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
         // Emitters seen directly: a path tracer that stops at the first surface.
         let direct = PathIntegrator { max_depth: 0 };
-        let camera = CameraPaths { integrator: direct, scene, camera: CameraSampler::new(film)?, seed };
+        let camera = CameraPaths::new(direct, scene, film, seed)?;
         Ok(Box::new(LightPaths { integrator: self, camera }))
     }
 }
@@ -176,7 +176,7 @@ impl Integrate for LightPathIntegrator {
 /// A light-tracing render: camera rays for directly visible light, and one light path per pixel sample, splatted.
 struct LightPaths<'a> {
     integrator: &'a LightPathIntegrator,
-    camera: CameraPaths<'a>,
+    camera: CameraPaths<'a, PathIntegrator>,
 }
 
 impl RenderJob for LightPaths<'_> {

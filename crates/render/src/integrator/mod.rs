@@ -20,6 +20,7 @@ pub mod bdpt;
 pub mod lightpath;
 pub mod path;
 pub mod sppm;
+pub mod volpath;
 
 // What they share.
 pub mod drive;
@@ -72,9 +73,9 @@ pub trait RenderJob: Send {
 pub struct IntegratorParams<'a> {
     /// The directive.
     pub entity: &'a Entity,
-    /// Whether the scene declares media (pbrt-v4's `volpath` renders them; the camera-side `path` here absorbs
-    /// only).
-    pub scene_has_media: bool,
+    /// Whether some medium of the scene scatters or glows (`volpath` renders such media; `path`, like pbrt-v4's,
+    /// ignores them).
+    pub media_scatter: bool,
     /// Where warnings go.
     pub warnings: &'a mut Vec<String>,
 }
@@ -169,8 +170,10 @@ macro_rules! integrators {
 }
 
 integrators! {
-    /// Unidirectional path tracing from the camera (pbrt-v4's `volpath` renders as `path`: media absorb only).
-    Path(path::PathIntegrator) = "path" | "volpath";
+    /// Unidirectional path tracing from the camera; media only absorb (pbrt-v4's `path` ignores them).
+    Path(path::PathIntegrator) = "path";
+    /// Volumetric path tracing: media absorb, scatter and glow.
+    VolPath(volpath::VolPathIntegrator) = "volpath";
     /// Particle tracing from the lights, splatted onto the film.
     LightPath(lightpath::LightPathIntegrator) = "lightpath";
     /// Bidirectional path tracing with MIS over all connection strategies.

@@ -35,11 +35,25 @@ pub struct PathIntegrator {
     pub max_depth: u32,
 }
 
-impl PathIntegrator {
+/// A camera-side estimator of radiance: what [`CameraPaths`] traces into each pixel.
+pub trait Radiance: Copy + Send + Sync {
     /// Radiance arriving at the camera along `o + t·d`, at the wavelengths of `wl` (which a dispersive surface may
-    /// reduce to one).
+    /// reduce to one); `first_hit` hears the first surface the path scatters at, for AOVs.
     #[allow(clippy::too_many_arguments)]
-    pub fn li(
+    fn li(
+        &self,
+        scene: &RenderScene,
+        o: Vec3,
+        d: Vec3,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+        first_hit: Option<&mut Option<FirstHit>>,
+    ) -> SampledSpectrum;
+}
+
+impl Radiance for PathIntegrator {
+    fn li(
         &self,
         scene: &RenderScene,
         o: Vec3,
@@ -136,9 +150,10 @@ impl PathIntegrator {
 impl Integrate for PathIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
         let max_depth = params.max_depth()?;
-        if params.entity.name == "volpath" && params.scene_has_media {
+        if params.media_scatter {
             params.warnings.push(format!(
-                "{}: warning: integrator \"volpath\" renders as \"path\" (absorbing media only)",
+                "{}: warning: integrator \"path\" ignores media that scatter or glow (as pbrt-v4's does); \
+                 use \"volpath\" to render them",
                 params.entity.loc
             ));
         }
@@ -151,20 +166,25 @@ impl Integrate for PathIntegrator {
         film: &Film,
         seed: u32,
     ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
-        Ok(Box::new(CameraPaths { integrator: *self, scene, camera: CameraSampler::new(film)?, seed }))
+        Ok(Box::new(CameraPaths::new(*self, scene, film, seed)?))
     }
 }
 
 /// Camera paths traced into the pixels they start from: the `path` integrator's render, and the directly visible
 /// emitters of the light tracer (with `max_depth` 0).
-pub(crate) struct CameraPaths<'a> {
-    pub integrator: PathIntegrator,
-    pub scene: &'a RenderScene,
-    pub camera: CameraSampler,
-    pub seed: u32,
+pub(crate) struct CameraPaths<'a, R: Radiance> {
+    integrator: R,
+    pub(crate) scene: &'a RenderScene,
+    pub(crate) camera: CameraSampler,
+    pub(crate) seed: u32,
 }
 
-impl CameraPaths<'_> {
+impl<'a, R: Radiance> CameraPaths<'a, R> {
+    /// Camera paths of `integrator` through `scene` into films like `film`.
+    pub fn new(integrator: R, scene: &'a RenderScene, film: &Film, seed: u32) -> Result<Self, FilmError> {
+        Ok(Self { integrator, scene, camera: CameraSampler::new(film)?, seed })
+    }
+
     /// Renders samples `samples` of every pixel into `film`, with albedo and normal AOVs if the film keeps them.
     pub fn render(&self, film: &mut Film, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
         let aovs = film.has_aovs();
@@ -189,7 +209,7 @@ impl CameraPaths<'_> {
     }
 }
 
-impl RenderJob for CameraPaths<'_> {
+impl<R: Radiance> RenderJob for CameraPaths<'_, R> {
     fn run(&mut self, film: &mut Film, passes: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
         self.render(film, passes, progress)
     }

@@ -193,7 +193,7 @@ impl PathRay {
         beta: &mut SampledSpectrum,
     ) {
         if let Some(m) = self.medium {
-            *beta *= scene.media[m as usize].transmittance(hit.t, wl);
+            *beta *= scene.media[m as usize].absorption_transmittance(hit.t, wl);
         }
     }
 

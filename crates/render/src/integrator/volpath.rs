@@ -1,0 +1,438 @@
+//! Volumetric path tracing (pbrt-v4's `volpath`): the null-scattering path integral of Miller, Georgiev & Jarosz
+//! 2019 with delta tracking against a majorant for collisions, ratio tracking for the transmittance of shadow rays,
+//! and one-sample MIS over the carried wavelengths (spectral MIS), so that a medium whose σ depends on wavelength
+//! does not turn into colour noise. Next-event estimation is combined with BSDF and phase-function sampling by the
+//! balance heuristic through the same rescaled path probabilities r_u and r_l (pbrt-v4 §14.2.3).
+//!
+//! `maxdepth` counts scattering events, in media and at surfaces; crossing a material-less boundary is not one.
+//! Absorbing-only media attenuate in closed form (Beer–Lambert) instead of by tracking.
+
+use glam::Vec3;
+use scene::SceneError;
+use spectral::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+
+use super::path::{CameraPaths, FirstHit, Radiance};
+use super::transport::{
+    begin_bounce, next_medium, russian_roulette, scatter, Bounce, BounceSamples, PathRay, RayCounts,
+};
+use super::{Integrate, IntegratorParams, RenderJob};
+use crate::bxdf::{Bxdf, TransportMode};
+use crate::light::LightSampleContext;
+use crate::medium::{sample_t_maj, PhaseFunction, TrackingRng};
+use crate::sampler::Sampler;
+use crate::sampling::Frame;
+use crate::scene::{RenderScene, NO_MATERIAL};
+use film::{Film, FilmError};
+
+/// The `volpath` integrator.
+#[derive(Clone, Copy, Debug)]
+pub struct VolPathIntegrator {
+    /// Maximum number of scattering events, in media and at surfaces (pbrt's `maxdepth`, default 5).
+    pub max_depth: u32,
+}
+
+/// Longest run of material-less boundaries a shadow ray crosses before it counts as blocked.
+const MAX_SHADOW_CROSSINGS: u32 = 256;
+
+/// The wavelengths that share one path in spectral MIS: which slots take part, and the hero slot whose densities
+/// sample distances and collision types. Each path picks its hero uniformly among the active slots, which makes
+/// the one-sample MIS estimator f(λᵢ) / mean_h p(λ_h) unbiased for every wavelength strategy (for `hero` any slot
+/// would do; the bands of `rgb` are not interchangeable). After a dispersive event leaves one wavelength, the rest
+/// of the path is sampled at that wavelength whichever slot would have been the hero, so its probability ratios
+/// change by the same factor for every slot (`ratio` broadcasts).
+#[derive(Clone, Copy, Debug)]
+struct SpectralMis {
+    /// Slots active when the path started.
+    active: [bool; N_WAVELENGTHS],
+    count: f32,
+    hero: usize,
+    chosen: bool,
+    reduced: bool,
+}
+
+impl SpectralMis {
+    fn new(wl: &SampledWavelengths) -> Self {
+        let active = std::array::from_fn(|i| wl.is_active(i));
+        let count = active.iter().filter(|&&a| a).count().max(1) as f32;
+        let first = active.iter().position(|&a| a).unwrap_or(0);
+        Self { active, count, hero: first, chosen: wl.is_single(), reduced: wl.is_single() }
+    }
+
+    /// Chooses the hero with `u` (once per path, at its first medium).
+    fn choose(&mut self, u: f32) {
+        if self.chosen {
+            return;
+        }
+        let pick = ((u * self.count) as usize).min(self.count as usize - 1);
+        self.hero = (0..N_WAVELENGTHS).filter(|&i| self.active[i]).nth(pick).unwrap_or(self.hero);
+        self.chosen = true;
+    }
+
+    /// Notes a dispersive event that left one wavelength.
+    fn update(&mut self, wl: &SampledWavelengths) {
+        if !self.reduced && wl.is_single() {
+            self.reduced = true;
+            self.chosen = true;
+            self.hero = (0..N_WAVELENGTHS).find(|&i| wl.is_active(i)).unwrap_or(self.hero);
+        }
+    }
+
+    /// The factor a probability ratio changes by at each slot.
+    #[inline]
+    fn ratio(&self, v: SampledSpectrum) -> SampledSpectrum {
+        if self.reduced {
+            SampledSpectrum::splat(v[self.hero])
+        } else {
+            v
+        }
+    }
+
+    /// The mean of `r` over the slots that take part: the balance heuristic's denominator.
+    #[inline]
+    fn average(&self, r: SampledSpectrum) -> f32 {
+        let mut s = 0.0;
+        for i in 0..N_WAVELENGTHS {
+            if self.active[i] {
+                s += r[i];
+            }
+        }
+        s / self.count
+    }
+}
+
+/// Where the path scattered last, for the light-selection and MIS densities of the emitter it finds next.
+#[derive(Clone, Copy, Debug)]
+enum Vertex<'a> {
+    /// A surface with its BxDF in its shading frame, reached through `medium`.
+    Surface { hit: &'a crate::scene::SurfaceHit, frame: &'a Frame, bxdf: &'a Bxdf, wo: Vec3, medium: Option<u32> },
+    /// A point in a medium, reached travelling along `d_in`.
+    Medium { p: Vec3, d_in: Vec3, phase: &'a PhaseFunction, medium: Option<u32> },
+}
+
+impl VolPathIntegrator {
+    /// Next-event estimation at `v`: a light and a point on it, transmittance by ratio tracking through media and
+    /// material-less boundaries, weighted against BSDF or phase sampling by the balance heuristic over all
+    /// wavelengths (`r_p` is the path's r_u). Draws the light sample from `u`.
+    #[allow(clippy::too_many_arguments)]
+    fn sample_ld(
+        &self,
+        scene: &RenderScene,
+        v: Vertex,
+        wl: &SampledWavelengths,
+        u: &BounceSamples,
+        mis: &SpectralMis,
+        r_p: SampledSpectrum,
+        counts: &mut RayCounts,
+    ) -> SampledSpectrum {
+        let [u_light, u0, u1] = u.connect;
+        let Some((li, p_sel)) = scene.sample_light(u_light) else { return SampledSpectrum::zero() };
+        let light = &scene.lights[li as usize];
+        let ctx = match v {
+            Vertex::Surface { hit, .. } => LightSampleContext { p: hit.p, n: hit.n },
+            Vertex::Medium { p, .. } => LightSampleContext { p, n: Vec3::ZERO },
+        };
+        let Some(ls) = light.sample_li(&ctx, glam::Vec2::new(u0, u1), wl) else { return SampledSpectrum::zero() };
+        if ls.pdf <= 0.0 || ls.l.is_black() {
+            return SampledSpectrum::zero();
+        }
+        let p_l = p_sel * ls.pdf;
+        let (f_hat, scatter_pdf, mut origin, mut medium) = match v {
+            Vertex::Surface { hit, frame, bxdf, wo, medium } => {
+                let wi = frame.to_local(ls.wi);
+                let f = bxdf.f(wo, wi, TransportMode::Radiance) * wi.z.abs();
+                let pdf = bxdf.pdf(wo, wi, TransportMode::Radiance);
+                // The shadow ray leaves into the medium on the light's side (the arrival medium without an
+                // interface).
+                (f, pdf, hit.spawn_origin(ls.wi), next_medium(hit, ls.wi, medium))
+            }
+            Vertex::Medium { p, d_in, phase, medium } => {
+                (phase.p(d_in, ls.wi, wl), phase.pdf(d_in, ls.wi, wl), p, medium)
+            }
+        };
+        if f_hat.is_black() {
+            return SampledSpectrum::zero();
+        }
+        let finite = ls.dist.is_finite();
+        let mut t_ray = SampledSpectrum::splat(1.0);
+        let mut r_l = SampledSpectrum::splat(1.0);
+        let mut r_u = SampledSpectrum::splat(1.0);
+        if scene.media.is_empty() {
+            counts.shadow += 1;
+            let t_max = if finite { (ls.p - origin).length() * (1.0 - 1e-4) } else { f32::INFINITY };
+            if scene.geometry.occluded(origin, ls.wi, t_max) {
+                return SampledSpectrum::zero();
+            }
+        } else {
+            let mut rng = TrackingRng::new(u0, li ^ 0x5eed);
+            let mut crossings = 0;
+            loop {
+                let (d, t_max) = if finite {
+                    let to = ls.p - origin;
+                    let len = to.length();
+                    (to / len, len * (1.0 - 1e-4))
+                } else {
+                    (ls.wi, f32::INFINITY)
+                };
+                counts.shadow += 1;
+                let hit = scene.geometry.intersect(origin, d, t_max);
+                if hit.is_some_and(|h| h.material != NO_MATERIAL) {
+                    return SampledSpectrum::zero();
+                }
+                if let Some(m) = medium {
+                    let seg_end = hit.map_or(t_max, |h| h.t);
+                    let med = &scene.media[m as usize];
+                    if med.is_absorbing_only() {
+                        t_ray *= med.absorption_transmittance(seg_end, wl);
+                    } else {
+                        let h = mis.hero;
+                        let t_maj =
+                            sample_t_maj(med, origin, d, seg_end, &mut rng, wl, h, |_, mp, sigma_maj, t_maj, rng| {
+                                // Ratio tracking: every tentative collision is a null one (pbrt-v4 §14.2.3).
+                                let sigma_n = (sigma_maj - mp.sigma_a - mp.sigma_s).map(|x| x.max(0.0));
+                                let pdf = t_maj[h] * sigma_maj[h];
+                                t_ray *= t_maj * sigma_n / pdf;
+                                r_l *= mis.ratio(t_maj * sigma_maj / pdf);
+                                r_u *= mis.ratio(t_maj * sigma_n / pdf);
+                                // Russian roulette once the estimate is small.
+                                let tr = t_ray / mis.average(r_l + r_u);
+                                if tr.max_value() < 0.05 {
+                                    if rng.uniform() < 0.75 {
+                                        t_ray = SampledSpectrum::zero();
+                                    } else {
+                                        t_ray *= 4.0;
+                                    }
+                                }
+                                !t_ray.is_black()
+                            });
+                        if t_maj[h] <= 0.0 {
+                            return SampledSpectrum::zero();
+                        }
+                        t_ray *= t_maj / t_maj[h];
+                        r_l *= mis.ratio(t_maj / t_maj[h]);
+                        r_u *= mis.ratio(t_maj / t_maj[h]);
+                    }
+                }
+                if t_ray.is_black() || !t_ray.0.iter().all(|x| x.is_finite()) {
+                    return SampledSpectrum::zero();
+                }
+                let Some(h) = hit else { break };
+                crossings += 1;
+                if crossings > MAX_SHADOW_CROSSINGS {
+                    return SampledSpectrum::zero();
+                }
+                medium = next_medium(&h, d, medium);
+                origin = h.spawn_origin(d);
+            }
+        }
+        let r_l = r_l * r_p * p_l;
+        let r_u = r_u * r_p * scatter_pdf;
+        if ls.delta {
+            f_hat * t_ray * ls.l / mis.average(r_l)
+        } else {
+            f_hat * t_ray * ls.l / mis.average(r_l + r_u)
+        }
+    }
+}
+
+impl Radiance for VolPathIntegrator {
+    fn li(
+        &self,
+        scene: &RenderScene,
+        o: Vec3,
+        d: Vec3,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+        mut first_hit: Option<&mut Option<FirstHit>>,
+    ) -> SampledSpectrum {
+        let mut l = SampledSpectrum::zero();
+        let mut beta = SampledSpectrum::splat(1.0);
+        let mut r_u = SampledSpectrum::splat(1.0);
+        let mut r_l = SampledSpectrum::splat(1.0);
+        let mut mis = SpectralMis::new(wl);
+        let mut specular_bounce = false;
+        let mut eta_scale = 1.0f32;
+        let mut depth = 0u32;
+        let mut prev_p = o;
+        let mut ray = PathRay::new(o, d, scene.camera_medium);
+        loop {
+            let hit = ray.intersect(scene, counts);
+            // Through the medium along the ray, up to the surface.
+            if let Some(m) = ray.medium {
+                let medium = &scene.media[m as usize];
+                let t_end = hit.map_or(f32::INFINITY, |h| h.t);
+                if medium.is_absorbing_only() {
+                    beta *= medium.absorption_transmittance(t_end, wl);
+                } else {
+                    mis.choose(sampler.next_1d());
+                    let h = mis.hero;
+                    let mut rng = TrackingRng::new(sampler.next_1d(), depth);
+                    let (ro, rd) = (ray.o, ray.d);
+                    let mut scattered: Option<(Vec3, Vec3)> = None;
+                    let mut terminated = false;
+                    let t_maj = sample_t_maj(medium, ro, rd, t_end, &mut rng, wl, h, |p, mp, sigma_maj, t_maj, rng| {
+                        // Emission, σa·Le, estimated at every tentative collision.
+                        if depth < self.max_depth && !mp.le.is_black() {
+                            let pdf = sigma_maj[h] * t_maj[h];
+                            let betap = beta * t_maj / pdf;
+                            let r_e = r_u * mis.ratio(sigma_maj * t_maj / pdf);
+                            let avg = mis.average(r_e);
+                            if avg > 0.0 {
+                                l += betap * mp.sigma_a * mp.le / avg;
+                            }
+                        }
+                        let p_absorb = mp.sigma_a[h] / sigma_maj[h];
+                        let p_scatter = mp.sigma_s[h] / sigma_maj[h];
+                        let um = rng.uniform();
+                        if um < p_absorb {
+                            terminated = true;
+                            return false;
+                        }
+                        if um < p_absorb + p_scatter {
+                            // A real scattering event.
+                            if depth >= self.max_depth {
+                                terminated = true;
+                                return false;
+                            }
+                            depth += 1;
+                            let pdf = t_maj[h] * mp.sigma_s[h];
+                            beta *= t_maj * mp.sigma_s / pdf;
+                            r_u *= mis.ratio(t_maj * mp.sigma_s / pdf);
+                            if beta.is_black() || r_u.is_black() {
+                                terminated = true;
+                                return false;
+                            }
+                            let u = BounceSamples::draw(sampler);
+                            let v = Vertex::Medium { p, d_in: rd, phase: mp.phase, medium: Some(m) };
+                            l += beta * self.sample_ld(scene, v, wl, &u, &mis, r_u, counts);
+                            let Some(ps) = mp.phase.sample(rd, u.dir, wl) else {
+                                terminated = true;
+                                return false;
+                            };
+                            beta *= ps.p / ps.pdf;
+                            r_l = r_u / ps.pdf;
+                            if !russian_roulette((beta / mis.average(r_u)).max_value(), depth, &u, &mut beta) {
+                                terminated = true;
+                                return false;
+                            }
+                            scattered = Some((p, ps.wi));
+                            return false;
+                        }
+                        // A null collision.
+                        let sigma_n = (sigma_maj - mp.sigma_a - mp.sigma_s).map(|x| x.max(0.0));
+                        let pdf = t_maj[h] * sigma_n[h];
+                        if pdf <= 0.0 {
+                            beta = SampledSpectrum::zero();
+                        } else {
+                            beta *= t_maj * sigma_n / pdf;
+                            r_u *= mis.ratio(t_maj * sigma_n / pdf);
+                            r_l *= mis.ratio(t_maj * sigma_maj / pdf);
+                        }
+                        !beta.is_black() && !r_u.is_black()
+                    });
+                    if terminated || beta.is_black() || r_u.is_black() {
+                        break;
+                    }
+                    if let Some((p, wi)) = scattered {
+                        specular_bounce = false;
+                        prev_p = p;
+                        ray = PathRay::new(p, wi, ray.medium);
+                        continue;
+                    }
+                    if t_maj[h] <= 0.0 {
+                        break;
+                    }
+                    beta *= t_maj / t_maj[h];
+                    r_u *= mis.ratio(t_maj / t_maj[h]);
+                    r_l *= mis.ratio(t_maj / t_maj[h]);
+                }
+            }
+            let d = ray.d;
+            let Some(hit) = hit else {
+                // Escaped: infinite lights.
+                for &li in &scene.infinite_lights {
+                    let light = &scene.lights[li as usize];
+                    let le = light.le(d, wl);
+                    if le.is_black() {
+                        continue;
+                    }
+                    if depth == 0 || specular_bounce {
+                        l += beta * le / mis.average(r_u);
+                    } else {
+                        let p_l = scene.light_probability(li) * light.pdf_li_infinite(d);
+                        l += beta * le / mis.average(r_u + r_l * p_l);
+                    }
+                }
+                break;
+            };
+            // Emission from an area light that was hit.
+            if let Some(li) = hit.area_light {
+                let light = &scene.lights[li as usize];
+                let le = light.l_area(hit.n, -d, wl);
+                if !le.is_black() {
+                    if depth == 0 || specular_bounce {
+                        l += beta * le / mis.average(r_u);
+                    } else {
+                        let p_l = scene.light_probability(li) * light.pdf_li_area(prev_p, d);
+                        l += beta * le / mis.average(r_u + r_l * p_l);
+                    }
+                }
+            }
+            let arrived_in = ray.medium;
+            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+                Bounce::PassedThrough => continue,
+                Bounce::Stop | Bounce::Absorb => break,
+                Bounce::Scatter(bxdf, u) => (bxdf, u),
+            };
+            mis.update(wl);
+            if depth == 0 {
+                if let Some(fh) = first_hit.take() {
+                    *fh = Some(FirstHit { albedo: bxdf.albedo_hint(), normal: hit.ns });
+                }
+            }
+            if depth == self.max_depth {
+                break;
+            }
+            depth += 1;
+            let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
+            let wo = frame.to_local(-d);
+            if !bxdf.is_specular() {
+                let v = Vertex::Surface { hit: &hit, frame: &frame, bxdf: &bxdf, wo, medium: arrived_in };
+                l += beta * self.sample_ld(scene, v, wl, &u, &mis, r_u, counts);
+            }
+            let mode = TransportMode::Radiance;
+            let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { break };
+            mis.update(wl);
+            let p_b = if s.bs.pdf_is_proportional { bxdf.pdf(wo, s.bs.wi, mode) } else { s.bs.pdf };
+            r_l = r_u / p_b;
+            specular_bounce = s.bs.specular;
+            if s.bs.transmission {
+                eta_scale *= s.bs.eta * s.bs.eta;
+            }
+            prev_p = hit.p;
+            ray.leave(&hit, s.wi, s.bs.transmission);
+            if !russian_roulette((beta * eta_scale / mis.average(r_u)).max_value(), depth, &u, &mut beta) {
+                break;
+            }
+            if !beta.0.iter().all(|v| v.is_finite()) {
+                break;
+            }
+        }
+        l
+    }
+}
+
+impl Integrate for VolPathIntegrator {
+    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+        Ok(VolPathIntegrator { max_depth: params.max_depth()? })
+    }
+
+    fn begin<'a>(
+        &'a self,
+        scene: &'a RenderScene,
+        film: &Film,
+        seed: u32,
+    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+        Ok(Box::new(CameraPaths::new(*self, scene, film, seed)?))
+    }
+}
