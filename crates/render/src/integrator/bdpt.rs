@@ -764,6 +764,13 @@ const BDPT_CONNECT_SEED_SALT: u32 = 0x636f_6e6e;
 
 impl Integrate for BdptIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+        if params.media_scatter {
+            params.warnings.push(format!(
+                "{}: warning: integrator \"bdpt\" does not render media that scatter or glow yet: it treats them as \
+                 vacuum; use \"volpath\" or \"lightpath\"",
+                params.entity.loc
+            ));
+        }
         Ok(BdptIntegrator { max_depth: params.max_depth()? })
     }
 

@@ -17,12 +17,15 @@ use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{render_splatting, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
-use super::path::{CameraPaths, PathIntegrator};
+use super::path::CameraPaths;
 use super::transport::{
-    adjoint_cos, begin_bounce, next_medium, russian_roulette, sample_light_path, scatter, Bounce, PathRay, RayCounts,
+    adjoint_cos, begin_bounce, next_medium, russian_roulette, sample_light_path, scatter, shadow_transmittance, Bounce,
+    BounceSamples, PathRay, RayCounts, ShadowTarget, SpectralMis,
 };
+use super::volpath::VolPathIntegrator;
 use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::TransportMode;
+use crate::medium::{sample_t_maj, PhaseFunction, TrackingRng};
 use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
 use crate::scene::RenderScene;
@@ -35,19 +38,29 @@ pub struct LightPathIntegrator {
     pub max_depth: u32,
 }
 
+/// Where a light path scattered.
+#[derive(Clone, Copy)]
+pub(crate) enum LightVertexAt<'a> {
+    /// At a surface, with its shading frame and BxDF (at the path's current wavelengths).
+    Surface { hit: &'a crate::scene::SurfaceHit, frame: &'a Frame, bxdf: &'a crate::bxdf::Bxdf },
+    /// At a point in a medium, with its phase function.
+    Medium { p: Vec3, phase: &'a PhaseFunction },
+}
+
 /// A scattering vertex of a light path, as [`walk_light_path`] shows it to its caller.
 pub(crate) struct LightVertex<'a> {
-    /// The surface hit.
-    pub hit: &'a crate::scene::SurfaceHit,
-    /// Shading frame at the hit.
-    pub frame: &'a Frame,
-    /// The BxDF there (at the path's current wavelengths).
-    pub bxdf: &'a crate::bxdf::Bxdf,
+    /// Where it is.
+    pub at: LightVertexAt<'a>,
     /// Unit world direction towards where the light came from.
     pub w_from: Vec3,
     /// Flux weight of the path arriving at the vertex.
     pub beta: SampledSpectrum,
-    /// The medium on each side is resolved by the caller with this (the medium the light arrived through).
+    /// Rescaled probabilities of the path's tracking decisions in media at each wavelength (spectral MIS: the
+    /// estimate at wavelength i is `beta[i] / mis.average(r)` times what the caller adds; all ones without media).
+    pub r: SampledSpectrum,
+    /// The spectral MIS state of the path.
+    pub mis: SpectralMis,
+    /// The medium the light arrived through (the caller resolves the side a connection leaves by).
     pub medium: Option<u32>,
     /// Scattering vertex number, 1 for the first surface the light meets.
     pub depth: u32,
@@ -55,12 +68,25 @@ pub(crate) struct LightVertex<'a> {
     pub u: Vec2,
 }
 
-/// Traces one light path (light chosen by power, `sample_le`, BSDF sampling in importance mode, Russian roulette)
-/// through up to `max_depth` scattering vertices, calling `visit` at each one whose BxDF is not specular. The
-/// path's wavelengths `wl` are reduced to one by a dispersive refraction.
+impl LightVertex<'_> {
+    /// The vertex's position.
+    pub fn p(&self) -> Vec3 {
+        match self.at {
+            LightVertexAt::Surface { hit, .. } => hit.p,
+            LightVertexAt::Medium { p, .. } => p,
+        }
+    }
+}
+
+/// Traces one light path (light chosen by power, `sample_le`, BSDF and phase-function sampling in importance mode,
+/// Russian roulette) through up to `max_depth` scattering vertices, calling `visit` at each one that is not
+/// specular. The path's wavelengths `wl` are reduced to one by a dispersive refraction. With `media`, media that
+/// scatter are tracked (delta tracking against the majorant with spectral MIS, as in `volpath`) and their
+/// scattering points are vertices too; without, they are treated as vacuum (integrators that do not render them).
 pub(crate) fn walk_light_path(
     scene: &RenderScene,
     max_depth: u32,
+    media: bool,
     wl: &mut SampledWavelengths,
     sampler: &mut Sampler,
     counts: &mut RayCounts,
@@ -73,28 +99,111 @@ pub(crate) fn walk_light_path(
     }
     // Russian roulette compares the throughput with what the path started with (it carries flux, not 1).
     let beta_start = beta.max_value();
+    let mut r = SampledSpectrum::splat(1.0);
+    let mut mis = SpectralMis::new(wl);
     // Lights sit where the camera does (pbrt's lights carry no medium interface here).
     let mut ray = PathRay::new(start.origin(), start.le.d, scene.camera_medium);
     let mut depth = 0u32;
     while depth < max_depth {
-        let Some(hit) = ray.intersect(scene, counts) else { break };
-        ray.attenuate(scene, &hit, wl, &mut beta);
+        let hit = ray.intersect(scene, counts);
+        match ray.medium {
+            Some(m) if media && !scene.media[m as usize].is_absorbing_only() => {
+                let medium = &scene.media[m as usize];
+                mis.choose(sampler.next_1d());
+                let h = mis.hero;
+                let mut rng = TrackingRng::new(sampler.next_1d(), depth);
+                let (ro, rd) = (ray.o, ray.d);
+                let t_end = hit.map_or(f32::INFINITY, |h| h.t);
+                let mut scattered: Option<(Vec3, Vec3)> = None;
+                let mut terminated = false;
+                let t_maj = sample_t_maj(medium, ro, rd, t_end, &mut rng, wl, h, |p, mp, sigma_maj, t_maj, rng| {
+                    let p_absorb = mp.sigma_a[h] / sigma_maj[h];
+                    let p_scatter = mp.sigma_s[h] / sigma_maj[h];
+                    let um = rng.uniform();
+                    if um < p_absorb {
+                        terminated = true;
+                        return false;
+                    }
+                    if um < p_absorb + p_scatter {
+                        depth += 1;
+                        let pdf = t_maj[h] * mp.sigma_s[h];
+                        beta *= t_maj * mp.sigma_s / pdf;
+                        r *= mis.ratio(t_maj * mp.sigma_s / pdf);
+                        let u = BounceSamples::draw(sampler);
+                        let v = LightVertex {
+                            at: LightVertexAt::Medium { p, phase: mp.phase },
+                            w_from: -rd,
+                            beta,
+                            r,
+                            mis,
+                            medium: Some(m),
+                            depth,
+                            u: Vec2::new(u.connect[0], u.connect[1]),
+                        };
+                        visit(&v, wl, counts);
+                        if depth == max_depth {
+                            terminated = true;
+                            return false;
+                        }
+                        let Some(ps) = mp.phase.sample(rd, u.dir, wl) else {
+                            terminated = true;
+                            return false;
+                        };
+                        beta *= ps.p / ps.pdf;
+                        if !russian_roulette((beta / mis.average(r)).max_value() / beta_start, depth, &u, &mut beta) {
+                            terminated = true;
+                            return false;
+                        }
+                        scattered = Some((p, ps.wi));
+                        return false;
+                    }
+                    let sigma_n = (sigma_maj - mp.sigma_a - mp.sigma_s).map(|x| x.max(0.0));
+                    let pdf = t_maj[h] * sigma_n[h];
+                    if pdf <= 0.0 {
+                        terminated = true;
+                        return false;
+                    }
+                    beta *= t_maj * sigma_n / pdf;
+                    r *= mis.ratio(t_maj * sigma_n / pdf);
+                    !beta.is_black()
+                });
+                if terminated || beta.is_black() {
+                    break;
+                }
+                if let Some((p, wi)) = scattered {
+                    ray = PathRay::new(p, wi, Some(m));
+                    continue;
+                }
+                if t_maj[h] <= 0.0 {
+                    break;
+                }
+                beta *= t_maj / t_maj[h];
+                r *= mis.ratio(t_maj / t_maj[h]);
+            }
+            _ => {
+                if let Some(hit) = &hit {
+                    ray.attenuate(scene, hit, wl, &mut beta);
+                }
+            }
+        }
+        let Some(hit) = hit else { break };
         let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
             Bounce::PassedThrough => continue,
             Bounce::Stop | Bounce::Absorb => break,
             Bounce::Scatter(bxdf, u) => (bxdf, u),
         };
+        mis.update(wl);
         depth += 1;
         let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
         let w_from = -ray.d;
         let wo = frame.to_local(w_from);
         if !bxdf.is_specular() {
             let v = LightVertex {
-                hit: &hit,
-                frame: &frame,
-                bxdf: &bxdf,
+                at: LightVertexAt::Surface { hit: &hit, frame: &frame, bxdf: &bxdf },
                 w_from,
                 beta,
+                r,
+                mis,
                 medium: ray.medium,
                 depth,
                 u: Vec2::new(u.connect[0], u.connect[1]),
@@ -106,9 +215,10 @@ pub(crate) fn walk_light_path(
         }
         let mode = TransportMode::Importance;
         let Some(s) = scatter(&bxdf, &frame, &hit, wo, w_from, &u, mode, wl, &mut beta) else { break };
+        mis.update(wl);
         ray.leave(&hit, s.wi, s.bs.transmission);
         // Russian roulette after the first bounce.
-        if !russian_roulette(beta.max_value() / beta_start, depth, &u, &mut beta) {
+        if !russian_roulette((beta / mis.average(r)).max_value() / beta_start, depth, &u, &mut beta) {
             break;
         }
         if !beta.0.iter().all(|v| v.is_finite()) {
@@ -129,23 +239,29 @@ impl LightPathIntegrator {
         counts: &mut RayCounts,
         mut splat: impl FnMut(Vec2, SampledSpectrum, &SampledWavelengths),
     ) {
-        walk_light_path(scene, self.max_depth, wl, sampler, counts, |v, wl, counts| {
-            let hit = v.hit;
-            let Some(cs) = scene.camera.sample_wi(hit.p, v.u) else { return };
-            let f = v.bxdf.f(v.frame.to_local(v.w_from), v.frame.to_local(cs.wi), TransportMode::Importance);
+        walk_light_path(scene, self.max_depth, true, wl, sampler, counts, |v, wl, counts| {
+            let Some(cs) = scene.camera.sample_wi(v.p(), v.u) else { return };
+            // The scattering function towards the lens (with the adjoint shading-normal correction at surfaces),
+            // and where the connection starts.
+            let (f, origin, medium) = match v.at {
+                LightVertexAt::Surface { hit, frame, bxdf } => {
+                    let f = bxdf.f(frame.to_local(v.w_from), frame.to_local(cs.wi), TransportMode::Importance)
+                        * adjoint_cos(v.w_from, cs.wi, hit.ns, hit.n);
+                    (f, hit.spawn_origin(cs.wi), next_medium(hit, cs.wi, v.medium))
+                }
+                LightVertexAt::Medium { p, phase } => (phase.p(-v.w_from, cs.wi, wl), p, v.medium),
+            };
             if f.is_black() {
                 return;
             }
-            let origin = hit.spawn_origin(cs.wi);
-            let t_max = (cs.p_lens - origin).length() * (1.0 - 1e-4);
-            counts.shadow += 1;
-            if scene.geometry.occluded(origin, cs.wi, t_max) {
+            let salt = LIGHT_PATH_SEED_SALT ^ v.depth;
+            let target = ShadowTarget::Point(cs.p_lens);
+            let Some(tr) = shadow_transmittance(scene, origin, target, medium, wl, &v.mis, salt, v.u.x, counts) else {
                 return;
-            }
-            let mut c = v.beta * f * (adjoint_cos(v.w_from, cs.wi, hit.ns, hit.n) * cs.we / cs.pdf);
-            if let Some(m) = next_medium(hit, cs.wi, v.medium) {
-                c *= scene.media[m as usize].absorption_transmittance(cs.dist, wl);
-            }
+            };
+            // One strategy: the tracking decisions of the path and of the connection, averaged over the
+            // wavelengths that could have led (spectral MIS).
+            let c = v.beta * f * tr.t * (cs.we / cs.pdf) / v.mis.average(v.r * tr.r_l);
             splat(cs.raster, c, wl);
         });
     }
@@ -166,8 +282,9 @@ impl Integrate for LightPathIntegrator {
         film: &Film,
         seed: u32,
     ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
-        // Emitters seen directly: a path tracer that stops at the first surface.
-        let direct = PathIntegrator { max_depth: 0 };
+        // Emitters seen directly (through media, and media that glow): a volumetric path tracer that stops before
+        // the first scattering event.
+        let direct = VolPathIntegrator { max_depth: 0 };
         let camera = CameraPaths::new(direct, scene, film, seed)?;
         Ok(Box::new(LightPaths { integrator: self, camera }))
     }
@@ -176,7 +293,7 @@ impl Integrate for LightPathIntegrator {
 /// A light-tracing render: camera rays for directly visible light, and one light path per pixel sample, splatted.
 struct LightPaths<'a> {
     integrator: &'a LightPathIntegrator,
-    camera: CameraPaths<'a, PathIntegrator>,
+    camera: CameraPaths<'a, VolPathIntegrator>,
 }
 
 impl RenderJob for LightPaths<'_> {

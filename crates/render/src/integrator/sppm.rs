@@ -27,7 +27,7 @@ use spectral::{SampledSpectrum, SampledWavelengths, Xyz};
 
 use super::drive::RenderStats;
 use super::drive::{CameraSample, CameraSampler};
-use super::lightpath::walk_light_path;
+use super::lightpath::{walk_light_path, LightVertexAt};
 use super::transport::{begin_bounce, sample_direct_light, scatter, Bounce, DirectLight, PathRay, RayCounts};
 use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
@@ -436,7 +436,9 @@ impl SppmIntegrator {
     ) {
         let mut sampler = Sampler::new(k as u32, (k >> 32) as u32, it, seed);
         let mut wl = *wl_iter;
-        walk_light_path(scene, self.max_depth, &mut wl, &mut sampler, counts, |v, wl, _| {
+        walk_light_path(scene, self.max_depth, false, &mut wl, &mut sampler, counts, |v, wl, _| {
+            // Photons are stored on surfaces only (scattering media are treated as vacuum here).
+            let LightVertexAt::Surface { hit, .. } = v.at else { return };
             // Direct light is the visible points' next-event estimation: photons count from their second vertex.
             if v.depth == 1 {
                 return;
@@ -448,10 +450,10 @@ impl SppmIntegrator {
                 let (p_iter, p_now) = (wl_iter.pdf()[i], wl.pdf()[i]);
                 beta[i] = if p_now > 0.0 { beta[i] * p_iter / p_now } else { 0.0 };
             }
-            for &j in grid.candidates(v.hit.p) {
+            for &j in grid.candidates(hit.p) {
                 let Some(vp) = &points[j as usize] else { continue };
                 let r = radii[j as usize] as f32;
-                if (vp.p - v.hit.p).length_squared() > r * r {
+                if (vp.p - hit.p).length_squared() > r * r {
                     continue;
                 }
                 let f = vp.bxdf.f(vp.wo, vp.frame.to_local(v.w_from), TransportMode::Radiance);
@@ -466,6 +468,13 @@ impl SppmIntegrator {
 
 impl Integrate for SppmIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+        if params.media_scatter {
+            params.warnings.push(format!(
+                "{}: warning: integrator \"sppm\" does not render media that scatter or glow yet: it treats them as \
+                 vacuum; use \"volpath\" or \"lightpath\"",
+                params.entity.loc
+            ));
+        }
         let p = &params.entity.params;
         let photons = p.get_int("photonsperiteration", -1)?;
         let radius = p.get_float("radius", 1.0)?;

@@ -4,11 +4,12 @@
 //! next-event estimation.
 
 use glam::{Vec2, Vec3};
-use spectral::{SampledSpectrum, SampledWavelengths};
+use spectral::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
 
 use crate::bxdf::{BsdfSample, Bxdf, TransportMode};
 use crate::light::{LightLeSample, LightSampleContext};
 use crate::material::Material;
+use crate::medium::{sample_t_maj, TrackingRng};
 use crate::sampler::Sampler;
 use crate::sampling::{power_heuristic, Frame};
 use crate::scene::{RenderScene, SurfaceHit, NO_MATERIAL};
@@ -378,5 +379,187 @@ pub(crate) fn next_medium(hit: &SurfaceHit, d: Vec3, current: Option<u32>) -> Op
             }
         }
         None => current,
+    }
+}
+
+/// The wavelengths that share one path in spectral MIS: which slots take part, and the hero slot whose densities
+/// sample distances and collision types. Each path picks its hero uniformly among the active slots, which makes
+/// the one-sample MIS estimator f(λᵢ) / mean_h p(λ_h) unbiased for every wavelength strategy (for `hero` any slot
+/// would do; the bands of `rgb` are not interchangeable). After a dispersive event leaves one wavelength, the rest
+/// of the path is sampled at that wavelength whichever slot would have been the hero, so its probability ratios
+/// change by the same factor for every slot (`ratio` broadcasts).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SpectralMis {
+    /// Slots active when the path started.
+    active: [bool; N_WAVELENGTHS],
+    count: f32,
+    /// The slot whose densities sample distances and collision types.
+    pub hero: usize,
+    chosen: bool,
+    reduced: bool,
+}
+
+impl SpectralMis {
+    pub fn new(wl: &SampledWavelengths) -> Self {
+        let active = std::array::from_fn(|i| wl.is_active(i));
+        let count = active.iter().filter(|&&a| a).count().max(1) as f32;
+        let first = active.iter().position(|&a| a).unwrap_or(0);
+        Self { active, count, hero: first, chosen: wl.is_single(), reduced: wl.is_single() }
+    }
+
+    /// Chooses the hero with `u` (once per path, at its first medium).
+    pub fn choose(&mut self, u: f32) {
+        if self.chosen {
+            return;
+        }
+        let pick = ((u * self.count) as usize).min(self.count as usize - 1);
+        self.hero = (0..N_WAVELENGTHS).filter(|&i| self.active[i]).nth(pick).unwrap_or(self.hero);
+        self.chosen = true;
+    }
+
+    /// Notes a dispersive event that left one wavelength.
+    pub fn update(&mut self, wl: &SampledWavelengths) {
+        if !self.reduced && wl.is_single() {
+            self.reduced = true;
+            self.chosen = true;
+            self.hero = (0..N_WAVELENGTHS).find(|&i| wl.is_active(i)).unwrap_or(self.hero);
+        }
+    }
+
+    /// The factor a probability ratio changes by at each slot.
+    #[inline]
+    pub fn ratio(&self, v: SampledSpectrum) -> SampledSpectrum {
+        if self.reduced {
+            SampledSpectrum::splat(v[self.hero])
+        } else {
+            v
+        }
+    }
+
+    /// The mean of `r` over the slots that take part: the balance heuristic's denominator.
+    #[inline]
+    pub fn average(&self, r: SampledSpectrum) -> f32 {
+        let mut s = 0.0;
+        for i in 0..N_WAVELENGTHS {
+            if self.active[i] {
+                s += r[i];
+            }
+        }
+        s / self.count
+    }
+}
+
+/// Where a shadow ray goes.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum ShadowTarget {
+    /// A point (on a light or on the lens), stopped just short of it.
+    Point(Vec3),
+    /// Infinitely far along a direction.
+    Direction(Vec3),
+}
+
+/// What a shadow ray carries back: the transmittance estimate and the rescaled probabilities of its tracking
+/// decisions, for the light-sampling (`r_l`) and the unidirectional (`r_u`) strategies of spectral MIS.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ShadowTransmittance {
+    /// Transmittance estimate at each wavelength.
+    pub t: SampledSpectrum,
+    /// Rescaled probability of the ratio-tracking decisions (null collisions sampled with T_maj·σ_maj).
+    pub r_l: SampledSpectrum,
+    /// Rescaled probability of the same collisions as a path would sample them (T_maj·σ_n).
+    pub r_u: SampledSpectrum,
+}
+
+/// Longest run of material-less boundaries a shadow ray crosses before it counts as blocked.
+const MAX_SHADOW_CROSSINGS: u32 = 256;
+
+/// Traces a shadow ray from `origin` (in `medium`) to `target` through material-less boundaries: `None` if a
+/// surface with a material blocks it; otherwise the transmittance, Beer–Lambert for absorbing-only media and ratio
+/// tracking against the majorant for media that scatter (pbrt-v4 §14.2.3, with its Russian roulette once the
+/// estimate falls below 0.05). `salt` and `u` seed the tracking decisions.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn shadow_transmittance(
+    scene: &RenderScene,
+    mut origin: Vec3,
+    target: ShadowTarget,
+    mut medium: Option<u32>,
+    wl: &SampledWavelengths,
+    mis: &SpectralMis,
+    salt: u32,
+    u: f32,
+    counts: &mut RayCounts,
+) -> Option<ShadowTransmittance> {
+    let ones = SampledSpectrum::splat(1.0);
+    let mut out = ShadowTransmittance { t: ones, r_l: ones, r_u: ones };
+    let segment = |origin: Vec3| match target {
+        ShadowTarget::Point(p) => {
+            let to = p - origin;
+            let len = to.length();
+            // Stop just short of the target (pbrt's ShadowEpsilon, relative).
+            (to / len, len * (1.0 - 1e-4))
+        }
+        ShadowTarget::Direction(d) => (d, f32::INFINITY),
+    };
+    if scene.media.is_empty() {
+        let (d, t_max) = segment(origin);
+        counts.shadow += 1;
+        return (!scene.geometry.occluded(origin, d, t_max)).then_some(out);
+    }
+    let mut rng = TrackingRng::new(u, salt);
+    let mut crossings = 0;
+    loop {
+        let (d, t_max) = segment(origin);
+        if t_max.is_nan() || t_max <= 0.0 {
+            return Some(out);
+        }
+        counts.shadow += 1;
+        let hit = scene.geometry.intersect(origin, d, t_max);
+        if hit.is_some_and(|h| h.material != NO_MATERIAL) {
+            return None;
+        }
+        if let Some(m) = medium {
+            let seg_end = hit.map_or(t_max, |h| h.t);
+            let med = &scene.media[m as usize];
+            if med.is_absorbing_only() {
+                out.t *= med.absorption_transmittance(seg_end, wl);
+            } else {
+                let h = mis.hero;
+                let (mut t_ray, mut r_l, mut r_u) = (out.t, out.r_l, out.r_u);
+                let t_maj = sample_t_maj(med, origin, d, seg_end, &mut rng, wl, h, |_, mp, sigma_maj, t_maj, rng| {
+                    // Ratio tracking: every tentative collision is a null one.
+                    let sigma_n = (sigma_maj - mp.sigma_a - mp.sigma_s).map(|x| x.max(0.0));
+                    let pdf = t_maj[h] * sigma_maj[h];
+                    t_ray *= t_maj * sigma_n / pdf;
+                    r_l *= mis.ratio(t_maj * sigma_maj / pdf);
+                    r_u *= mis.ratio(t_maj * sigma_n / pdf);
+                    // Russian roulette once the estimate is small.
+                    let tr = t_ray / mis.average(r_l + r_u);
+                    if tr.max_value() < 0.05 {
+                        if rng.uniform() < 0.75 {
+                            t_ray = SampledSpectrum::zero();
+                        } else {
+                            t_ray *= 4.0;
+                        }
+                    }
+                    !t_ray.is_black()
+                });
+                if t_maj[h] <= 0.0 {
+                    return None;
+                }
+                out.t = t_ray * t_maj / t_maj[h];
+                out.r_l = r_l * mis.ratio(t_maj / t_maj[h]);
+                out.r_u = r_u * mis.ratio(t_maj / t_maj[h]);
+            }
+        }
+        if out.t.is_black() || !out.t.0.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let Some(h) = hit else { return Some(out) };
+        crossings += 1;
+        if crossings > MAX_SHADOW_CROSSINGS {
+            return None;
+        }
+        medium = next_medium(&h, d, medium);
+        origin = h.spawn_origin(d);
     }
 }

@@ -9,11 +9,12 @@
 
 use glam::Vec3;
 use scene::SceneError;
-use spectral::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::path::{CameraPaths, FirstHit, Radiance};
 use super::transport::{
-    begin_bounce, next_medium, russian_roulette, scatter, Bounce, BounceSamples, PathRay, RayCounts,
+    begin_bounce, next_medium, russian_roulette, scatter, shadow_transmittance, Bounce, BounceSamples, PathRay,
+    RayCounts, ShadowTarget, SpectralMis,
 };
 use super::{Integrate, IntegratorParams, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
@@ -21,7 +22,7 @@ use crate::light::LightSampleContext;
 use crate::medium::{sample_t_maj, PhaseFunction, TrackingRng};
 use crate::sampler::Sampler;
 use crate::sampling::Frame;
-use crate::scene::{RenderScene, NO_MATERIAL};
+use crate::scene::RenderScene;
 use film::{Film, FilmError};
 
 /// The `volpath` integrator.
@@ -29,75 +30,6 @@ use film::{Film, FilmError};
 pub struct VolPathIntegrator {
     /// Maximum number of scattering events, in media and at surfaces (pbrt's `maxdepth`, default 5).
     pub max_depth: u32,
-}
-
-/// Longest run of material-less boundaries a shadow ray crosses before it counts as blocked.
-const MAX_SHADOW_CROSSINGS: u32 = 256;
-
-/// The wavelengths that share one path in spectral MIS: which slots take part, and the hero slot whose densities
-/// sample distances and collision types. Each path picks its hero uniformly among the active slots, which makes
-/// the one-sample MIS estimator f(λᵢ) / mean_h p(λ_h) unbiased for every wavelength strategy (for `hero` any slot
-/// would do; the bands of `rgb` are not interchangeable). After a dispersive event leaves one wavelength, the rest
-/// of the path is sampled at that wavelength whichever slot would have been the hero, so its probability ratios
-/// change by the same factor for every slot (`ratio` broadcasts).
-#[derive(Clone, Copy, Debug)]
-struct SpectralMis {
-    /// Slots active when the path started.
-    active: [bool; N_WAVELENGTHS],
-    count: f32,
-    hero: usize,
-    chosen: bool,
-    reduced: bool,
-}
-
-impl SpectralMis {
-    fn new(wl: &SampledWavelengths) -> Self {
-        let active = std::array::from_fn(|i| wl.is_active(i));
-        let count = active.iter().filter(|&&a| a).count().max(1) as f32;
-        let first = active.iter().position(|&a| a).unwrap_or(0);
-        Self { active, count, hero: first, chosen: wl.is_single(), reduced: wl.is_single() }
-    }
-
-    /// Chooses the hero with `u` (once per path, at its first medium).
-    fn choose(&mut self, u: f32) {
-        if self.chosen {
-            return;
-        }
-        let pick = ((u * self.count) as usize).min(self.count as usize - 1);
-        self.hero = (0..N_WAVELENGTHS).filter(|&i| self.active[i]).nth(pick).unwrap_or(self.hero);
-        self.chosen = true;
-    }
-
-    /// Notes a dispersive event that left one wavelength.
-    fn update(&mut self, wl: &SampledWavelengths) {
-        if !self.reduced && wl.is_single() {
-            self.reduced = true;
-            self.chosen = true;
-            self.hero = (0..N_WAVELENGTHS).find(|&i| wl.is_active(i)).unwrap_or(self.hero);
-        }
-    }
-
-    /// The factor a probability ratio changes by at each slot.
-    #[inline]
-    fn ratio(&self, v: SampledSpectrum) -> SampledSpectrum {
-        if self.reduced {
-            SampledSpectrum::splat(v[self.hero])
-        } else {
-            v
-        }
-    }
-
-    /// The mean of `r` over the slots that take part: the balance heuristic's denominator.
-    #[inline]
-    fn average(&self, r: SampledSpectrum) -> f32 {
-        let mut s = 0.0;
-        for i in 0..N_WAVELENGTHS {
-            if self.active[i] {
-                s += r[i];
-            }
-        }
-        s / self.count
-    }
 }
 
 /// Where the path scattered last, for the light-selection and MIS densities of the emitter it finds next.
@@ -136,7 +68,7 @@ impl VolPathIntegrator {
             return SampledSpectrum::zero();
         }
         let p_l = p_sel * ls.pdf;
-        let (f_hat, scatter_pdf, mut origin, mut medium) = match v {
+        let (f_hat, scatter_pdf, origin, medium) = match v {
             Vertex::Surface { hit, frame, bxdf, wo, medium } => {
                 let wi = frame.to_local(ls.wi);
                 let f = bxdf.f(wo, wi, TransportMode::Radiance) * wi.z.abs();
@@ -152,78 +84,11 @@ impl VolPathIntegrator {
         if f_hat.is_black() {
             return SampledSpectrum::zero();
         }
-        let finite = ls.dist.is_finite();
-        let mut t_ray = SampledSpectrum::splat(1.0);
-        let mut r_l = SampledSpectrum::splat(1.0);
-        let mut r_u = SampledSpectrum::splat(1.0);
-        if scene.media.is_empty() {
-            counts.shadow += 1;
-            let t_max = if finite { (ls.p - origin).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-            if scene.geometry.occluded(origin, ls.wi, t_max) {
-                return SampledSpectrum::zero();
-            }
-        } else {
-            let mut rng = TrackingRng::new(u0, li ^ 0x5eed);
-            let mut crossings = 0;
-            loop {
-                let (d, t_max) = if finite {
-                    let to = ls.p - origin;
-                    let len = to.length();
-                    (to / len, len * (1.0 - 1e-4))
-                } else {
-                    (ls.wi, f32::INFINITY)
-                };
-                counts.shadow += 1;
-                let hit = scene.geometry.intersect(origin, d, t_max);
-                if hit.is_some_and(|h| h.material != NO_MATERIAL) {
-                    return SampledSpectrum::zero();
-                }
-                if let Some(m) = medium {
-                    let seg_end = hit.map_or(t_max, |h| h.t);
-                    let med = &scene.media[m as usize];
-                    if med.is_absorbing_only() {
-                        t_ray *= med.absorption_transmittance(seg_end, wl);
-                    } else {
-                        let h = mis.hero;
-                        let t_maj =
-                            sample_t_maj(med, origin, d, seg_end, &mut rng, wl, h, |_, mp, sigma_maj, t_maj, rng| {
-                                // Ratio tracking: every tentative collision is a null one (pbrt-v4 §14.2.3).
-                                let sigma_n = (sigma_maj - mp.sigma_a - mp.sigma_s).map(|x| x.max(0.0));
-                                let pdf = t_maj[h] * sigma_maj[h];
-                                t_ray *= t_maj * sigma_n / pdf;
-                                r_l *= mis.ratio(t_maj * sigma_maj / pdf);
-                                r_u *= mis.ratio(t_maj * sigma_n / pdf);
-                                // Russian roulette once the estimate is small.
-                                let tr = t_ray / mis.average(r_l + r_u);
-                                if tr.max_value() < 0.05 {
-                                    if rng.uniform() < 0.75 {
-                                        t_ray = SampledSpectrum::zero();
-                                    } else {
-                                        t_ray *= 4.0;
-                                    }
-                                }
-                                !t_ray.is_black()
-                            });
-                        if t_maj[h] <= 0.0 {
-                            return SampledSpectrum::zero();
-                        }
-                        t_ray *= t_maj / t_maj[h];
-                        r_l *= mis.ratio(t_maj / t_maj[h]);
-                        r_u *= mis.ratio(t_maj / t_maj[h]);
-                    }
-                }
-                if t_ray.is_black() || !t_ray.0.iter().all(|x| x.is_finite()) {
-                    return SampledSpectrum::zero();
-                }
-                let Some(h) = hit else { break };
-                crossings += 1;
-                if crossings > MAX_SHADOW_CROSSINGS {
-                    return SampledSpectrum::zero();
-                }
-                medium = next_medium(&h, d, medium);
-                origin = h.spawn_origin(d);
-            }
-        }
+        let target = if ls.dist.is_finite() { ShadowTarget::Point(ls.p) } else { ShadowTarget::Direction(ls.wi) };
+        let Some(tr) = shadow_transmittance(scene, origin, target, medium, wl, mis, li ^ 0x5eed, u0, counts) else {
+            return SampledSpectrum::zero();
+        };
+        let (t_ray, r_l, r_u) = (tr.t, tr.r_l, tr.r_u);
         let r_l = r_l * r_p * p_l;
         let r_u = r_u * r_p * scatter_pdf;
         if ls.delta {
