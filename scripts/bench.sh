@@ -23,9 +23,11 @@ scenes=(
   "purple-glass|scenes/purple-glass.pbrt|"
   "metals|scenes/metals.pbrt|"
   "prism-exercise|scenes/prism-exercise.pbrt|"
+  "cornell-box-volume|scenes/bench/cornell-box-volume.pbrt|--spp 8"
+  "prism-beam|scenes/prism-beam.pbrt|"
 )
 
-printf '%-16s %9s %5s %8s %8s %14s %9s %9s\n' scene resolution spp wall_s cpu_s samples/cpu_s Mrays/s peak_MB
+printf '%-18s %9s %5s %8s %8s %14s %9s %9s\n' scene resolution spp wall_s cpu_s samples/cpu_s Mrays/s peak_MB
 for entry in "${scenes[@]}"; do
   IFS='|' read -r name scene extra <<<"$entry"
   [[ -n "${1:-}" && "$name" != *"$1"* ]] && continue
@@ -41,6 +43,6 @@ for entry in "${scenes[@]}"; do
   mrays=$(sed -n 's/.*Msamples\/s, \([0-9.]*\) Mrays\/s.*/\1/p' "$out/log")
   cpu=$(echo "$user + $sys" | bc -l)
   sps=$(echo "$w * $h * $spp / $cpu" | bc -l)
-  printf '%-16s %9s %5s %8.2f %8.2f %14.3e %9s %9.1f\n' "$name" "$wh" "$spp" "$wall" "$cpu" "$sps" "$mrays" \
+  printf '%-18s %9s %5s %8.2f %8.2f %14.3e %9s %9.1f\n' "$name" "$wh" "$spp" "$wall" "$cpu" "$sps" "$mrays" \
     "$(echo "$rss_kb / 1000" | bc -l)"
 done
