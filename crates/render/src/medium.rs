@@ -98,6 +98,39 @@ pub struct MediumPoint<'a> {
     pub phase: &'a PhaseFunction,
 }
 
+/// What a tentative collision of delta tracking turns out to be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Collision {
+    /// Absorption, with probability σa/σ_maj.
+    Absorb,
+    /// Real scattering, with probability σs/σ_maj.
+    Scatter,
+    /// A null collision: the rest.
+    Null,
+}
+
+impl MediumPoint<'_> {
+    /// The null-collision coefficient σn = σ_maj − σa − σs (clamped at zero) for majorant `sigma_maj`.
+    #[inline]
+    pub fn sigma_n(&self, sigma_maj: SampledSpectrum) -> SampledSpectrum {
+        (sigma_maj - self.sigma_a - self.sigma_s).map(|x| x.max(0.0))
+    }
+
+    /// Chooses the collision type with `u`, by the hero slot's probabilities (pbrt-v4 §14.1.3).
+    #[inline]
+    pub fn collision(&self, sigma_maj: SampledSpectrum, hero: usize, u: f32) -> Collision {
+        let p_absorb = self.sigma_a[hero] / sigma_maj[hero];
+        let p_scatter = self.sigma_s[hero] / sigma_maj[hero];
+        if u < p_absorb {
+            Collision::Absorb
+        } else if u < p_absorb + p_scatter {
+            Collision::Scatter
+        } else {
+            Collision::Null
+        }
+    }
+}
+
 /// A homogeneous medium: the same coefficients everywhere.
 #[derive(Clone, Debug)]
 pub struct HomogeneousMedium {
@@ -370,6 +403,8 @@ pub fn sample_t_maj(
     if sigma_maj[hero] <= 0.0 {
         return transmittance(seg.t_max - seg.t_min);
     }
+    // A homogeneous medium is the same at every collision: sample its spectra once.
+    let uniform = matches!(medium, Medium::Homogeneous(_)).then(|| medium.point(o, wl));
     let mut t = seg.t_min;
     for _ in 0..MAX_COLLISIONS {
         // Exponential distance with rate σ_maj at the hero wavelength.
@@ -381,7 +416,7 @@ pub fn sample_t_maj(
         }
         let t_maj = transmittance(t_next - t);
         let p = o + d * t_next;
-        let mp = medium.point(p, wl);
+        let mp = uniform.unwrap_or_else(|| medium.point(p, wl));
         if !callback(p, &mp, sigma_maj, t_maj, rng) {
             return SampledSpectrum::splat(1.0);
         }

@@ -25,7 +25,7 @@ use super::transport::{
 use super::volpath::VolPathIntegrator;
 use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::TransportMode;
-use crate::medium::{sample_t_maj, PhaseFunction, TrackingRng};
+use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
 use crate::scene::RenderScene;
@@ -117,14 +117,12 @@ pub(crate) fn walk_light_path(
                 let mut scattered: Option<(Vec3, Vec3)> = None;
                 let mut terminated = false;
                 let t_maj = sample_t_maj(medium, ro, rd, t_end, &mut rng, wl, h, |p, mp, sigma_maj, t_maj, rng| {
-                    let p_absorb = mp.sigma_a[h] / sigma_maj[h];
-                    let p_scatter = mp.sigma_s[h] / sigma_maj[h];
-                    let um = rng.uniform();
-                    if um < p_absorb {
+                    let event = mp.collision(sigma_maj, h, rng.uniform());
+                    if event == Collision::Absorb {
                         terminated = true;
                         return false;
                     }
-                    if um < p_absorb + p_scatter {
+                    if event == Collision::Scatter {
                         depth += 1;
                         let pdf = t_maj[h] * mp.sigma_s[h];
                         beta *= t_maj * mp.sigma_s / pdf;
@@ -157,7 +155,7 @@ pub(crate) fn walk_light_path(
                         scattered = Some((p, ps.wi));
                         return false;
                     }
-                    let sigma_n = (sigma_maj - mp.sigma_a - mp.sigma_s).map(|x| x.max(0.0));
+                    let sigma_n = mp.sigma_n(sigma_maj);
                     let pdf = t_maj[h] * sigma_n[h];
                     if pdf <= 0.0 {
                         terminated = true;

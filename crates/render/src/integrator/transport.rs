@@ -527,7 +527,7 @@ pub(crate) fn shadow_transmittance(
                 let (mut t_ray, mut r_l, mut r_u) = (out.t, out.r_l, out.r_u);
                 let t_maj = sample_t_maj(med, origin, d, seg_end, &mut rng, wl, h, |_, mp, sigma_maj, t_maj, rng| {
                     // Ratio tracking: every tentative collision is a null one.
-                    let sigma_n = (sigma_maj - mp.sigma_a - mp.sigma_s).map(|x| x.max(0.0));
+                    let sigma_n = mp.sigma_n(sigma_maj);
                     let pdf = t_maj[h] * sigma_maj[h];
                     t_ray *= t_maj * sigma_n / pdf;
                     r_l *= mis.ratio(t_maj * sigma_maj / pdf);

@@ -19,7 +19,7 @@ use super::transport::{
 use super::{Integrate, IntegratorParams, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
 use crate::light::LightSampleContext;
-use crate::medium::{sample_t_maj, PhaseFunction, TrackingRng};
+use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::Sampler;
 use crate::sampling::Frame;
 use crate::scene::RenderScene;
@@ -146,14 +146,12 @@ impl Radiance for VolPathIntegrator {
                                 l += betap * mp.sigma_a * mp.le / avg;
                             }
                         }
-                        let p_absorb = mp.sigma_a[h] / sigma_maj[h];
-                        let p_scatter = mp.sigma_s[h] / sigma_maj[h];
-                        let um = rng.uniform();
-                        if um < p_absorb {
+                        let event = mp.collision(sigma_maj, h, rng.uniform());
+                        if event == Collision::Absorb {
                             terminated = true;
                             return false;
                         }
-                        if um < p_absorb + p_scatter {
+                        if event == Collision::Scatter {
                             // A real scattering event.
                             if depth >= self.max_depth {
                                 terminated = true;
@@ -184,7 +182,7 @@ impl Radiance for VolPathIntegrator {
                             return false;
                         }
                         // A null collision.
-                        let sigma_n = (sigma_maj - mp.sigma_a - mp.sigma_s).map(|x| x.max(0.0));
+                        let sigma_n = mp.sigma_n(sigma_maj);
                         let pdf = t_maj[h] * sigma_n[h];
                         if pdf <= 0.0 {
                             beta = SampledSpectrum::zero();
