@@ -920,8 +920,8 @@ impl MieSpectralTable {
 /// Angle of the rainbow of `order` k ≥ 1 (k internal reflections) from the antisolar point, degrees, for a sphere of
 /// relative index `n`, by geometric optics (Descartes 1637; Newton): the ray of minimum deviation has
 /// cos² i = (n² − 1)/(k(k+2)), sin r = sin i / n, and deviation D = k·180° + 2i − 2(k+1)·r; the scattering angle
-/// is D folded into [0°, 180°] and the result is 180° minus it. Primary ≈ 42.0° and secondary ≈ 50.8° at n = 1.333;
-/// orders 3 and 4 lie ≈ 138° and ≈ 137° from the antisolar point, i.e. 42° and 43° from the sun. `None` when there
+/// is D folded into [0°, 180°] and the result is 180° minus it. Primary 42.08° and secondary 50.89° at n = 1.333;
+/// orders 3 and 4 lie 138.26° and 136.30° from the antisolar point, i.e. 41.7° and 43.7° from the sun. `None` when there
 /// is no such bow (k = 0, n ≤ 1, n ≥ k + 1, or n not finite).
 pub fn descartes_rainbow_angle(n: f64, order: u32) -> Option<f64> {
     if order == 0 || !n.is_finite() || n <= 1.0 {
