@@ -9,17 +9,29 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use crate::complex::Complex;
 
-/// `e^{−2πi·k/den}` for k = 0..count, cached: a spectral Mie table transforms the same few lengths thousands of
-/// times. At most 512 tables of at most 2¹⁸ entries are kept (≤ 2 GiB worst case, a few MiB in practice).
+/// `e^{−2πi·k/den}` for k = 0..count, cached for short tables: a spectral table of small droplets transforms the
+/// same few short lengths thousands of times, where computing the roots would take half the time. At most 512
+/// tables of at most 4096 entries are kept (≤ 32 MiB); longer ones belong to large drops, whose series cost far
+/// more than their roots.
 fn roots(den: usize, count: usize) -> Arc<Vec<Complex>> {
     type Cache = Mutex<HashMap<(usize, usize), Arc<Vec<Complex>>>>;
     static CACHE: OnceLock<Cache> = OnceLock::new();
+    // Two-level table: e^{−2πi(64b + r)/den} = e^{−2πi·64b/den}·e^{−2πi·r/den}, so count/64 + 64 sines and
+    // cosines instead of count, at one extra rounding.
     let make = || {
-        let table: Vec<Complex> =
-            (0..count).map(|k| Complex::cis(-2.0 * std::f64::consts::PI * k as f64 / den as f64)).collect();
+        const STEP: usize = 64;
+        let root = |k: usize| Complex::cis(-2.0 * std::f64::consts::PI * k as f64 / den as f64);
+        let fine: Vec<Complex> = (0..STEP.min(count)).map(root).collect();
+        let table: Vec<Complex> = (0..count.div_ceil(STEP))
+            .flat_map(|b| {
+                let coarse = root(b * STEP);
+                fine.iter().map(move |&f| coarse * f)
+            })
+            .take(count)
+            .collect();
         Arc::new(table)
     };
-    if count > 1 << 18 {
+    if count > 4096 {
         return make();
     }
     let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));

@@ -40,11 +40,12 @@
 //! Measured (`tests/mie.rs`): bin probabilities agree with an independent Simpson quadrature of
 //! [`mie_amplitudes`] (2000 panels per bin) to ≤ 1e-9 relative, or ~2e-16 absolute for the last bins near 180°
 //! (P ~ 1e-9 there, limited by the cumulative table's rounding near 1); ∫p dω = 1 to 1e-12 and the series'
-//! normalisation ∫(|S1|²+|S2|²)dμ = x²·Q_sca to 1e-9; what the constant density loses is the structure inside
-//! each bin, which moves the table's mean cosine from the series g by ≤ 2e-7.
+//! normalisation ∫(|S1|²+|S2|²)dμ = x²·Q_sca to ≤ 4e-10; what the constant density loses is the structure inside
+//! each bin, which moves the table's mean cosine from the series g by ≤ 1e-6 (6e-7 for one 250 µm drop at 360 nm,
+//! ≤ 1e-7 otherwise).
 //!
-//! Cost: about N²/2 × 25 flops per radius (N ≈ x): 12–20 ms for a 250 µm drop in the blue (x ≈ 4000) on one core
-//! of the 2-core test machine; radii and wavelengths run in parallel (rayon).
+//! Cost: about N²/2 × 20 flops per radius (N ≈ x): 17–20 ms for a 250 µm drop in the blue (x ≈ 4000–4400) on one
+//! core of the 2-core test machine; radii and wavelengths run in parallel (rayon).
 
 use rayon::prelude::*;
 
@@ -218,51 +219,34 @@ impl MieCoefficients {
 
     /// S1 + S2 and S1 − S2 at the `g` Chebyshev nodes μ_k = cos θ_k, θ_k = (k+½)π/g (k = 0..g, θ ascending).
     ///
-    /// The nodes come in pairs ±μ, and π_n(−μ) = (−1)^{n−1}·π_n(μ), τ_n(−μ) = (−1)^n·τ_n(μ) (B&H p. 95), so one run
-    /// of the angular recurrences serves both. With U_n = π_n + τ_n and V_n = π_n − τ_n,
-    /// S1 + S2 = Σ c_n·(a_n + b_n)·U_n and S1 − S2 = Σ c_n·(a_n − b_n)·V_n (c_n = (2n+1)/(n(n+1))), and at −μ the
-    /// roles of U and V swap, with the sign (−1)^{n−1}. Eight lanes of nodes at a time, for the vectoriser.
+    /// With A_n = c_n(a_n + b_n), B_n = c_n(a_n − b_n), c_n = (2n+1)/(n(n+1)) (B&H eq. 4.74),
+    /// S1 + S2 = Σ A_n(π_n + τ_n) and S1 − S2 = Σ B_n(π_n − τ_n). Eliminating τ_n = nμπ_n − (n+1)π_{n−1} (B&H
+    /// eq. 4.47) leaves sums over π_n alone: S1 + S2 = Σ P_n π_n + μ·Σ Q_n π_n with P_n = A_n − (n+2)A_{n+1},
+    /// Q_n = n·A_n, and S1 − S2 = Σ R_n π_n + μ·Σ T_n π_n with R_n = B_n + (n+2)B_{n+1}, T_n = −n·B_n. The nodes
+    /// come in pairs ±μ and π_n(−μ) = (−1)^{n−1}·π_n(μ) (B&H p. 95), so the sums over odd and over even n, kept
+    /// apart, give both: Σ X π(±μ) = O_X ± E_X. One run of π_{n+1} = ((2n+1)μπ_n − (n+1)π_{n−1})/n serves two
+    /// nodes; eight node pairs at a time, for the vectoriser.
     fn sum_difference_at_chebyshev_nodes(&self, g: usize) -> (Vec<Complex>, Vec<Complex>) {
         const LANES: usize = 8;
-        /// Per-term constants: A = c(a+b), B = c(a−b), their (−1)^{n−1} copies, and the recurrence factors.
-        struct Term {
-            ar: f64,
-            ai: f64,
-            br: f64,
-            bi: f64,
-            sar: f64,
-            sai: f64,
-            sbr: f64,
-            sbi: f64,
-            n: f64,
-            n1: f64,
-            alpha: f64,
-            beta: f64,
-        }
-        let terms: Vec<Term> = self
-            .a
-            .iter()
-            .zip(&self.b)
-            .enumerate()
-            .map(|(i, (&an, &bn))| {
+        let n_terms = self.a.len();
+        let coef = |i: usize| -> (Complex, Complex) {
+            if i >= n_terms {
+                return (Complex::default(), Complex::default());
+            }
+            let n = (i + 1) as f64;
+            let c = (2.0 * n + 1.0) / (n * (n + 1.0));
+            ((self.a[i] + self.b[i]) * c, (self.a[i] - self.b[i]) * c)
+        };
+        // Per term: [P, Q, R, T] as 8 reals, then α_n = (2n+1)/n, β_n = (n+1)/n.
+        let terms: Vec<([f64; 8], f64, f64)> = (0..n_terms)
+            .map(|i| {
                 let n = (i + 1) as f64;
-                let c = (2.0 * n + 1.0) / (n * (n + 1.0));
-                let (p, q) = ((an + bn) * c, (an - bn) * c);
-                let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
-                Term {
-                    ar: p.re,
-                    ai: p.im,
-                    br: q.re,
-                    bi: q.im,
-                    sar: sign * p.re,
-                    sai: sign * p.im,
-                    sbr: sign * q.re,
-                    sbi: sign * q.im,
-                    n,
-                    n1: n + 1.0,
-                    alpha: (2.0 * n + 1.0) / n,
-                    beta: (n + 1.0) / n,
-                }
+                let ((a, b), (a1, b1)) = (coef(i), coef(i + 1));
+                let p = a - a1 * (n + 2.0);
+                let q = a * n;
+                let r = b + b1 * (n + 2.0);
+                let t = -(b * n);
+                ([p.re, p.im, q.re, q.im, r.re, r.im, t.re, t.im], (2.0 * n + 1.0) / n, (n + 1.0) / n)
             })
             .collect();
         let half = g.div_ceil(2); // nodes with μ ≥ 0 (the middle one, μ = 0, when g is odd)
@@ -273,34 +257,31 @@ impl MieCoefficients {
             for (l, m) in mu.iter_mut().enumerate() {
                 *m = fft::chebyshev_node((start + l).min(half - 1), g).cos();
             }
-            // π_0 = 0, π_1 = 1; τ_n = n·μ·π_n − (n+1)·π_{n−1}; π_{n+1} = (2n+1)/n·μ·π_n − (n+1)/n·π_{n−1} (B&H 4.47).
-            let mut p_prev = [0.0; LANES];
-            let mut p_cur = [1.0; LANES];
-            let mut acc = [[0.0; LANES]; 8];
-            for t in &terms {
+            let mut p_prev = [0.0; LANES]; // π_0
+            let mut p_cur = [1.0; LANES]; // π_1
+                                          // [odd n, even n][P.re, P.im, Q.re, Q.im, R.re, R.im, T.re, T.im][lane]
+            let mut acc = [[[0.0; LANES]; 8]; 2];
+            for (i, (c, alpha, beta)) in terms.iter().enumerate() {
+                let a = &mut acc[i & 1];
                 for l in 0..LANES {
-                    let tt = mu[l] * p_cur[l];
-                    let tau = t.n * tt - t.n1 * p_prev[l];
-                    let u = p_cur[l] + tau;
-                    let v = p_cur[l] - tau;
-                    acc[0][l] += t.ar * u;
-                    acc[1][l] += t.ai * u;
-                    acc[2][l] += t.br * v;
-                    acc[3][l] += t.bi * v;
-                    acc[4][l] += t.sar * v;
-                    acc[5][l] += t.sai * v;
-                    acc[6][l] += t.sbr * u;
-                    acc[7][l] += t.sbi * u;
-                    let next = t.alpha * tt - t.beta * p_prev[l];
-                    p_prev[l] = p_cur[l];
+                    let p = p_cur[l];
+                    for (j, aj) in a.iter_mut().enumerate() {
+                        aj[l] += c[j] * p;
+                    }
+                    let next = alpha * (mu[l] * p) - beta * p_prev[l];
+                    p_prev[l] = p;
                     p_cur[l] = next;
                 }
             }
             for (l, k) in (start..half.min(start + LANES)).enumerate() {
-                sum[k] = Complex::new(acc[0][l], acc[1][l]);
-                diff[k] = Complex::new(acc[2][l], acc[3][l]);
-                sum[g - 1 - k] = Complex::new(acc[4][l], acc[5][l]);
-                diff[g - 1 - k] = Complex::new(acc[6][l], acc[7][l]);
+                let (o, e) = (&acc[0], &acc[1]);
+                let pair = |j: usize| (Complex::new(o[j][l], o[j + 1][l]), Complex::new(e[j][l], e[j + 1][l]));
+                let ((op, ep), (oq, eq), (or, er), (ot, et)) = (pair(0), pair(2), pair(4), pair(6));
+                let m = mu[l];
+                sum[k] = op + ep + (oq + eq) * m;
+                diff[k] = or + er + (ot + et) * m;
+                sum[g - 1 - k] = op - ep - (oq - eq) * m;
+                diff[g - 1 - k] = or - er - (ot - et) * m;
             }
         }
         (sum, diff)
@@ -610,6 +591,9 @@ impl MiePhaseTable {
 
     /// Draws cos θ from the table with one uniform number `u` in [0, 1) (clamped into it; NaN counts as 0): the bin
     /// by inverting the cumulative distribution, then μ uniformly within the bin. The azimuth is the caller's.
+    ///
+    /// For rain the forward bins are 1 − cos θ ≈ 3e-10 wide, below f32's resolution near 1 (6e-8, θ ≈ 0.02°): build
+    /// the direction in f64, with sin θ = √((1 − μ)(1 + μ)), before rounding it.
     pub fn sample(&self, u: f64) -> f64 {
         let u = if u.is_nan() { 0.0 } else { u.clamp(0.0, 1.0) };
         let idx = self.cdf.partition_point(|&c| c <= u);
@@ -676,9 +660,11 @@ const RADIUS_NODE_BUDGET: f64 = 3.0e7;
 /// distribution averages that out only if neighbouring nodes are ≲ 0.25 apart in x, i.e. K ≈ 10·x̄·σ nodes
 /// (σ² = ln(1 + spread²)). That is affordable for fog (x ~ 100: hundreds of nodes at tens of µs each) but not for
 /// rain (x ~ 4000: 10⁴ nodes at ~12 ms each), so K is capped where Σ N_stop² would pass a fixed budget, and is at
-/// least [`MIN_RADIUS_NODES`]. For water drops of 250 µm, spread 0.1, that gives 5–7 nodes; against a 3001-node
-/// reference at 550 nm their table differs by ≤ 2.3 % of the bow's peak density averaged over 0.25° (the ripple
-/// left over; ≤ 7 % in single 0.05° bins) and by 6e-4 in C_sca.
+/// least [`MIN_RADIUS_NODES`]. Measured against 3000–6000-node references at 550 nm, as the largest difference of
+/// the density averaged over 0.25°, relative to the largest such density in the same range: water drops of 250 µm,
+/// spread 0.1, get 5 nodes (5–7 over the visible) and differ by 2.3 % in 120°–150° (the ripple left over; 7 % in
+/// single 0.05° bins) and by 6e-4 in C_sca; 10 µm drops get 114 nodes at spread 0.1 and 336 at 0.3 and differ by
+/// 2.0 % and 1.3 % in 120°–150°, 3.2 % and 1.9 % in 150°–180°.
 pub fn log_normal_node_count(x_mean: f64, spread: f64) -> usize {
     if !(spread > 0.0 && x_mean > 0.0 && x_mean.is_finite()) {
         return 1;
@@ -771,7 +757,7 @@ pub fn particle_index(name: &str) -> Result<impl Fn(f64) -> Complex + Send + Syn
 /// 2 nm (10 µm: ~40 % of the peak), which no practical grid resolves: the mixture then blends it.
 ///
 /// Build time (`cargo run --release -p optics --example mie_build_time`, 2 cores, default grid): 250 µm drops
-/// 0.21 s alone and 1.0 s with spread 0.1 (5–7 radii per wavelength); 10 µm drops 0.007 s and 0.19 s (76–175
+/// 0.21 s alone and 0.92 s with spread 0.1 (5–7 radii per wavelength); 10 µm drops 0.008 s and 0.18 s (76–175
 /// radii).
 #[derive(Clone, Debug)]
 pub struct MieSpectralTable {
