@@ -515,6 +515,16 @@ pub fn water_absorption_segelstein() -> Spectrum {
     S.get_or_init(|| water_table("alpha_per_m_segelstein_1981")).clone()
 }
 
+/// Wavelength range of `data/water_absorption.csv`, nm: the water absorption and k tables are 0 outside it.
+pub const WATER_ABSORPTION_RANGE_NM: (f64, f64) = (300.0, 900.0);
+
+/// Imaginary part k(λ) of the refractive index of pure water (dimensionless), Segelstein (1981) at 25 °C: the k
+/// column behind [`water_absorption_segelstein`] (α = 4πk/λ), 300–900 nm every 5 nm.
+pub fn water_k_segelstein() -> Spectrum {
+    static S: OnceLock<Spectrum> = OnceLock::new();
+    S.get_or_init(|| water_table("k_segelstein_1981")).clone()
+}
+
 /// Absorption coefficient α(λ) of pure water, m⁻¹, from Hale & Querry (1973) at 25 °C (same table, 25 nm native
 /// sampling). Higher still than Segelstein below 400 nm; prefer [`water_absorption_segelstein`].
 pub fn water_absorption_hale_querry() -> Spectrum {
@@ -590,6 +600,20 @@ mod tests {
         }
         assert!(worst < 7e-6, "worst |Δn| = {worst}");
         assert_relative_eq!(poly(0.5875618), r.nd, epsilon = 1e-6);
+    }
+
+    #[test]
+    fn water_k_and_alpha_columns_agree() {
+        // α = 4πk/λ with λ in metres; the CSV rounds both columns to 5 significant digits.
+        let (k, a) = (water_k_segelstein(), water_absorption_segelstein());
+        let (lo, hi) = WATER_ABSORPTION_RANGE_NM;
+        let mut l = lo;
+        while l <= hi {
+            let from_k = 4.0 * std::f64::consts::PI * k.eval(l) / (l * 1e-9);
+            assert_relative_eq!(from_k, a.eval(l), max_relative = 1e-3);
+            l += 5.0;
+        }
+        assert_eq!(k.eval(lo - 1.0), 0.0);
     }
 
     #[test]

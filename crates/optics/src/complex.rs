@@ -1,6 +1,6 @@
-//! A minimal complex number, just enough for the complex index of refraction and conductor Fresnel.
+//! A minimal complex number, just enough for the complex index of refraction, conductor Fresnel and the Mie series.
 
-use std::ops::{Add, Div, Mul, Neg, Sub};
+use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub, SubAssign};
 
 /// A complex number `re + i·im` in `f64`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -35,6 +35,18 @@ impl Complex {
     /// Complex conjugate `re − i·im`.
     pub fn conj(self) -> Self {
         Self::new(self.re, -self.im)
+    }
+
+    /// `e^{iφ} = cos φ + i·sin φ`, the unit complex number at angle `phi` (radians).
+    pub fn cis(phi: f64) -> Self {
+        let (s, c) = phi.sin_cos();
+        Self::new(c, s)
+    }
+
+    /// Reciprocal `1/z = conj(z)/|z|²` (infinite or NaN parts for `z = 0`, like `1.0/0.0`).
+    pub fn inv(self) -> Self {
+        let d = self.norm_sqr();
+        Self::new(self.re / d, -self.im / d)
     }
 
     /// Principal square root, by the closed form of seed 000 (Frisvad, "Dispersion and Spectral Rendering"):
@@ -85,6 +97,34 @@ impl Mul<f64> for Complex {
     }
 }
 
+impl Mul<Complex> for f64 {
+    type Output = Complex;
+    fn mul(self, z: Complex) -> Complex {
+        z * self
+    }
+}
+
+impl Div<f64> for Complex {
+    type Output = Self;
+    fn div(self, s: f64) -> Self {
+        Self::new(self.re / s, self.im / s)
+    }
+}
+
+impl AddAssign for Complex {
+    fn add_assign(&mut self, o: Self) {
+        self.re += o.re;
+        self.im += o.im;
+    }
+}
+
+impl SubAssign for Complex {
+    fn sub_assign(&mut self, o: Self) {
+        self.re -= o.re;
+        self.im -= o.im;
+    }
+}
+
 impl Div for Complex {
     type Output = Self;
     fn div(self, o: Self) -> Self {
@@ -132,5 +172,17 @@ mod tests {
         assert_eq!(z + w - w, z);
         assert_eq!(-z, Complex::new(-1.0, -2.0));
         assert_eq!(z.norm_sqr(), 5.0);
+        let r = z * z.inv();
+        assert_relative_eq!(r.re, 1.0, epsilon = 1e-15);
+        assert_relative_eq!(r.im, 0.0, epsilon = 1e-15);
+        assert_eq!(2.0 * z, z * 2.0);
+        assert_eq!((z * 2.0) / 2.0, z);
+        let mut acc = z;
+        acc += w;
+        acc -= z;
+        assert_eq!(acc, w);
+        let c = Complex::cis(std::f64::consts::FRAC_PI_2);
+        assert_relative_eq!(c.re, 0.0, epsilon = 1e-16);
+        assert_eq!(c.im, 1.0);
     }
 }

@@ -7,6 +7,9 @@
 //!   looked up by name, plus pbrt-v4's named `glass-*` and `metal-*` spectra and the water absorption table.
 //! - [`fresnel`]: exact Fresnel reflectance for dielectrics and conductors, Snell refraction of direction vectors and
 //!   the critical and Brewster angles.
+//! - [`mie`]: Lorenz–Mie scattering by spheres (efficiencies, amplitudes, exactly sampleable tabulated phase
+//!   functions for one radius or a log-normal distribution, a spectral table for participating media) and the
+//!   Descartes rainbow angles.
 //! - [`complex`]: the small complex-number type the above need.
 //!
 //! Everything is `f64` except [`reflect`] and [`refract`], which are generic over the float type so the renderer's
@@ -29,8 +32,10 @@
 pub mod catalogue;
 pub mod complex;
 mod error;
+mod fft;
 pub mod fresnel;
 pub mod ior;
+pub mod mie;
 
 pub use catalogue::{lookup, named_spectrum, CatalogueEntry, Category, DispersionData};
 pub use complex::Complex;
@@ -43,4 +48,8 @@ pub use fresnel::{
 pub use ior::{
     Cauchy, ConstantIor, Ior, MaterialConstants, Sellmeier, TabulatedComplexIor, TabulatedIor, LAMBDA_C_NM,
     LAMBDA_D_NM, LAMBDA_F_NM,
+};
+pub use mie::{
+    descartes_rainbow_angle, mie_amplitudes, mie_efficiencies, MieCoefficients, MieEfficiencies, MiePhaseTable,
+    MieSpectralTable,
 };

@@ -5,12 +5,13 @@ use std::fmt::Write;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use optics::catalogue::{self, CatalogueEntry};
-use optics::{LAMBDA_C_NM, LAMBDA_D_NM, LAMBDA_F_NM};
+use optics::{descartes_rainbow_angle, LAMBDA_C_NM, LAMBDA_D_NM, LAMBDA_F_NM};
 
 /// Arguments of `prismatic ior`.
 #[derive(Args, Debug)]
 #[command(after_help = "Examples:\n  prismatic ior N-SF11 --nm 486.13 587.56 656.27\n  prismatic ior glass-BK7\n  \
                         prismatic ior N-SF11 --prism 60 --nm 400 550 700\n  \
+                        prismatic ior water --rainbow\n  \
                         prismatic ior Au --nm 450 550 650\n  prismatic ior --list")]
 pub struct IorArgs {
     /// Material: a catalogue name (N-BK7, SF11, diamond, water, sapphire e, Au, …) or a pbrt-v4 spectrum name
@@ -27,8 +28,14 @@ pub struct IorArgs {
     #[arg(long, value_name = "DEGREES")]
     pub prism: Option<f64>,
 
+    /// Also print the rainbows of spherical drops of the material by geometric optics (Descartes): per wavelength,
+    /// n and the angles of the primary and secondary bows from the antisolar point, those of the third- and
+    /// fourth-order bows from the sun, and each bow's width across the wavelengths (default 400, 450, …, 700 nm).
+    #[arg(long)]
+    pub rainbow: bool,
+
     /// List every catalogue material and pbrt-v4 name instead.
-    #[arg(long, conflicts_with_all = ["material", "nm", "prism"])]
+    #[arg(long, conflicts_with_all = ["material", "nm", "prism", "rainbow"])]
     pub list: bool,
 }
 
@@ -46,7 +53,11 @@ pub fn run(args: &IorArgs) -> Result<String> {
     }
     let name = args.material.as_deref().unwrap_or_default();
     let entry = resolve(name)?;
-    let wavelengths = if args.nm.is_empty() { vec![LAMBDA_F_NM, LAMBDA_D_NM, LAMBDA_C_NM] } else { args.nm.clone() };
+    let wavelengths = match (args.nm.is_empty(), args.rainbow) {
+        (false, _) => args.nm.clone(),
+        (true, false) => vec![LAMBDA_F_NM, LAMBDA_D_NM, LAMBDA_C_NM],
+        (true, true) => RAINBOW_NM.to_vec(),
+    };
     for &l in &wavelengths {
         if !l.is_finite() || l <= 0.0 {
             bail!("--nm: wavelength {l} is not a positive number of nanometres");
@@ -101,6 +112,12 @@ pub fn run(args: &IorArgs) -> Result<String> {
             }
         }
     }
+    if args.rainbow {
+        if metal {
+            bail!("--rainbow: {} absorbs (k > 0); rainbows need transparent drops", entry.name);
+        }
+        rainbow(&mut out, &entry, &wavelengths);
+    }
     if let Some(d) = &entry.dispersion {
         let _ = write!(out, "  n_d = {:.6}  V_d = {:.2}", d.nd, d.vd);
         match (d.nd_catalog, d.vd_catalog) {
@@ -111,6 +128,74 @@ pub fn run(args: &IorArgs) -> Result<String> {
         }
     }
     Ok(out)
+}
+
+/// Default wavelengths of `--rainbow`, nm.
+const RAINBOW_NM: [f64; 7] = [400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0];
+
+/// Appends the `--rainbow` table: per wavelength n, the primary and secondary bows' angles from the antisolar point
+/// and the third and fourth orders' from the sun ([`descartes_rainbow_angle`]), then each bow's width.
+fn rainbow(out: &mut String, entry: &CatalogueEntry, wavelengths: &[f64]) {
+    const ORDERS: [u32; 4] = [1, 2, 3, 4];
+    let _ = writeln!(out, "  rainbows by geometric optics (Descartes), degrees:");
+    let _ = writeln!(
+        out,
+        "  {:>10}  {:>10}  {:>9}  {:>9}  {:>9}  {:>9}",
+        "λ (nm)", "n", "primary", "secondary", "3rd", "4th"
+    );
+    // angles[order][wavelength]: from the antisolar point for orders 1–2, from the sun for 3–4.
+    let mut angles: Vec<Vec<Option<f64>>> = vec![Vec::new(); ORDERS.len()];
+    for &l in wavelengths {
+        let n = entry.ior.n(l);
+        let mut line = format!("  {l:>10.2}  {n:>10.6}");
+        for (i, &k) in ORDERS.iter().enumerate() {
+            let a = descartes_rainbow_angle(n, k).map(|a| if k >= 3 { 180.0 - a } else { a });
+            let _ = write!(line, "  {:>9}", a.map_or("-".to_owned(), |a| format!("{a:.3}")));
+            angles[i].push(a);
+        }
+        let _ = writeln!(out, "{line}");
+    }
+    let _ = writeln!(
+        out,
+        "  (primary and secondary: from the antisolar point; 3rd and 4th orders: from the sun, which they circle \
+         and whose glare hides them)"
+    );
+    let names = ["primary", "secondary", "3rd-order", "4th-order"];
+    let (first, last) = (wavelengths.first().copied(), wavelengths.last().copied());
+    for (i, name) in names.iter().enumerate() {
+        let Some((lo, hi)) = wavelengths.iter().zip(&angles[i]).filter_map(|(&l, a)| a.map(|a| (l, a))).fold(
+            None,
+            |acc: Option<((f64, f64), (f64, f64))>, p| match acc {
+                None => Some((p, p)),
+                Some((lo, hi)) => Some((if p.0 < lo.0 { p } else { lo }, if p.0 > hi.0 { p } else { hi })),
+            },
+        ) else {
+            continue;
+        };
+        if lo.0 == hi.0 {
+            continue;
+        }
+        let (min, max) = angles[i].iter().flatten().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        let red = if hi.1 > lo.1 { "red outside" } else { "red inside" };
+        let _ = writeln!(
+            out,
+            "  {name} bow: {:.3}° at {:.0} nm, {:.3}° at {:.0} nm: {:.3}° wide, {red}",
+            lo.1,
+            lo.0,
+            hi.1,
+            hi.0,
+            max - min
+        );
+    }
+    if let (Some(a), Some(b)) = (first, last) {
+        if a != b {
+            let _ = writeln!(
+                out,
+                "  (widths between the shortest and longest wavelength given; the sun's 0.53° disc adds about half a \
+                 degree, and drops smaller than ~0.1 mm widen and shift the bows further: see optics::mie)"
+            );
+        }
+    }
 }
 
 /// A catalogue entry by catalogue name, or by pbrt-v4 spectrum name (`glass-BK7`, `metal-Au-eta`).
@@ -156,7 +241,7 @@ mod tests {
     use super::*;
 
     fn args(material: &str, nm: &[f64]) -> IorArgs {
-        IorArgs { material: Some(material.into()), nm: nm.to_vec(), prism: None, list: false }
+        IorArgs { material: Some(material.into()), nm: nm.to_vec(), prism: None, rainbow: false, list: false }
     }
 
     #[test]
@@ -185,6 +270,37 @@ mod tests {
         assert!(run(&args("glass-BK7", &[587.56])).unwrap().starts_with("N-BK7"));
         let au = run(&args("metal-Au-eta", &[650.0])).unwrap();
         assert!(au.lines().nth(2).unwrap().contains('k'), "{au}");
+    }
+
+    #[test]
+    fn rainbow_prints_descartes_angles_and_widths() {
+        let mut a = args("water", &[]);
+        a.rainbow = true;
+        let out = run(&a).unwrap();
+        // Water 20 °C at 400 nm, computed separately (a short script from the CSV's Sellmeier coefficients and the
+        // textbook minimum-deviation condition): n = 1.343557, primary 40.567° and secondary 53.620° from the
+        // antisolar point, 3rd and 4th orders 37.906° and 48.600° from the sun.
+        let row = out.lines().rev().find(|l| l.trim_start().starts_with("400.00")).expect("a 400 nm row");
+        assert_eq!(
+            row.split_whitespace().collect::<Vec<_>>(),
+            ["400.00", "1.343557", "40.567", "53.620", "37.906", "48.600"],
+            "{out}"
+        );
+        // The n table and the rainbow table, 7 default wavelengths each.
+        let rows = out.lines().filter(|l| l.split_whitespace().next().is_some_and(|w| w.parse::<f64>().is_ok()));
+        assert_eq!(rows.count(), 14, "{out}");
+        assert!(out.contains("primary bow: 40.567° at 400 nm, 42.440° at 700 nm: 1.873° wide"), "{out}");
+        let primary = out.lines().find(|l| l.contains("primary bow:")).expect("primary width");
+        assert!(primary.contains("red outside") && primary.contains("at 400 nm") && primary.contains("at 700 nm"));
+        assert!(out.lines().any(|l| l.contains("secondary bow:") && l.contains("red inside")), "{out}");
+        // Explicit wavelengths replace the default set; a single one has no width.
+        a.nm = vec![550.0];
+        let one = run(&a).unwrap();
+        assert!(one.contains("550.00") && !one.contains("wide"), "{one}");
+        // Metals have no rainbow.
+        let mut au = args("Au", &[550.0]);
+        au.rainbow = true;
+        assert!(run(&au).is_err());
     }
 
     #[test]
