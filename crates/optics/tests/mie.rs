@@ -414,6 +414,55 @@ fn spectral_mixture_samples_what_it_evaluates() {
 }
 
 #[test]
+fn forward_cutoff_conditions_the_phase_function_beyond_the_cutoff() {
+    // 20 µm drops between two grid tables, with everything within 2° of forward counted as unscattered.
+    let exact = MieSpectralTable::from_particle("water", 20.0, 0.0, &[500.0, 600.0]).unwrap();
+    let cut = exact.clone().with_forward_cutoff(2.0).unwrap();
+    let lambda = 530.0;
+    let cos_c = 2f64.to_radians().cos();
+    let mut breaks: Vec<f64> = exact.tables()[0].cos_edges().to_vec();
+    breaks.extend_from_slice(exact.tables()[1].cos_edges());
+    breaks.push(cos_c);
+    breaks.sort_by(f64::total_cmp);
+    // The removed fraction is the exact phase function's probability within 2°, integrated piece by piece.
+    let inside: Vec<f64> = breaks.iter().copied().filter(|&b| b > cos_c).chain([cos_c, 1.0]).collect();
+    let mut inside = inside;
+    inside.sort_by(f64::total_cmp);
+    inside.dedup();
+    let removed: f64 = inside
+        .windows(2)
+        .map(|w| exact.eval_phase(lambda, 0.5 * (w[0] + w[1])) * 2.0 * std::f64::consts::PI * (w[1] - w[0]))
+        .sum();
+    let f = cut.forward_cut_fraction(lambda);
+    assert!(rel(f, removed) < 1e-9, "removed {f}, expected {removed}");
+    assert!(f > 0.3 && f < 0.9, "20 µm drops scatter much of their light within 2°: {f}");
+    // Zero inside the cut-off, the exact function renormalised outside.
+    assert_eq!(cut.eval_phase(lambda, 0.9999), 0.0);
+    assert!(rel(cut.eval_phase(lambda, 0.3), exact.eval_phase(lambda, 0.3) / (1.0 - f)) < 1e-12);
+    // Sampling draws from that density (χ² as above) and never inside the cut-off.
+    let mut rng = SplitMix(5);
+    let (chi2, dof) = chi_square(
+        |mu| cut.eval_phase(lambda, mu),
+        &breaks,
+        || {
+            let mu = cut.sample_phase(lambda, rng.next_f64(), rng.next_f64());
+            assert!(mu <= cos_c, "drawn inside the cut-off: {mu}");
+            mu
+        },
+        DRAWS,
+    );
+    eprintln!("2° cut-off at {lambda} nm: χ² = {chi2:.1}, {dof} degrees of freedom, threshold {:.1}", threshold(dof));
+    assert!(chi2 < threshold(dof), "χ² = {chi2:.1} with {dof} degrees of freedom");
+    // A cut-off of 0 is the exact table, bit for bit; out-of-range cut-offs are errors.
+    let zero = exact.clone().with_forward_cutoff(0.0).unwrap();
+    assert_eq!(zero.eval_phase(lambda, 0.99999), exact.eval_phase(lambda, 0.99999));
+    assert_eq!(zero.sample_phase(lambda, 0.4, 0.77), exact.sample_phase(lambda, 0.4, 0.77));
+    assert!(exact.clone().with_forward_cutoff(-1.0).is_err());
+    assert!(exact.clone().with_forward_cutoff(f64::NAN).is_err());
+    assert!(exact.with_forward_cutoff(11.0).is_err());
+}
+
+#[test]
 fn spectral_cross_sections() {
     let l = [400.0, 500.0, 600.0, 700.0];
     let t = MieSpectralTable::from_particle("water", 250.0, 0.0, &l).unwrap();

@@ -7,6 +7,7 @@
 //!   scattering), with a chromatic σs and an anisotropic phase function;
 //! - a white furnace: a non-absorbing scattering medium in an index-matched sphere under a uniform environment
 //!   looks exactly like the environment;
+//! - the light that crosses a cloud of Lorenz–Mie droplets (`mie`) without scattering follows N·C_ext(λ);
 //! - `path` ignores scattering media with a warning, as pbrt-v4's does; bad medium parameters are errors naming
 //!   the parameter, file, line and column; an optically enormous medium still renders in finite time.
 //!
@@ -149,6 +150,38 @@ fn unscattered_light_through_a_chromatic_homogeneous_medium_follows_beer_lambert
     // Pixel rays are at most 1.4° off axis: their path lengths differ from 2 by less than 3·10⁻⁴.
     let expected = tabulate(|l| (-sigma_t(l) * 2.0).exp());
     matches_closed_form(&built, &expected, 4096, 1e-3, 0.01, "homogeneous");
+}
+
+/// A `mie` medium of 5 µm water drops (2.5·10⁹ per m³, everything scattered by less than 3° counted as
+/// unscattered): the light that crosses 2 m without scattering is exp(−2·N·(C_abs + (1 − f)·C_sca)), with the
+/// cross sections and the cut-off fraction f of the Lorenz–Mie series (tested against published values in the
+/// optics crate). Checks the renderer's units (µm radius, particles per m³, m² cross sections) and the δ-cut-off.
+#[test]
+fn unscattered_light_through_mie_droplets_follows_their_cross_sections() {
+    let n = 2.5e9;
+    let scene = transmittance_scene(&format!(
+        r#"MakeNamedMedium "m" "string type" "mie" "string particle" "water" "float radius" 5 "float density" {n}
+    "float forwardcutoff" 3"#
+    ));
+    let built = build(&scene, "mie.pbrt");
+    let table =
+        optics::mie::MieSpectralTable::from_particle("water", 5.0, 0.0, &optics::mie::default_mie_wavelengths())
+            .unwrap()
+            .with_forward_cutoff(3.0)
+            .unwrap();
+    let sigma_t = |l: f64| {
+        let (c_sca, c_abs) = table.cross_sections(l);
+        n * (c_abs + (1.0 - table.forward_cut_fraction(l)) * c_sca)
+    };
+    // Independently of the series: the extinction paradox (Q_ext ≈ 2 for x ≈ 57 at 550 nm) and a forward peak that
+    // holds a sizeable part of the scattering.
+    let geo = std::f64::consts::PI * 25e-12;
+    let q_ext = table.cross_sections(550.0).0 / geo;
+    assert!((q_ext - 2.0).abs() < 0.3, "Q_ext {q_ext}");
+    let f = table.forward_cut_fraction(550.0);
+    assert!(f > 0.2 && f < 0.8, "cut-off fraction {f}");
+    let expected = tabulate(|l| (-sigma_t(l) * 2.0).exp());
+    matches_closed_form(&built, &expected, 4096, 1e-3, 0.01, "mie");
 }
 
 /// A `uniformgrid` of two density samples along z (0.5 and 1.5 at the voxel centres z = 0.75 and 1.25 of the box
@@ -304,6 +337,24 @@ fn bad_medium_parameters_are_errors_naming_the_parameter() {
     }
     let e = build_error(&medium_scene(r#"MakeNamedMedium "m" "string type" "uniformgrid""#), "nodensity.pbrt");
     assert!(e.contains("'density'") && e.contains("nodensity.pbrt:1:"), "{e}");
+    let mie_cases = [
+        (r#""string particle" "milk" "float radius" 5 "float density" 1e6"#, "'particle'"),
+        (r#""float radius" 0 "float density" 1e6"#, "'radius'"),
+        (r#""float radius" -2 "float density" 1e6"#, "'radius'"),
+        (r#""float radius" 5 "float density" 0"#, "'density'"),
+        (r#""float radius" 5 "float density" -1"#, "'density'"),
+        (r#""float radius" 5 "float density" 1e6 "float radiusspread" -0.1"#, "'radiusspread'"),
+        (r#""float radius" 5 "float density" 1e6 "float forwardcutoff" 30"#, "'forwardcutoff'"),
+        (r#""float radius" 5 "float density" 1e6 "float g" 0.5"#, "'g'"),
+        (r#""float radius" 1e6 "float density" 1e6"#, "'radius'"),
+    ];
+    for (params, expected) in mie_cases {
+        let text = medium_scene(&format!("MakeNamedMedium \"m\" \"string type\" \"mie\"\n    {params}"));
+        let e = build_error(&text, "bad.pbrt");
+        assert!(e.contains(expected) && e.contains("bad.pbrt:2:"), "{params}: {e}");
+    }
+    let e = build_error(&medium_scene(r#"MakeNamedMedium "m" "string type" "mie" "float radius" 5"#), "nodens.pbrt");
+    assert!(e.contains("'density'") && e.contains("nodens.pbrt:1:"), "{e}");
     let e = build_error(&medium_scene(r#"MakeNamedMedium "m" "string type" "cloud""#), "cloud.pbrt");
     assert!(e.contains("medium 'cloud' is not supported"), "{e}");
 }

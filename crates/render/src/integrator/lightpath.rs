@@ -143,7 +143,7 @@ pub(crate) fn walk_light_path(
                             terminated = true;
                             return false;
                         }
-                        let Some(ps) = mp.phase.sample(rd, u.dir, wl) else {
+                        let Some(ps) = mp.phase.sample(rd, u.dir, u.lobe, wl) else {
                             terminated = true;
                             return false;
                         };

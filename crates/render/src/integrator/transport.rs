@@ -474,8 +474,8 @@ pub(crate) struct ShadowTransmittance {
 const MAX_SHADOW_CROSSINGS: u32 = 256;
 
 /// Traces a shadow ray from `origin` (in `medium`) to `target` through material-less boundaries: `None` if a
-/// surface with a material blocks it; otherwise the transmittance, Beer–Lambert for absorbing-only media and ratio
-/// tracking against the majorant for media that scatter (pbrt-v4 §14.2.3, with its Russian roulette once the
+/// surface with a material blocks it; otherwise the transmittance: Beer–Lambert in closed form for homogeneous media
+/// and ratio tracking against the majorant for heterogeneous ones (pbrt-v4 §14.2.3, with its Russian roulette once the
 /// estimate falls below 0.05). `salt` and `u` seed the tracking decisions.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn shadow_transmittance(
@@ -522,6 +522,13 @@ pub(crate) fn shadow_transmittance(
             let med = &scene.media[m as usize];
             if med.is_absorbing_only() {
                 out.t *= med.absorption_transmittance(seg_end, wl);
+            } else if med.has_closed_form_transmittance() {
+                // exp(−σt·d) exactly, where ratio tracking against σ_maj = σt would return 0 or 1 (a track-length
+                // estimate). No tracking decisions: r_l keeps its value; the unidirectional strategy would have had
+                // to cross without a collision, with probability T, at each hero wavelength.
+                let tr = med.homogeneous_transmittance(seg_end, wl);
+                out.t *= tr;
+                out.r_u *= mis.ratio(tr);
             } else {
                 let h = mis.hero;
                 let (mut t_ray, mut r_l, mut r_u) = (out.t, out.r_l, out.r_u);

@@ -168,7 +168,7 @@ impl Radiance for VolPathIntegrator {
                             let u = BounceSamples::draw(sampler);
                             let v = Vertex::Medium { p, d_in: rd, phase: mp.phase, medium: Some(m) };
                             l += beta * self.sample_ld(scene, v, wl, &u, &mis, r_u, counts);
-                            let Some(ps) = mp.phase.sample(rd, u.dir, wl) else {
+                            let Some(ps) = mp.phase.sample(rd, u.dir, u.lobe, wl) else {
                                 terminated = true;
                                 return false;
                             };
@@ -207,7 +207,13 @@ impl Radiance for VolPathIntegrator {
                     }
                     beta *= t_maj / t_maj[h];
                     r_u *= mis.ratio(t_maj / t_maj[h]);
-                    r_l *= mis.ratio(t_maj / t_maj[h]);
+                    if medium.has_closed_form_transmittance() {
+                        // Shadow rays take this medium's transmittance in closed form, so light sampling has no
+                        // tracking probability here: its density relative to this path's loses T_maj[h] only.
+                        r_l *= 1.0 / t_maj[h];
+                    } else {
+                        r_l *= mis.ratio(t_maj / t_maj[h]);
+                    }
                 }
             }
             let d = ray.d;
