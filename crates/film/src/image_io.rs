@@ -241,6 +241,8 @@ pub fn write_image(film: &Film, path: &Path) -> Result<(), ImageError> {
             for (c, name) in ["R", "G", "B"].iter().enumerate() {
                 channels.push((name.to_string(), rgb.iter().map(|p| p[c]).collect()));
             }
+            // The interleaved copy is not needed once the channels exist: at 1080×1080 it is 14 MB of peak memory.
+            drop(rgb);
             let mut attributes = Vec::new();
             let nb = film.nbuckets();
             if nb > 0 {
