@@ -22,6 +22,16 @@ pub struct MediumInterface {
     pub outside: Option<u32>,
 }
 
+/// The medium a light emits into.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightMedium {
+    /// One medium whatever the direction (`LightSource` lights: pbrt-v4's exterior medium in effect).
+    Fixed(Option<u32>),
+    /// An area light on a shape with a `MediumInterface`: the outside medium on the side its geometric normal
+    /// points to, the inside one on the other.
+    Surface(MediumInterface),
+}
+
 /// What a ray hit.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceHit {
@@ -135,6 +145,9 @@ pub struct RenderScene {
     pub media: Vec<Medium>,
     /// The medium the camera sits in.
     pub camera_medium: Option<u32>,
+    /// The medium each light emits into, indexed like `lights`; empty for scenes assembled without the builder,
+    /// whose lights then sit in the camera's medium.
+    pub light_media: Vec<LightMedium>,
     /// The camera.
     pub camera: Camera,
     /// A sphere (centre, radius > 0) enclosing the geometry: where lights at infinity emit light paths from.
@@ -169,8 +182,22 @@ impl RenderScene {
             infinite_lights,
             media,
             camera_medium,
+            light_media: vec![],
             camera,
             bounding_sphere,
+        }
+    }
+
+    /// The medium a light path leaving light `light` along `d` starts in (from a point whose geometric normal is
+    /// `n`, for area lights).
+    pub fn light_medium(&self, light: u32, d: Vec3, n: Option<Vec3>) -> Option<u32> {
+        match self.light_media.get(light as usize) {
+            None => self.camera_medium,
+            Some(LightMedium::Fixed(m)) => *m,
+            Some(LightMedium::Surface(mi)) => match n {
+                Some(n) if d.dot(n) < 0.0 => mi.inside,
+                _ => mi.outside,
+            },
         }
     }
 

@@ -22,7 +22,7 @@ use render::light::Light;
 use render::material::{ConductorSpec, DielectricIor, Material, Roughness};
 use render::medium::{HomogeneousMedium, Medium, PhaseFunction};
 use render::sampling::Frame;
-use render::scene::{MediumInterface, RenderScene, SceneGeometry, ShapeInfo, NO_MATERIAL};
+use render::scene::{LightMedium, MediumInterface, RenderScene, SceneGeometry, ShapeInfo, NO_MATERIAL};
 use render::texture::{FloatTexture, SpectrumTexture};
 use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum};
 use spectral::{Spectrum, WavelengthStrategy};
@@ -53,6 +53,10 @@ struct Extras {
     /// camera: light tracing connects fog vertices to the lens, and a vertex at distance d from the lens weighs
     /// 1/d², which only has finite variance if the fog keeps its distance.
     fog: bool,
+    /// The same fog, in a ball of radius 1 around the ceiling light instead (it reaches through the ceiling), so
+    /// that the light emits into fog while the camera sits in clear air: light paths must start in the light's
+    /// medium, not the camera's.
+    fog_around_light: bool,
 }
 
 /// A quad as a two-triangle mesh (0 1 2, 0 2 3); its geometric normal is cross(p0 − p2, p1 − p2), which decides
@@ -136,8 +140,8 @@ fn room(extras: Extras) -> RenderScene {
             cos_falloff_end: 25f32.to_radians().cos(),
         });
     }
-    if extras.fog {
-        shapes.push(sphere([0.3, 1.4, 0.0], 1.2));
+    if extras.fog || extras.fog_around_light {
+        shapes.push(if extras.fog { sphere([0.3, 1.4, 0.0], 1.2) } else { sphere([0.0, 2.9, 0.0], 1.0) });
         let media = Some(MediumInterface { inside: Some(0), outside: None });
         info.push(ShapeInfo { material: NO_MATERIAL, area_light_base: None, media });
     }
@@ -152,7 +156,7 @@ fn room(extras: Extras) -> RenderScene {
         lens_radius,
         focal_distance,
     );
-    let media = if extras.fog {
+    let media = if extras.fog || extras.fog_around_light {
         let fog = Medium::Homogeneous(HomogeneousMedium {
             sigma_a: Spectrum::Constant(0.02),
             sigma_s: Spectrum::piecewise_linear(vec![400.0, 700.0], vec![1.2, 0.3]).unwrap(),
@@ -163,7 +167,14 @@ fn room(extras: Extras) -> RenderScene {
     } else {
         vec![]
     };
-    RenderScene::new(Box::new(SceneGeometry::new(accel, vec![info])), materials, lights, media, None, camera)
+    let light_count = lights.len();
+    let mut scene =
+        RenderScene::new(Box::new(SceneGeometry::new(accel, vec![info])), materials, lights, media, None, camera);
+    if extras.fog_around_light {
+        // Every light of this room is the ceiling quad's two triangles, inside the fog.
+        scene.light_media = vec![LightMedium::Fixed(Some(0)); light_count];
+    }
+    scene
 }
 
 fn path(max_depth: u32) -> Integrator {
@@ -336,6 +347,14 @@ fn lightpath_agrees_with_volpath_in_fog() {
     assert!(largest_change > 0.2, "the fog changes no block by more than {largest_change}");
 }
 
+/// The light inside the fog, the camera outside: light tracing still estimates the volumetric path tracer's image
+/// (light paths start in the light's medium; started in the camera's, they would miss the glow around the light).
+#[test]
+fn lightpath_agrees_with_volpath_with_the_light_in_fog() {
+    let fog = room(Extras { fog_around_light: true, ..Extras::default() });
+    agrees_with(&fog, &volpath(4), &lightpath(4), 512, 256, 0.0, 0.03);
+}
+
 /// Bidirectional path tracing estimates the path tracer's image of the diffuse room (same tolerances as light
 /// tracing): its MIS weights over all connection strategies must sum to one.
 #[test]
@@ -382,7 +401,14 @@ fn all_integrators() -> [Integrator; 5] {
 /// The room with every extra (delta lights, rough gold, thin lens, and a dispersive glass sphere whose refraction
 /// keeps one wavelength): every kind of path and splat the integrators have.
 fn determinism_room() -> RenderScene {
-    room(Extras { delta_lights: true, rough_gold: true, thin_lens: true, glass: true, fog: true })
+    room(Extras {
+        delta_lights: true,
+        rough_gold: true,
+        thin_lens: true,
+        glass: true,
+        fog: true,
+        fog_around_light: false,
+    })
 }
 
 /// Asserts that two films hold the same colours, weights and spectral buckets: bit-identical when `rel` is 0,

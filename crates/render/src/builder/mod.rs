@@ -98,11 +98,16 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     let materials = materials::Materials::build(desc, &textures)?;
     let camera_medium = media.of(&desc.camera.medium, &desc.camera.entity.loc)?;
     // Area lights are made with their shapes, so they come before the `LightSource` lights.
-    let mut lights = vec![];
-    let shapes = shapes::make_geometry(desc, &materials, &media, &mut lights)?;
+    let (mut lights, mut light_media) = (vec![], vec![]);
+    let shapes = shapes::make_geometry(desc, &materials, &media, &mut lights, &mut light_media)?;
     lights::make_lights(desc, shapes.scene_radius, &mut lights, &mut warnings)?;
+    for le in &desc.lights {
+        light_media.push(crate::scene::LightMedium::Fixed(media.of(&le.medium, &le.entity.loc)?));
+    }
 
-    let scene = RenderScene::new(Box::new(shapes.geometry), materials.list, lights, media.list, camera_medium, camera);
+    let mut scene =
+        RenderScene::new(Box::new(shapes.geometry), materials.list, lights, media.list, camera_medium, camera);
+    scene.light_media = light_media;
     warnings.extend(desc.warnings.iter().map(|d| d.to_string()));
     warnings.extend(desc.unused_parameters().iter().map(|d| d.to_string()));
     Ok(BuiltScene { scene, film, spp, integrator, triangles: shapes.triangles, warnings })

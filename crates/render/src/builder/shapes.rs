@@ -17,7 +17,7 @@ use super::materials::Materials;
 use super::media::Media;
 use super::{err, unsupported, Result};
 use crate::light::Light;
-use crate::scene::{MediumInterface, SceneGeometry, ShapeInfo, NO_MATERIAL};
+use crate::scene::{LightMedium, MediumInterface, SceneGeometry, ShapeInfo, NO_MATERIAL};
 
 /// The scene's shapes, ready for ray queries.
 pub(super) struct BuiltGeometry {
@@ -35,32 +35,40 @@ pub(super) fn make_geometry(
     materials: &Materials,
     named_media: &Media,
     lights: &mut Vec<Light>,
+    light_media: &mut Vec<LightMedium>,
 ) -> Result<BuiltGeometry> {
     // Shapes: object 0 holds the world's shapes; each ObjectBegin definition becomes another object. Area lights
     // are only created for world shapes (pbrt-v4 drops them inside instances, with a warning at parse time).
     let mut triangles = 0usize;
-    let mut object_shapes =
-        |shapes: &[ShapeEntity], lights: Option<&mut Vec<Light>>| -> Result<(Vec<Shape>, Vec<ShapeInfo>)> {
-            let mut lights = lights;
-            let (mut out, mut out_info) = (vec![], vec![]);
-            for se in shapes {
-                let Some(shape) = make_shape(se)? else { continue };
-                triangles += shape_triangles(&shape);
-                let material = materials.index(&se.material, &se.entity.loc)?;
-                let inside = named_media.of(&se.inside_medium, &se.entity.loc)?;
-                let outside = named_media.of(&se.outside_medium, &se.entity.loc)?;
-                let media = (inside.is_some() || outside.is_some() || material == NO_MATERIAL)
-                    .then_some(MediumInterface { inside, outside });
-                let area_light_base = match (&se.area_light, lights.as_deref_mut()) {
-                    (Some(al), Some(lights)) => Some(area_lights(al, &shape, lights)?),
-                    _ => None,
-                };
-                out_info.push(ShapeInfo { material, area_light_base, media });
-                out.push(shape);
-            }
-            Ok((out, out_info))
-        };
-    let (world_shapes, world_info) = object_shapes(&desc.shapes, Some(lights))?;
+    let mut object_shapes = |shapes: &[ShapeEntity],
+                             lights: Option<(&mut Vec<Light>, &mut Vec<LightMedium>)>|
+     -> Result<(Vec<Shape>, Vec<ShapeInfo>)> {
+        let mut lights = lights;
+        let (mut out, mut out_info) = (vec![], vec![]);
+        for se in shapes {
+            let Some(shape) = make_shape(se)? else { continue };
+            triangles += shape_triangles(&shape);
+            let material = materials.index(&se.material, &se.entity.loc)?;
+            let inside = named_media.of(&se.inside_medium, &se.entity.loc)?;
+            let outside = named_media.of(&se.outside_medium, &se.entity.loc)?;
+            let media = (inside.is_some() || outside.is_some() || material == NO_MATERIAL)
+                .then_some(MediumInterface { inside, outside });
+            let area_light_base = match (&se.area_light, lights.as_mut()) {
+                (Some(al), Some((lights, light_media))) => {
+                    let base = area_lights(al, &shape, lights)?;
+                    // Emission leaves into the shape's media (none named: vacuum, as pbrt-v4's "").
+                    let lm = media.map_or(LightMedium::Fixed(None), LightMedium::Surface);
+                    light_media.resize(lights.len(), lm);
+                    Some(base)
+                }
+                _ => None,
+            };
+            out_info.push(ShapeInfo { material, area_light_base, media });
+            out.push(shape);
+        }
+        Ok((out, out_info))
+    };
+    let (world_shapes, world_info) = object_shapes(&desc.shapes, Some((lights, light_media)))?;
     let mut objects = vec![Object::new(world_shapes)];
     let mut info = vec![world_info];
     let mut object_index: HashMap<&str, u32> = HashMap::new();

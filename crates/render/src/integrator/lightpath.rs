@@ -101,8 +101,8 @@ pub(crate) fn walk_light_path(
     let beta_start = beta.max_value();
     let mut r = SampledSpectrum::splat(1.0);
     let mut mis = SpectralMis::new(wl);
-    // Lights sit where the camera does (pbrt's lights carry no medium interface here).
-    let mut ray = PathRay::new(start.origin(), start.le.d, scene.camera_medium);
+    let medium = scene.light_medium(start.light, start.le.d, start.le.surface.map(|s| s.n));
+    let mut ray = PathRay::new(start.origin(), start.le.d, medium);
     let mut depth = 0u32;
     while depth < max_depth {
         let hit = ray.intersect(scene, counts);
