@@ -337,6 +337,14 @@ impl Medium {
         }
     }
 
+    /// The phase function (the same at every point of a medium here).
+    pub fn phase(&self) -> &PhaseFunction {
+        match self {
+            Medium::Homogeneous(h) => &h.phase,
+            Medium::Grid(g) => &g.phase,
+        }
+    }
+
     /// The medium at render-space point `p`.
     #[inline]
     pub fn point(&self, p: Vec3, wl: &SampledWavelengths) -> MediumPoint<'_> {

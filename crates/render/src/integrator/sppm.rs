@@ -28,9 +28,13 @@ use spectral::{SampledSpectrum, SampledWavelengths, Xyz};
 use super::drive::RenderStats;
 use super::drive::{CameraSample, CameraSampler};
 use super::lightpath::{walk_light_path, LightVertexAt};
-use super::transport::{begin_bounce, sample_direct_light, scatter, Bounce, DirectLight, PathRay, RayCounts};
+use super::transport::{
+    begin_bounce, sample_direct_light, scatter, Bounce, BounceSamples, DirectLight, PathRay, RayCounts, SpectralMis,
+};
+use super::volpath::{sample_ld, Vertex};
 use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
+use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
 use crate::scene::RenderScene;
@@ -59,13 +63,22 @@ const ALPHA: f64 = 2.0 / 3.0;
 
 /// A camera path's first non-specular vertex in the current iteration.
 #[derive(Clone, Debug)]
-struct VisiblePoint {
+struct VisiblePoint<'a> {
     p: Vec3,
-    frame: Frame,
-    wo: Vec3,
-    bxdf: Bxdf,
+    at: VisibleAt<'a>,
+    /// The camera path's weight: its throughput over the spectral-MIS mean of its densities, and for a point in a
+    /// medium also over σs there (photons are deposited at scattering events, whose density carries σs).
     beta: SampledSpectrum,
     wl: SampledWavelengths,
+}
+
+/// Where a visible point is.
+#[derive(Clone, Debug)]
+enum VisibleAt<'a> {
+    /// On a surface, with its BxDF in its shading frame and the direction to the camera.
+    Surface { frame: Frame, wo: Vec3, bxdf: Bxdf },
+    /// At a scattering event in a medium, reached along `d_in`.
+    Medium { phase: &'a PhaseFunction, d_in: Vec3 },
 }
 
 /// Per-pixel progressive state.
@@ -172,7 +185,7 @@ fn cell_hash(c: [i32; 3], table: usize) -> usize {
 
 impl VisibleGrid {
     /// Inserts every visible point into each cell its gather sphere overlaps; cell size is the largest radius.
-    fn build(points: &[Option<VisiblePoint>], radii: &[f64]) -> Option<Self> {
+    fn build(points: &[Option<VisiblePoint<'_>>], radii: &[f64]) -> Option<Self> {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut max_r = 0.0f32;
         let mut count = 0usize;
@@ -228,7 +241,7 @@ impl VisibleGrid {
 
 /// What a pixel's camera path gave in one iteration: its visible point, the direct light (times the filter
 /// weight), the wavelengths after it, ray counts, and the camera sample's filter weight.
-type CameraPass = (Option<VisiblePoint>, SampledSpectrum, SampledWavelengths, RayCounts, f32);
+type CameraPass<'a> = (Option<VisiblePoint<'a>>, SampledSpectrum, SampledWavelengths, RayCounts, f32);
 
 /// A photon's contribution to one visible point.
 struct Gathered {
@@ -248,6 +261,7 @@ impl SppmIntegrator {
     ) -> RenderStats {
         let (w, h) = (state.width, state.height);
         let npix = w as u64 * h as u64;
+        let media = scene.media.iter().any(|m| !m.is_absorbing_only());
         let photons = self.photons_per_iteration.unwrap_or(npix).max(1);
         let mut stats = RenderStats::default();
         for it in iterations {
@@ -266,7 +280,11 @@ impl SppmIntegrator {
                     // The camera sample's own wavelengths are replaced by the iteration's.
                     let cs = camera_sampler.sample(scene, x, y, &mut sampler);
                     let mut wl = wl_iter;
-                    let (vp, ld) = self.camera_path(scene, &cs, &mut wl, &mut sampler, &mut counts);
+                    let (vp, ld) = if media {
+                        self.camera_path_in_media(scene, &cs, &mut wl, &mut sampler, &mut counts)
+                    } else {
+                        self.camera_path(scene, &cs, &mut wl, &mut sampler, &mut counts)
+                    };
                     (vp, ld, wl, counts, cs.weight)
                 })
                 .collect();
@@ -305,6 +323,7 @@ impl SppmIntegrator {
                             for k in k0..(k0 + 1024).min(end) {
                                 self.photon(
                                     scene,
+                                    media,
                                     &grid,
                                     &points,
                                     &radii,
@@ -377,7 +396,7 @@ impl SppmIntegrator {
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
-    ) -> (Option<VisiblePoint>, SampledSpectrum) {
+    ) -> (Option<VisiblePoint<'static>>, SampledSpectrum) {
         let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium);
         // The camera sample's filter weight, as a camera sample of the other integrators carries it into the film.
         let mut beta = SampledSpectrum::splat(cs.weight);
@@ -410,11 +429,125 @@ impl SppmIntegrator {
             if !bxdf.is_specular() {
                 let weighting = DirectLight::LightSamplingOnly;
                 ld += beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, &u, weighting, counts);
-                let vp = VisiblePoint { p: hit.p, frame, wo, bxdf, beta, wl: *wl };
+                let vp = VisiblePoint { p: hit.p, at: VisibleAt::Surface { frame, wo, bxdf }, beta, wl: *wl };
                 return (Some(vp), ld);
             }
             let mode = TransportMode::Radiance;
             let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { return (None, ld) };
+            ray.leave(&hit, s.wi, s.bs.transmission);
+        }
+    }
+
+    /// [`camera_path`](Self::camera_path) in a scene with media that scatter: the camera path delta-tracks through
+    /// them with spectral MIS (as `volpath` does) and its visible point is its first non-specular surface or its
+    /// first scattering event in a medium, whichever comes first. Direct light there is next-event estimation
+    /// through the media (light sampling only: photons count from their second vertex, as on surfaces).
+    fn camera_path_in_media<'s>(
+        &self,
+        scene: &'s RenderScene,
+        cs: &CameraSample,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+    ) -> (Option<VisiblePoint<'s>>, SampledSpectrum) {
+        let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium);
+        let mut beta = SampledSpectrum::splat(cs.weight);
+        let mut r_u = SampledSpectrum::splat(1.0);
+        let mut mis = SpectralMis::new(wl);
+        let mut ld = SampledSpectrum::zero();
+        let mut depth = 0u32;
+        loop {
+            let d = ray.d;
+            let hit = ray.intersect(scene, counts);
+            if let Some(m) = ray.medium.filter(|&m| !scene.media[m as usize].is_absorbing_only()) {
+                let medium = &scene.media[m as usize];
+                mis.choose(sampler.next_1d());
+                let h = mis.hero;
+                let mut rng = TrackingRng::new(sampler.next_1d(), depth);
+                let t_end = hit.map_or(f32::INFINITY, |h| h.t);
+                let (mut scattered, mut terminated) = (None, false);
+                let t_maj = sample_t_maj(medium, ray.o, d, t_end, &mut rng, wl, h, |p, mp, sigma_maj, t_maj, rng| {
+                    match mp.collision(sigma_maj, h, rng.uniform()) {
+                        Collision::Absorb => {
+                            terminated = true;
+                            false
+                        }
+                        Collision::Scatter => {
+                            if depth == self.max_depth {
+                                terminated = true;
+                                return false;
+                            }
+                            let pdf = t_maj[h] * mp.sigma_s[h];
+                            beta *= t_maj * mp.sigma_s / pdf;
+                            r_u *= mis.ratio(t_maj * mp.sigma_s / pdf);
+                            scattered = Some((p, mp.sigma_s));
+                            false
+                        }
+                        Collision::Null => {
+                            let sigma_n = mp.sigma_n(sigma_maj);
+                            let pdf = t_maj[h] * sigma_n[h];
+                            if pdf <= 0.0 {
+                                terminated = true;
+                                return false;
+                            }
+                            beta *= t_maj * sigma_n / pdf;
+                            r_u *= mis.ratio(t_maj * sigma_n / pdf);
+                            !beta.is_black()
+                        }
+                    }
+                });
+                if terminated || beta.is_black() || r_u.is_black() {
+                    return (None, ld);
+                }
+                if let Some((p, sigma_s)) = scattered {
+                    let phase = medium.phase();
+                    let u = BounceSamples::draw(sampler);
+                    let v = Vertex::Medium { p, d_in: d, phase, medium: Some(m) };
+                    ld += beta * sample_ld(scene, v, wl, &u, &mis, r_u, true, counts);
+                    let weight = (beta / mis.average(r_u)).safe_div(sigma_s);
+                    let vp = VisiblePoint { p, at: VisibleAt::Medium { phase, d_in: d }, beta: weight, wl: *wl };
+                    return (Some(vp), ld);
+                }
+                if t_maj[h] <= 0.0 {
+                    return (None, ld);
+                }
+                beta *= t_maj / t_maj[h];
+                r_u *= mis.ratio(t_maj / t_maj[h]);
+            } else if let Some(hit) = &hit {
+                ray.attenuate(scene, hit, wl, &mut beta);
+            }
+            let Some(hit) = hit else {
+                for &li in &scene.infinite_lights {
+                    ld += beta * scene.lights[li as usize].le(d, wl) / mis.average(r_u);
+                }
+                return (None, ld);
+            };
+            if let Some(li) = hit.area_light {
+                ld += beta * scene.lights[li as usize].l_area(hit.n, -d, wl) / mis.average(r_u);
+            }
+            let arrived_in = ray.medium;
+            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+                Bounce::PassedThrough => continue,
+                Bounce::Stop | Bounce::Absorb => return (None, ld),
+                Bounce::Scatter(bxdf, u) => (bxdf, u),
+            };
+            mis.update(wl);
+            if depth == self.max_depth {
+                return (None, ld);
+            }
+            depth += 1;
+            let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
+            let wo = frame.to_local(-d);
+            if !bxdf.is_specular() {
+                let v = Vertex::Surface { hit: &hit, frame: &frame, bxdf: &bxdf, wo, medium: arrived_in };
+                ld += beta * sample_ld(scene, v, wl, &u, &mis, r_u, true, counts);
+                let weight = beta / mis.average(r_u);
+                let vp = VisiblePoint { p: hit.p, at: VisibleAt::Surface { frame, wo, bxdf }, beta: weight, wl: *wl };
+                return (Some(vp), ld);
+            }
+            let mode = TransportMode::Radiance;
+            let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { return (None, ld) };
+            mis.update(wl);
             ray.leave(&hit, s.wi, s.bs.transmission);
         }
     }
@@ -424,8 +557,9 @@ impl SppmIntegrator {
     fn photon(
         &self,
         scene: &RenderScene,
+        media: bool,
         grid: &VisibleGrid,
-        points: &[Option<VisiblePoint>],
+        points: &[Option<VisiblePoint<'_>>],
         radii: &[f64],
         wl_iter: &SampledWavelengths,
         k: u64,
@@ -436,27 +570,38 @@ impl SppmIntegrator {
     ) {
         let mut sampler = Sampler::new(k as u32, (k >> 32) as u32, it, seed);
         let mut wl = *wl_iter;
-        walk_light_path(scene, self.max_depth, false, &mut wl, &mut sampler, counts, |v, wl, _| {
-            // Photons are stored on surfaces only (scattering media are treated as vacuum here).
-            let LightVertexAt::Surface { hit, .. } = v.at else { return };
+        walk_light_path(scene, self.max_depth, media, &mut wl, &mut sampler, counts, |v, wl, _| {
             // Direct light is the visible points' next-event estimation: photons count from their second vertex.
             if v.depth == 1 {
                 return;
             }
             // A photon reduced to one wavelength by dispersion stands for all of them: undo the selection
-            // probability so that its flux is an estimate at the iteration's density of that wavelength.
-            let mut beta = v.beta;
+            // probability so that its flux is an estimate at the iteration's density of that wavelength. In media
+            // its throughput is also over the spectral-MIS mean of its densities (1 without media).
+            let mut beta = v.beta / v.mis.average(v.r);
             for i in 0..spectral::N_WAVELENGTHS {
                 let (p_iter, p_now) = (wl_iter.pdf()[i], wl.pdf()[i]);
                 beta[i] = if p_now > 0.0 { beta[i] * p_iter / p_now } else { 0.0 };
             }
-            for &j in grid.candidates(hit.p) {
+            let p = v.p();
+            for &j in grid.candidates(p) {
                 let Some(vp) = &points[j as usize] else { continue };
                 let r = radii[j as usize] as f32;
-                if (vp.p - hit.p).length_squared() > r * r {
+                if (vp.p - p).length_squared() > r * r {
                     continue;
                 }
-                let f = vp.bxdf.f(vp.wo, vp.frame.to_local(v.w_from), TransportMode::Radiance);
+                // Surface photons meet surface points and medium photons medium points. A medium point's density
+                // is per volume, (4/3)πr³, where the progressive update divides by πr²: its photons carry the ratio
+                // 3/(4r) (Jensen & Christensen 1998's volume radiance estimate in Hachisuka & Jensen's update).
+                let f = match (&vp.at, &v.at) {
+                    (VisibleAt::Surface { frame, wo, bxdf }, LightVertexAt::Surface { .. }) => {
+                        bxdf.f(*wo, frame.to_local(v.w_from), TransportMode::Radiance)
+                    }
+                    (VisibleAt::Medium { phase, d_in }, LightVertexAt::Medium { .. }) => {
+                        phase.p(-v.w_from, -*d_in, wl) * (3.0 / (4.0 * r))
+                    }
+                    _ => continue,
+                };
                 let phi = beta * f;
                 if !phi.is_black() {
                     out.push(Gathered { vp: j, phi });
@@ -468,13 +613,6 @@ impl SppmIntegrator {
 
 impl Integrate for SppmIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
-        if params.media_scatter {
-            params.warnings.push(format!(
-                "{}: warning: integrator \"sppm\" does not render media that scatter or glow yet: it treats them as \
-                 vacuum; use \"volpath\" or \"lightpath\"",
-                params.entity.loc
-            ));
-        }
         let p = &params.entity.params;
         let photons = p.get_int("photonsperiteration", -1)?;
         let radius = p.get_float("radius", 1.0)?;

@@ -34,7 +34,7 @@ pub struct VolPathIntegrator {
 
 /// Where the path scattered last, for the light-selection and MIS densities of the emitter it finds next.
 #[derive(Clone, Copy, Debug)]
-enum Vertex<'a> {
+pub(crate) enum Vertex<'a> {
     /// A surface with its BxDF in its shading frame, reached through `medium`.
     Surface { hit: &'a crate::scene::SurfaceHit, frame: &'a Frame, bxdf: &'a Bxdf, wo: Vec3, medium: Option<u32> },
     /// A point in a medium, reached travelling along `d_in`.
@@ -42,9 +42,7 @@ enum Vertex<'a> {
 }
 
 impl VolPathIntegrator {
-    /// Next-event estimation at `v`: a light and a point on it, transmittance by ratio tracking through media and
-    /// material-less boundaries, weighted against BSDF or phase sampling by the balance heuristic over all
-    /// wavelengths (`r_p` is the path's r_u). Draws the light sample from `u`.
+    /// [`sample_ld`] weighted against BSDF or phase sampling.
     #[allow(clippy::too_many_arguments)]
     fn sample_ld(
         &self,
@@ -56,46 +54,63 @@ impl VolPathIntegrator {
         r_p: SampledSpectrum,
         counts: &mut RayCounts,
     ) -> SampledSpectrum {
-        let [u_light, u0, u1] = u.connect;
-        let Some((li, p_sel)) = scene.sample_light(u_light) else { return SampledSpectrum::zero() };
-        let light = &scene.lights[li as usize];
-        let ctx = match v {
-            Vertex::Surface { hit, .. } => LightSampleContext { p: hit.p, n: hit.n },
-            Vertex::Medium { p, .. } => LightSampleContext { p, n: Vec3::ZERO },
-        };
-        let Some(ls) = light.sample_li(&ctx, glam::Vec2::new(u0, u1), wl) else { return SampledSpectrum::zero() };
-        if ls.pdf <= 0.0 || ls.l.is_black() {
-            return SampledSpectrum::zero();
+        sample_ld(scene, v, wl, u, mis, r_p, false, counts)
+    }
+}
+
+/// Next-event estimation at `v`: a light and a point on it, transmittance through media (closed form in
+/// homogeneous ones, ratio tracking in grids) and material-less boundaries, weighted against BSDF or phase sampling
+/// by the balance heuristic over all wavelengths (`r_p` is the path's r_u), or by spectral MIS alone when
+/// `light_only` (for integrators that find the rest of the light otherwise, as photon mapping does). Draws the
+/// light sample from `u`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sample_ld(
+    scene: &RenderScene,
+    v: Vertex,
+    wl: &SampledWavelengths,
+    u: &BounceSamples,
+    mis: &SpectralMis,
+    r_p: SampledSpectrum,
+    light_only: bool,
+    counts: &mut RayCounts,
+) -> SampledSpectrum {
+    let [u_light, u0, u1] = u.connect;
+    let Some((li, p_sel)) = scene.sample_light(u_light) else { return SampledSpectrum::zero() };
+    let light = &scene.lights[li as usize];
+    let ctx = match v {
+        Vertex::Surface { hit, .. } => LightSampleContext { p: hit.p, n: hit.n },
+        Vertex::Medium { p, .. } => LightSampleContext { p, n: Vec3::ZERO },
+    };
+    let Some(ls) = light.sample_li(&ctx, glam::Vec2::new(u0, u1), wl) else { return SampledSpectrum::zero() };
+    if ls.pdf <= 0.0 || ls.l.is_black() {
+        return SampledSpectrum::zero();
+    }
+    let p_l = p_sel * ls.pdf;
+    let (f_hat, scatter_pdf, origin, medium) = match v {
+        Vertex::Surface { hit, frame, bxdf, wo, medium } => {
+            let wi = frame.to_local(ls.wi);
+            let f = bxdf.f(wo, wi, TransportMode::Radiance) * wi.z.abs();
+            let pdf = bxdf.pdf(wo, wi, TransportMode::Radiance);
+            // The shadow ray leaves into the medium on the light's side (the arrival medium without an
+            // interface).
+            (f, pdf, hit.spawn_origin(ls.wi), next_medium(hit, ls.wi, medium))
         }
-        let p_l = p_sel * ls.pdf;
-        let (f_hat, scatter_pdf, origin, medium) = match v {
-            Vertex::Surface { hit, frame, bxdf, wo, medium } => {
-                let wi = frame.to_local(ls.wi);
-                let f = bxdf.f(wo, wi, TransportMode::Radiance) * wi.z.abs();
-                let pdf = bxdf.pdf(wo, wi, TransportMode::Radiance);
-                // The shadow ray leaves into the medium on the light's side (the arrival medium without an
-                // interface).
-                (f, pdf, hit.spawn_origin(ls.wi), next_medium(hit, ls.wi, medium))
-            }
-            Vertex::Medium { p, d_in, phase, medium } => {
-                (phase.p(d_in, ls.wi, wl), phase.pdf(d_in, ls.wi, wl), p, medium)
-            }
-        };
-        if f_hat.is_black() {
-            return SampledSpectrum::zero();
-        }
-        let target = if ls.dist.is_finite() { ShadowTarget::Point(ls.p) } else { ShadowTarget::Direction(ls.wi) };
-        let Some(tr) = shadow_transmittance(scene, origin, target, medium, wl, mis, li ^ 0x5eed, u0, counts) else {
-            return SampledSpectrum::zero();
-        };
-        let (t_ray, r_l, r_u) = (tr.t, tr.r_l, tr.r_u);
-        let r_l = r_l * r_p * p_l;
-        let r_u = r_u * r_p * scatter_pdf;
-        if ls.delta {
-            f_hat * t_ray * ls.l / mis.average(r_l)
-        } else {
-            f_hat * t_ray * ls.l / mis.average(r_l + r_u)
-        }
+        Vertex::Medium { p, d_in, phase, medium } => (phase.p(d_in, ls.wi, wl), phase.pdf(d_in, ls.wi, wl), p, medium),
+    };
+    if f_hat.is_black() {
+        return SampledSpectrum::zero();
+    }
+    let target = if ls.dist.is_finite() { ShadowTarget::Point(ls.p) } else { ShadowTarget::Direction(ls.wi) };
+    let Some(tr) = shadow_transmittance(scene, origin, target, medium, wl, mis, li ^ 0x5eed, u0, counts) else {
+        return SampledSpectrum::zero();
+    };
+    let (t_ray, r_l, r_u) = (tr.t, tr.r_l, tr.r_u);
+    let r_l = r_l * r_p * p_l;
+    let r_u = r_u * r_p * scatter_pdf;
+    if ls.delta || light_only {
+        f_hat * t_ray * ls.l / mis.average(r_l)
+    } else {
+        f_hat * t_ray * ls.l / mis.average(r_l + r_u)
     }
 }
 
