@@ -25,6 +25,7 @@ scenes=(
   "prism-exercise|scenes/prism-exercise.pbrt|"
   "cornell-box-volume|scenes/bench/cornell-box-volume.pbrt|--spp 8"
   "prism-beam|scenes/prism-beam.pbrt|"
+  "rainbow|scenes/rainbow.pbrt|"
 )
 
 printf '%-18s %9s %5s %8s %8s %14s %9s %9s\n' scene resolution spp wall_s cpu_s samples/cpu_s Mrays/s peak_MB
