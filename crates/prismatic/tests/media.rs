@@ -239,16 +239,16 @@ Shape "trianglemesh" "point3 P" [ -100 -100 {z1}  100 -100 {z1}  100 100 {z1}  -
 }
 
 /// A sphere of radius 1 with an `interface` boundary filled with a medium that scatters (chromatically) and
-/// absorbs nothing, under a uniform environment: every path leaves the sphere with its radiance unchanged, so every
-/// pixel sees exactly the environment (white furnace). The medium's optical radius is 0.6–3 depending on λ, so
-/// most paths scatter several times.
-#[test]
-fn white_furnace_with_a_scattering_medium_in_an_index_matched_sphere() {
-    let scene = r#"LookAt 0 0 -5  0 0 0  0 1 0
+/// absorbs nothing, under a uniform environment, rendered by `integrator`: every path leaves the sphere with its
+/// radiance unchanged, so every pixel sees exactly the environment (white furnace). The medium's optical radius is
+/// 0.6–3 depending on λ, so most paths scatter several times.
+fn white_furnace(integrator: &str, spp: u32, what: &str) {
+    let scene = format!(
+        r#"LookAt 0 0 -5  0 0 0  0 1 0
 Camera "perspective" "float fov" 16
 Film "rgb" "integer xresolution" 8 "integer yresolution" 8 "string filename" "furnace.exr"
 PixelFilter "box"
-Integrator "volpath" "integer maxdepth" 1000
+Integrator "{integrator}" "integer maxdepth" 1000
 WorldBegin
 LightSource "infinite" "rgb L" [ 1 1 1 ]
 MakeNamedMedium "white" "string type" "homogeneous" "rgb sigma_a" [ 0 0 0 ]
@@ -256,11 +256,26 @@ MakeNamedMedium "white" "string type" "homogeneous" "rgb sigma_a" [ 0 0 0 ]
 Material "interface"
 MediumInterface "white" ""
 Shape "sphere" "float radius" 1
-"#;
-    let built = build(scene, "furnace.pbrt");
+"#
+    );
+    let built = build(&scene, "furnace.pbrt");
     let d65 = Spectrum::RgbIlluminant(RgbIlluminantSpectrum::new([1.0, 1.0, 1.0]).unwrap());
     let env = tabulate(|l| d65.eval(l));
-    matches_closed_form(&built, &env, 64, 1e-3, 0.01, "furnace");
+    matches_closed_form(&built, &env, spp, 1e-3, 0.01, what);
+}
+
+/// The white furnace with the volumetric path tracer.
+#[test]
+fn white_furnace_with_a_scattering_medium_in_an_index_matched_sphere() {
+    white_furnace("volpath", 64, "furnace");
+}
+
+/// The white furnace with bidirectional path tracing: camera and light subpaths (from the environment) scatter in
+/// the medium and are joined through it, and whichever strategies a path is weighted over, every pixel must still
+/// see exactly the environment, at every wavelength strategy.
+#[test]
+fn bdpt_white_furnace_with_a_scattering_medium_in_an_index_matched_sphere() {
+    white_furnace("bdpt", 256, "bdpt furnace");
 }
 
 /// `path` renders a scene with a scattering medium as pbrt-v4's does: it warns, and the image is the image of the

@@ -47,6 +47,11 @@ impl Media {
         self.list.iter().any(|m| !m.is_absorbing_only())
     }
 
+    /// True if some medium glows.
+    pub(super) fn any_emissive(&self) -> bool {
+        self.list.iter().any(|m| m.is_emissive())
+    }
+
     /// The medium `name` refers to; no name or an empty one is vacuum.
     pub(super) fn of(&self, name: &Option<String>, loc: &Loc) -> Result<Option<u32>> {
         match name {

@@ -81,6 +81,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     let integrator = Integrator::read(&mut IntegratorParams {
         entity: &desc.integrator,
         media_scatter: media.any_scattering(),
+        media_glow: media.any_emissive(),
         warnings: &mut warnings,
     })?;
     // Photon mapping renders `iterations` passes (pbrt-v4 ignores the sampler's pixel samples there).

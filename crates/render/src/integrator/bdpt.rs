@@ -11,8 +11,19 @@
 //!
 //! Spectral: both subpaths carry the pixel sample's wavelengths; the camera subpath is traced first, and a
 //! dispersive refraction on either side reduces them to one (the reduction is an unbiased random choice, so
-//! strategies evaluated afterwards at the reduced wavelengths stay unbiased). Absorbing media attenuate every
-//! segment by Beer–Lambert.
+//! strategies evaluated afterwards at the reduced wavelengths stay unbiased).
+//!
+//! Media: absorbing-only media attenuate every segment by Beer–Lambert. In media that scatter, both subpaths
+//! delta-track against the majorant at a hero wavelength (as `volpath` and `lightpath` do): null collisions go on,
+//! absorption ends the subpath and real scattering makes a medium vertex with the phase function (pbrt-v4 §16.3's
+//! `RandomWalk`). Connections carry the shadow ray's transmittance (closed form in homogeneous media, ratio tracking
+//! in grids) through material-less boundaries. The MIS densities leave out the distance-sampling factors σs·T, as
+//! pbrt-v4 does: the weights are then not exactly the balance heuristic's but still sum to one over the strategies
+//! of each path, which is all unbiasedness needs. One hero slot serves the whole pixel sample (both subpaths and
+//! every shadow ray), so each vertex carries the rescaled probabilities `r` of its subpath's tracking decisions and a
+//! strategy divides by the mean over the carried wavelengths of the product of its two vertices' `r` and its shadow
+//! ray's `r_l`: the one-sample spectral MIS estimator of the whole path (Wilkie et al. 2014; pbrt-v4 §14.2.3).
+//! Media that glow are not rendered as emitters (with a warning).
 
 use std::f32::consts::PI;
 use std::ops::Range;
@@ -23,9 +34,13 @@ use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{finite_or_zero, render_splatting, CameraSampler, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
-use super::transport::{begin_bounce, sample_light_path, scatter, Bounce, PathRay, RayCounts};
+use super::transport::{
+    begin_bounce, sample_light_path, scatter, shadow_transmittance, Bounce, BounceSamples, PathRay, RayCounts,
+    ShadowTarget, ShadowTransmittance, SpectralMis,
+};
 use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
+use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
 use crate::scene::{MediumInterface, RenderScene};
@@ -47,6 +62,8 @@ enum Kind {
     Escape,
     /// A scattering surface.
     Surface,
+    /// A real scattering event in a medium.
+    Medium,
 }
 
 /// A subpath vertex (Veach 1997 §10.2; the fields pbrt-v4's `Vertex` keeps).
@@ -61,10 +78,15 @@ struct Vertex {
     ns: Vec3,
     frame: Frame,
     bxdf: Option<Bxdf>,
-    /// Unit direction towards the previous vertex of the subpath (surfaces).
+    /// The phase function at a medium vertex.
+    phase: Option<PhaseFunction>,
+    /// Unit direction towards the previous vertex of the subpath (surfaces and medium vertices).
     wo: Vec3,
     /// Throughput of the subpath up to and including this vertex.
     beta: SampledSpectrum,
+    /// Rescaled probabilities of the subpath's tracking decisions in media up to this vertex, per wavelength
+    /// (spectral MIS, relative to the pixel sample's hero; all ones without media).
+    r: SampledSpectrum,
     /// Scattering here was a delta event.
     delta: bool,
     /// Area density of sampling this vertex from the previous one (solid angle for a vertex at infinity).
@@ -91,8 +113,10 @@ impl Vertex {
             ns: ng,
             frame: Frame::from_z(if ng == Vec3::ZERO { Vec3::Z } else { ng }),
             bxdf: None,
+            phase: None,
             wo: Vec3::ZERO,
             beta,
+            r: SampledSpectrum::splat(1.0),
             delta: false,
             pdf_fwd,
             pdf_rev: 0.0,
@@ -147,6 +171,7 @@ impl Vertex {
             Kind::Light(l) => !scene.lights[l as usize].is_delta_direction(),
             Kind::Escape => false,
             Kind::Surface => self.bxdf.as_ref().is_some_and(|b| !b.is_specular()),
+            Kind::Medium => true,
         }
     }
 
@@ -182,11 +207,16 @@ impl Vertex {
         pdf
     }
 
-    /// BSDF value for light arriving from `next` and leaving towards the previous vertex (or the reverse, in
-    /// importance mode), with the adjoint shading-normal correction (Veach 1997 eq. 5.19) in importance mode.
-    fn f(&self, next: &Vertex) -> SampledSpectrum {
-        let Some(bxdf) = &self.bxdf else { return SampledSpectrum::zero() };
+    /// BSDF (or phase function) value for light arriving from `next` and leaving towards the previous vertex (or
+    /// the reverse, in importance mode), with the adjoint shading-normal correction (Veach 1997 eq. 5.19) in
+    /// importance mode. Phase functions depend only on the angle between the two directions, so they need no adjoint.
+    fn f(&self, next: &Vertex, wl: &SampledWavelengths) -> SampledSpectrum {
         let Some(wi) = (next.p - self.p).try_normalize() else { return SampledSpectrum::zero() };
+        if let Some(phase) = &self.phase {
+            // Light travelling along −wo (arriving from the previous vertex) and leaving along wi.
+            return phase.p(-self.wo, wi, wl);
+        }
+        let Some(bxdf) = &self.bxdf else { return SampledSpectrum::zero() };
         let f = bxdf.f(self.frame.to_local(self.wo), self.frame.to_local(wi), self.mode);
         if self.mode == TransportMode::Importance {
             f * correct_shading_normal(self.wo, wi, self.ns, self.ng)
@@ -195,8 +225,9 @@ impl Vertex {
         }
     }
 
-    /// Area density at `next` of sampling it from this vertex, having come from `prev`.
-    fn pdf(&self, scene: &RenderScene, prev: Option<&Vertex>, next: &Vertex) -> f32 {
+    /// Area density at `next` of sampling it from this vertex, having come from `prev` (leaving out the
+    /// distance-sampling factors σs·T of media, see the module's documentation).
+    fn pdf(&self, scene: &RenderScene, prev: Option<&Vertex>, next: &Vertex, wl: &SampledWavelengths) -> f32 {
         if matches!(self.kind, Kind::Light(_) | Kind::Escape) {
             return self.pdf_light(scene, next);
         }
@@ -204,6 +235,12 @@ impl Vertex {
         let Some(wn) = wn.try_normalize() else { return 0.0 };
         let pdf = match self.kind {
             Kind::Camera => scene.camera.pdf_we(self.p, wn).1,
+            Kind::Medium => {
+                let (Some(phase), Some(prev)) = (&self.phase, prev) else { return 0.0 };
+                let Some(wp) = (prev.p - self.p).try_normalize() else { return 0.0 };
+                // Arriving along −wp, leaving along wn.
+                phase.pdf(-wp, wn, wl)
+            }
             _ => {
                 let (Some(bxdf), Some(prev)) = (&self.bxdf, prev) else { return 0.0 };
                 let Some(wp) = (prev.p - self.p).try_normalize() else { return 0.0 };
@@ -283,33 +320,62 @@ fn correct_shading_normal(wo: Vec3, wi: Vec3, ns: Vec3, ng: Vec3) -> f32 {
     }
 }
 
-/// Visibility and transmittance between two vertices (1 or Beer–Lambert if unoccluded, 0 if occluded).
+/// The transmittance of a shadow ray, `None` if a surface blocks it. In a scene without media this is exactly the
+/// visibility test of the `vacuum` ray (origin, unit direction, t_max), as before media were rendered, so that such
+/// images do not change; otherwise [`shadow_transmittance`] from `origin` to `target`, starting in `medium`,
+/// through material-less boundaries.
+#[allow(clippy::too_many_arguments)]
+fn connection_transmittance(
+    scene: &RenderScene,
+    vacuum: (Vec3, Vec3, f32),
+    origin: Vec3,
+    target: ShadowTarget,
+    medium: Option<u32>,
+    wl: &SampledWavelengths,
+    mis: &SpectralMis,
+    salt: u32,
+    u: f32,
+    counts: &mut RayCounts,
+) -> Option<ShadowTransmittance> {
+    if scene.media.is_empty() {
+        let (o, d, t_max) = vacuum;
+        counts.shadow += 1;
+        let ones = SampledSpectrum::splat(1.0);
+        return (!scene.geometry.occluded(o, d, t_max)).then_some(ShadowTransmittance {
+            t: ones,
+            r_l: ones,
+            r_u: ones,
+        });
+    }
+    shadow_transmittance(scene, origin, target, medium, wl, mis, salt, u, counts)
+}
+
+/// The transmittance between two vertices (both ends offset off their surfaces, pbrt-v4's `SpawnRayTo`).
+#[allow(clippy::too_many_arguments)]
 fn transmittance(
     scene: &RenderScene,
     a: &Vertex,
     b: &Vertex,
     wl: &SampledWavelengths,
+    mis: &SpectralMis,
+    salt: u32,
+    u: f32,
     counts: &mut RayCounts,
-) -> Option<SampledSpectrum> {
+) -> Option<ShadowTransmittance> {
     let (ray, t_max) = geometry::spawn_ray_to(&a.surface_point(), &b.surface_point());
-    counts.shadow += 1;
-    if scene.geometry.occluded(ray.o, ray.d, t_max) {
-        return None;
-    }
-    let w = b.p - a.p;
-    let mut tr = SampledSpectrum::splat(1.0);
-    if let Some(m) = a.medium_towards(w) {
-        tr *= scene.media[m as usize].absorption_transmittance(w.length(), wl);
-    }
-    Some(tr)
+    let target = geometry::offset_ray_origin(b.p, b.p_error, b.ng, ray.o - b.p);
+    let medium = a.medium_towards(b.p - a.p);
+    let vacuum = (ray.o, ray.d, t_max);
+    connection_transmittance(scene, vacuum, ray.o, ShadowTarget::Point(target), medium, wl, mis, salt, u, counts)
 }
 
-/// The geometry term with visibility: |cos|·|cos|/d² (shading normals) times the transmittance.
-fn g(scene: &RenderScene, a: &Vertex, b: &Vertex, wl: &SampledWavelengths, counts: &mut RayCounts) -> SampledSpectrum {
+/// The geometry term without visibility: |cos|·|cos|/d² with shading normals, no cosine at a vertex that is not on
+/// a surface (a medium vertex, a point light, a pinhole).
+fn geometry_term(a: &Vertex, b: &Vertex) -> f32 {
     let d = a.p - b.p;
     let d2 = d.length_squared();
     if d2 == 0.0 {
-        return SampledSpectrum::zero();
+        return 0.0;
     }
     let dn = d / d2.sqrt();
     let mut g = 1.0 / d2;
@@ -319,13 +385,7 @@ fn g(scene: &RenderScene, a: &Vertex, b: &Vertex, wl: &SampledWavelengths, count
     if b.on_surface() {
         g *= b.ns.dot(dn).abs();
     }
-    if g == 0.0 {
-        return SampledSpectrum::zero();
-    }
-    match transmittance(scene, a, b, wl, counts) {
-        Some(tr) => tr * g,
-        None => SampledSpectrum::zero(),
-    }
+    g
 }
 
 impl BdptIntegrator {
@@ -344,8 +404,15 @@ impl BdptIntegrator {
         mut splat: impl FnMut(Vec2, SampledSpectrum, &SampledWavelengths),
     ) -> SampledSpectrum {
         let [camera_sampler, light_sampler, connect_sampler] = samplers;
-        let camera = self.camera_subpath(scene, o, d, wl, camera_sampler, counts);
-        let light = self.light_subpath(scene, wl, light_sampler, counts);
+        // One hero for the whole pixel sample, so that the tracking probabilities of the two subpaths and of a
+        // connection multiply into those of the full path (drawn only where there are media, which leaves the
+        // random numbers of scenes without media as they were).
+        let mut mis = SpectralMis::new(wl);
+        if !scene.media.is_empty() {
+            mis.choose(connect_sampler.next_1d());
+        }
+        let camera = self.camera_subpath(scene, o, d, wl, &mut mis, camera_sampler, counts);
+        let light = self.light_subpath(scene, wl, &mut mis, light_sampler, counts);
         let mut l = SampledSpectrum::zero();
         for t in 1..=camera.len() {
             for s in 0..=light.len() {
@@ -354,7 +421,7 @@ impl BdptIntegrator {
                     continue;
                 }
                 let u = [connect_sampler.next_1d(), connect_sampler.next_1d(), connect_sampler.next_1d()];
-                let (c, raster) = self.connect(scene, &light, &camera, s, t, wl, u, counts);
+                let (c, raster) = self.connect(scene, &light, &camera, s, t, wl, &mis, u, counts);
                 if c.is_black() || !c.0.iter().all(|v| v.is_finite()) {
                     continue;
                 }
@@ -367,12 +434,14 @@ impl BdptIntegrator {
         l
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn camera_subpath(
         &self,
         scene: &RenderScene,
         o: Vec3,
         d: Vec3,
         wl: &mut SampledWavelengths,
+        mis: &mut SpectralMis,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
     ) -> Vec<Vertex> {
@@ -394,6 +463,7 @@ impl BdptIntegrator {
             TransportMode::Radiance,
             scene.camera_medium,
             wl,
+            mis,
             sampler,
             counts,
             &mut path,
@@ -405,6 +475,7 @@ impl BdptIntegrator {
         &self,
         scene: &RenderScene,
         wl: &mut SampledWavelengths,
+        mis: &mut SpectralMis,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
     ) -> Vec<Vertex> {
@@ -416,7 +487,9 @@ impl BdptIntegrator {
             return path;
         }
         let ng = le.surface.map_or(Vec3::ZERO, |s| s.n);
-        let mut v0 = Vertex::endpoint(Kind::Light(li), le.o, ng, le.l, p_sel * le.pdf_pos, scene.camera_medium);
+        // The light emits into its own medium (pbrt-v4's exterior medium, or its shape's side).
+        let light_medium = scene.light_medium(li, le.d, le.surface.map(|s| s.n));
+        let mut v0 = Vertex::endpoint(Kind::Light(li), le.o, ng, le.l, p_sel * le.pdf_pos, light_medium);
         v0.p_error = le.surface.map_or(Vec3::ZERO, |s| s.p_error);
         v0.mode = TransportMode::Importance;
         let infinite = light.is_infinite() || light.is_delta_direction();
@@ -434,8 +507,9 @@ impl BdptIntegrator {
             le.pdf_dir,
             self.max_depth as usize,
             TransportMode::Importance,
-            scene.camera_medium,
+            light_medium,
             wl,
+            mis,
             sampler,
             counts,
             &mut path,
@@ -461,7 +535,8 @@ impl BdptIntegrator {
     }
 
     /// Extends `path` by up to `max_vertices` scattering vertices from the ray `(o, d)` sampled with solid-angle
-    /// density `pdf_dir` (pbrt-v4's `RandomWalk`, without Russian roulette so that densities stay exact).
+    /// density `pdf_dir` (pbrt-v4's `RandomWalk`, without Russian roulette so that densities stay exact). In media
+    /// that scatter, distances are delta-tracked at `mis`'s hero wavelength and real scattering events are vertices.
     #[allow(clippy::too_many_arguments)]
     fn random_walk(
         &self,
@@ -474,6 +549,7 @@ impl BdptIntegrator {
         mode: TransportMode,
         medium: Option<u32>,
         wl: &mut SampledWavelengths,
+        mis: &mut SpectralMis,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
         path: &mut Vec<Vertex>,
@@ -483,14 +559,102 @@ impl BdptIntegrator {
         }
         let mut pdf_fwd = pdf_dir;
         let mut added = 0usize;
+        let mut r = SampledSpectrum::splat(1.0);
         let mut ray = PathRay::new(o, d, medium);
         loop {
             let d = ray.d;
-            let Some(hit) = ray.intersect(scene, counts) else {
+            let hit = ray.intersect(scene, counts);
+            if let Some(m) = ray.medium.filter(|&m| !scene.media[m as usize].is_absorbing_only()) {
+                let h = mis.hero;
+                let mut rng = TrackingRng::new(sampler.next_1d(), path.len() as u32);
+                let t_end = hit.map_or(f32::INFINITY, |h| h.t);
+                let (mut scattered, mut terminated) = (None, false);
+                let wl_now: &SampledWavelengths = wl;
+                let mis_now: &SpectralMis = mis;
+                let t_maj = sample_t_maj(
+                    &scene.media[m as usize],
+                    ray.o,
+                    d,
+                    t_end,
+                    &mut rng,
+                    wl_now,
+                    h,
+                    |p, mp, sigma_maj, t_maj, rng| {
+                        match mp.collision(sigma_maj, h, rng.uniform()) {
+                            Collision::Absorb => terminated = true,
+                            Collision::Scatter => {
+                                // Distance and event sampled with density T_maj·σs at the hero (pbrt-v4 §14.1.3).
+                                let pdf = t_maj[h] * mp.sigma_s[h];
+                                if pdf <= 0.0 {
+                                    terminated = true;
+                                    return false;
+                                }
+                                beta *= t_maj * mp.sigma_s / pdf;
+                                r *= mis_now.ratio(t_maj * mp.sigma_s / pdf);
+                                let mut v = Vertex::endpoint(Kind::Medium, p, Vec3::ZERO, beta, 0.0, Some(m));
+                                v.phase = Some(mp.phase.clone());
+                                v.wo = -d;
+                                v.r = r;
+                                v.mode = mode;
+                                v.pdf_fwd = path
+                                    .last()
+                                    .expect("the subpath has its endpoint")
+                                    .convert_density(pdf_fwd, &v, scene);
+                                path.push(v);
+                                added += 1;
+                                if added >= max_vertices {
+                                    terminated = true;
+                                    return false;
+                                }
+                                let u = BounceSamples::draw(sampler);
+                                match mp.phase.sample(d, u.dir, u.lobe, wl_now) {
+                                    Some(ps) if ps.pdf > 0.0 => {
+                                        beta *= ps.p / ps.pdf;
+                                        pdf_fwd = ps.pdf;
+                                        // The previous vertex's reverse density: arriving along −wi, leaving along −d.
+                                        let rev = mp.phase.pdf(-ps.wi, -d, wl_now);
+                                        let n = path.len();
+                                        path[n - 2].pdf_rev = path[n - 1].convert_density(rev, &path[n - 2], scene);
+                                        scattered = Some((p, ps.wi));
+                                    }
+                                    _ => terminated = true,
+                                }
+                            }
+                            Collision::Null => {
+                                let sigma_n = mp.sigma_n(sigma_maj);
+                                let pdf = t_maj[h] * sigma_n[h];
+                                if pdf <= 0.0 {
+                                    terminated = true;
+                                    return false;
+                                }
+                                beta *= t_maj * sigma_n / pdf;
+                                r *= mis_now.ratio(t_maj * sigma_n / pdf);
+                                return !beta.is_black();
+                            }
+                        }
+                        false
+                    },
+                );
+                if terminated || beta.is_black() || !beta.0.iter().all(|v| v.is_finite()) {
+                    break;
+                }
+                if let Some((p, wi)) = scattered {
+                    ray = PathRay::new(p, wi, Some(m));
+                    continue;
+                }
+                // No collision before the surface: probability T_maj at the hero.
+                if t_maj[h] <= 0.0 {
+                    break;
+                }
+                beta *= t_maj / t_maj[h];
+                r *= mis.ratio(t_maj / t_maj[h]);
+            }
+            let Some(hit) = hit else {
                 if mode == TransportMode::Radiance && !scene.infinite_lights.is_empty() {
                     let prev = path.last().expect("the subpath has its endpoint");
                     let mut v = Vertex::endpoint(Kind::Escape, prev.p + d, Vec3::ZERO, beta, pdf_fwd, ray.medium);
                     v.w_escape = d;
+                    v.r = r;
                     path.push(v);
                 }
                 break;
@@ -502,6 +666,7 @@ impl BdptIntegrator {
                 Bounce::Absorb => (None, None),
                 Bounce::Scatter(bxdf, u) => (Some(bxdf), Some(u)),
             };
+            mis.update(wl);
             let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
             let mut v = Vertex {
                 kind: Kind::Surface,
@@ -511,8 +676,10 @@ impl BdptIntegrator {
                 ns: hit.ns,
                 frame,
                 bxdf,
+                phase: None,
                 wo: -d,
                 beta,
+                r,
                 delta: false,
                 pdf_fwd: 0.0,
                 pdf_rev: 0.0,
@@ -532,6 +699,7 @@ impl BdptIntegrator {
             }
             let wo = frame.to_local(-d);
             let Some(s) = scatter(bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { break };
+            mis.update(wl);
             let (mut fwd, mut rev) = if s.bs.pdf_is_proportional {
                 (bxdf.pdf(wo, s.bs.wi, mode), bxdf.pdf(s.bs.wi, wo, mode))
             } else {
@@ -554,7 +722,9 @@ impl BdptIntegrator {
         }
     }
 
-    /// The contribution of strategy (s, t), MIS-weighted, and the raster position for t = 1.
+    /// The contribution of strategy (s, t), MIS-weighted, and the raster position for t = 1. Every strategy divides
+    /// by the mean over the wavelengths of the product of its vertices' and its shadow ray's rescaled tracking
+    /// probabilities (spectral MIS of the whole path; exactly 1 without media).
     #[allow(clippy::too_many_arguments)]
     fn connect(
         &self,
@@ -564,6 +734,7 @@ impl BdptIntegrator {
         s: usize,
         t: usize,
         wl: &SampledWavelengths,
+        mis: &SpectralMis,
         u: [f32; 3],
         counts: &mut RayCounts,
     ) -> (SampledSpectrum, Option<Vec2>) {
@@ -572,6 +743,8 @@ impl BdptIntegrator {
         if t > 1 && s != 0 && camera[t - 1].kind == Kind::Escape {
             return zero;
         }
+        // The shadow ray's tracking decisions, seeded per strategy.
+        let salt = BDPT_CONNECT_SEED_SALT ^ ((s as u32) << 16 | t as u32);
         let mut sampled: Option<Vertex> = None;
         let mut raster = None;
         let l = if s == 0 {
@@ -579,7 +752,7 @@ impl BdptIntegrator {
             if !pt.is_light() {
                 return zero;
             }
-            pt.le(scene, &camera[t - 2], wl) * pt.beta
+            pt.le(scene, &camera[t - 2], wl) * pt.beta / mis.average(pt.r)
         } else if t == 1 {
             let qs = &light[s - 1];
             if !qs.is_connectible(scene) {
@@ -596,17 +769,17 @@ impl BdptIntegrator {
                 scene.camera_medium,
             );
             v.ns = cam_n;
-            let mut c = qs.beta * qs.f(&v) * v.beta;
+            let mut c = qs.beta * qs.f(&v, wl) * v.beta;
             if qs.on_surface() {
                 c *= qs.ns.dot(cs.wi).abs();
             }
             if c.is_black() {
                 return zero;
             }
-            let Some(tr) = transmittance(scene, qs, &v, wl, counts) else { return zero };
+            let Some(tr) = transmittance(scene, qs, &v, wl, mis, salt, u[2], counts) else { return zero };
             raster = Some(cs.raster);
             sampled = Some(v);
-            c * tr
+            c * tr.t / mis.average(qs.r * tr.r_l)
         } else if s == 1 {
             let pt = &camera[t - 1];
             if !pt.is_connectible(scene) {
@@ -627,11 +800,11 @@ impl BdptIntegrator {
                 if far { Vec3::ZERO } else { ls.n },
                 ls.l * (1.0 / (p_sel * ls.pdf)),
                 0.0,
-                scene.camera_medium,
+                scene.light_medium(li, -ls.wi, (!far).then_some(ls.n)),
             );
             v.mode = TransportMode::Importance;
             v.pdf_fwd = v.pdf_light_origin(scene, pt);
-            let mut c = pt.beta * pt.f(&v) * v.beta;
+            let mut c = pt.beta * pt.f(&v, wl) * v.beta;
             if pt.on_surface() {
                 c *= pt.ns.dot(ls.wi).abs();
             }
@@ -641,36 +814,42 @@ impl BdptIntegrator {
             // Shadow ray to the light point (or to infinity).
             let origin = geometry::offset_ray_origin(pt.p, pt.p_error, pt.ng, ls.wi);
             let t_max = if far { f32::INFINITY } else { (ls.p - origin).length() * (1.0 - 1e-4) };
-            counts.shadow += 1;
-            if scene.geometry.occluded(origin, ls.wi, t_max) {
+            let target = if far { ShadowTarget::Direction(ls.wi) } else { ShadowTarget::Point(ls.p) };
+            let medium = pt.medium_towards(ls.wi);
+            let vacuum = (origin, ls.wi, t_max);
+            let Some(tr) = connection_transmittance(scene, vacuum, origin, target, medium, wl, mis, salt, u[2], counts)
+            else {
                 return zero;
-            }
-            if let (Some(m), false) = (pt.medium_towards(ls.wi), far) {
-                c *= scene.media[m as usize].absorption_transmittance(ls.dist, wl);
-            }
+            };
             sampled = Some(v);
-            c
+            c * tr.t / mis.average(pt.r * tr.r_l)
         } else {
             let (qs, pt) = (&light[s - 1], &camera[t - 1]);
             if !qs.is_connectible(scene) || !pt.is_connectible(scene) {
                 return zero;
             }
-            let c = qs.beta * qs.f(pt) * pt.f(qs) * pt.beta;
+            let c = qs.beta * qs.f(pt, wl) * pt.f(qs, wl) * pt.beta;
             if c.is_black() {
                 return zero;
             }
-            c * g(scene, qs, pt, wl, counts)
+            let g = geometry_term(qs, pt);
+            if g == 0.0 {
+                return zero;
+            }
+            let Some(tr) = transmittance(scene, qs, pt, wl, mis, salt, u[2], counts) else { return zero };
+            c * g * tr.t / mis.average(qs.r * pt.r * tr.r_l)
         };
         if l.is_black() {
             return zero;
         }
-        let w = self.mis_weight(scene, light, camera, sampled.as_ref(), s, t);
+        let w = self.mis_weight(scene, light, camera, sampled.as_ref(), s, t, wl);
         (l * w, raster)
     }
 
     /// The balance-heuristic weight of strategy (s, t) against every other strategy that could have produced the
     /// same path (Veach 1997 §10.2.1, computed with density ratios as pbrt-v4 does). `sampled` replaces the
     /// camera endpoint when t = 1 and the light endpoint when s = 1.
+    #[allow(clippy::too_many_arguments)]
     fn mis_weight(
         &self,
         scene: &RenderScene,
@@ -679,6 +858,7 @@ impl BdptIntegrator {
         sampled: Option<&Vertex>,
         s: usize,
         t: usize,
+        wl: &SampledWavelengths,
     ) -> f32 {
         if s + t == 2 {
             return 1.0;
@@ -709,19 +889,19 @@ impl BdptIntegrator {
         }
         // pt's reverse density: sampled from qs (or as the origin of a light subpath when s = 0).
         cam[t - 1].1 = match qs {
-            Some(q) => q.pdf(scene, qs_minus, pt),
+            Some(q) => q.pdf(scene, qs_minus, pt, wl),
             None => pt.pdf_light_origin(scene, pt_minus.expect("s = 0 needs t ≥ 2")),
         };
         if let Some(pm) = pt_minus {
             cam[t - 2].1 = match qs {
-                Some(q) => pt.pdf(scene, Some(q), pm),
+                Some(q) => pt.pdf(scene, Some(q), pm, wl),
                 None => pt.pdf_light(scene, pm),
             };
         }
         if let Some(q) = qs {
-            lig[s - 1].1 = pt.pdf(scene, pt_minus, q);
+            lig[s - 1].1 = pt.pdf(scene, pt_minus, q, wl);
             if let Some(qm) = qs_minus {
-                lig[s - 2].1 = q.pdf(scene, Some(pt), qm);
+                lig[s - 2].1 = q.pdf(scene, Some(pt), qm, wl);
             }
         }
         // The connection's endpoints are not delta events for this strategy.
@@ -764,10 +944,10 @@ const BDPT_CONNECT_SEED_SALT: u32 = 0x636f_6e6e;
 
 impl Integrate for BdptIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
-        if params.media_scatter {
+        if params.media_glow {
             params.warnings.push(format!(
-                "{}: warning: integrator \"bdpt\" does not render media that scatter or glow yet: it treats them as \
-                 vacuum; use \"volpath\" or \"lightpath\"",
+                "{}: warning: integrator \"bdpt\" does not render the light of media that glow (their scattering and \
+                 absorption are rendered); use \"volpath\"",
                 params.entity.loc
             ));
         }

@@ -76,6 +76,8 @@ pub struct IntegratorParams<'a> {
     /// Whether some medium of the scene scatters or glows (`volpath` renders such media; `path`, like pbrt-v4's,
     /// ignores them).
     pub media_scatter: bool,
+    /// Whether some medium of the scene glows (emits light).
+    pub media_glow: bool,
     /// Where warnings go.
     pub warnings: &'a mut Vec<String>,
 }
