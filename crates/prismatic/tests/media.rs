@@ -267,7 +267,7 @@ Shape "sphere" "float radius" 1
 /// The white furnace with the volumetric path tracer.
 #[test]
 fn white_furnace_with_a_scattering_medium_in_an_index_matched_sphere() {
-    white_furnace("volpath", 64, "furnace");
+    white_furnace("volpath", 128, "furnace");
 }
 
 /// The white furnace with bidirectional path tracing: camera and light subpaths (from the environment) scatter in

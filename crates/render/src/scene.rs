@@ -188,6 +188,12 @@ impl RenderScene {
         }
     }
 
+    /// True if some medium scatters or glows (paths then pick their spectral-MIS hero slot at random from the
+    /// start, since a shadow ray may track through a chromatic medium before the path enters one).
+    pub fn has_scattering_media(&self) -> bool {
+        self.media.iter().any(|m| !m.is_absorbing_only())
+    }
+
     /// The medium a light path leaving light `light` along `d` starts in (from a point whose geometric normal is
     /// `n`, for area lights).
     pub fn light_medium(&self, light: u32, d: Vec3, n: Option<Vec3>) -> Option<u32> {

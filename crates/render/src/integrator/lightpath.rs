@@ -101,6 +101,11 @@ pub(crate) fn walk_light_path(
     let beta_start = beta.max_value();
     let mut r = SampledSpectrum::splat(1.0);
     let mut mis = SpectralMis::new(wl);
+    // A random hero from the start when there are media: a shadow ray may track through a chromatic medium
+    // before the path enters one, and spectral MIS is unbiased only for a uniformly chosen hero.
+    if media && scene.has_scattering_media() {
+        mis.choose(sampler.next_1d());
+    }
     let medium = scene.light_medium(start.light, start.le.d, start.le.surface.map(|s| s.n));
     let mut ray = PathRay::new(start.origin(), start.le.d, medium);
     let mut depth = 0u32;

@@ -454,6 +454,8 @@ impl SppmIntegrator {
         let mut beta = SampledSpectrum::splat(cs.weight);
         let mut r_u = SampledSpectrum::splat(1.0);
         let mut mis = SpectralMis::new(wl);
+        // A random hero from the start: a shadow ray may track through a chromatic medium before the path enters one.
+        mis.choose(sampler.next_1d());
         let mut ld = SampledSpectrum::zero();
         let mut depth = 0u32;
         loop {

@@ -130,6 +130,11 @@ impl Radiance for VolPathIntegrator {
         let mut r_u = SampledSpectrum::splat(1.0);
         let mut r_l = SampledSpectrum::splat(1.0);
         let mut mis = SpectralMis::new(wl);
+        // A random hero from the start when there are media: a shadow ray may track through a chromatic medium
+        // before the path enters one, and spectral MIS is unbiased only for a uniformly chosen hero.
+        if scene.has_scattering_media() {
+            mis.choose(sampler.next_1d());
+        }
         let mut specular_bounce = false;
         let mut eta_scale = 1.0f32;
         let mut depth = 0u32;
