@@ -272,6 +272,13 @@ impl LightPathIntegrator {
 
 impl Integrate for LightPathIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+        if params.media_glow {
+            params.warnings.push(format!(
+                "{}: warning: integrator \"lightpath\" does not render the light of media that glow (their scattering and \
+                 absorption are rendered); use \"volpath\"",
+                params.entity.loc
+            ));
+        }
         Ok(LightPathIntegrator { max_depth: params.max_depth()? })
     }
 

@@ -615,6 +615,13 @@ impl SppmIntegrator {
 
 impl Integrate for SppmIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+        if params.media_glow {
+            params.warnings.push(format!(
+                "{}: warning: integrator \"sppm\" does not render the light of media that glow (their scattering and \
+                 absorption are rendered); use \"volpath\"",
+                params.entity.loc
+            ));
+        }
         let p = &params.entity.params;
         let photons = p.get_int("photonsperiteration", -1)?;
         let radius = p.get_float("radius", 1.0)?;
