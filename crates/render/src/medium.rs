@@ -90,11 +90,10 @@ impl PhaseFunction {
                 // One-sample MIS over the carried wavelengths (Veach 1997, §9.2.4): pick an active slot uniformly,
                 // draw from its lobe; the density is the mean of the active slots' lobes (the balance heuristic), so
                 // a bow that only one wavelength puts at this angle is still sampled in proportion to its share.
-                let active: Vec<usize> = (0..N_WAVELENGTHS).filter(|&i| wl.is_active(i)).collect();
-                let k = active.len().max(1);
+                let k = wl.active_count().max(1);
                 let scaled = f64::from(u_pick) * k as f64;
                 let pick = (scaled as usize).min(k - 1);
-                let slot = active.get(pick).copied().unwrap_or(0);
+                let slot = (0..N_WAVELENGTHS).filter(|&i| wl.is_active(i)).nth(pick).unwrap_or(0);
                 let u_table = (scaled - pick as f64).clamp(0.0, 1.0 - f64::EPSILON);
                 let cos = table.sample_phase(f64::from(wl.lambda(slot)), u_table, f64::from(u.x));
                 let wi = direction_about(d_in, cos, u.y);

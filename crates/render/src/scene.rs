@@ -22,6 +22,19 @@ pub struct MediumInterface {
     pub outside: Option<u32>,
 }
 
+impl MediumInterface {
+    /// The medium on the side of a surface with geometric normal `n` that direction `d` points into: inside if
+    /// `d` goes against the normal, outside otherwise.
+    #[inline]
+    pub fn towards(&self, d: Vec3, n: Vec3) -> Option<u32> {
+        if d.dot(n) < 0.0 {
+            self.inside
+        } else {
+            self.outside
+        }
+    }
+}
+
 /// The medium a light emits into.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LightMedium {
@@ -148,6 +161,8 @@ pub struct RenderScene {
     /// The medium each light emits into, indexed like `lights`; empty for scenes assembled without the builder,
     /// whose lights then sit in the camera's medium.
     pub light_media: Vec<LightMedium>,
+    /// Whether some medium of `media` scatters or glows (asked once per path).
+    scattering_media: bool,
     /// The camera.
     pub camera: Camera,
     /// A sphere (centre, radius > 0) enclosing the geometry: where lights at infinity emit light paths from.
@@ -174,7 +189,9 @@ impl RenderScene {
             lights.iter().enumerate().filter(|(_, l)| l.is_infinite()).map(|(i, _)| i as u32).collect();
         let (c, r) = geometry.bounding_sphere();
         let bounding_sphere = if r > 0.0 && r.is_finite() && c.is_finite() { (c, r) } else { (Vec3::ZERO, 1.0) };
+        let scattering_media = media.iter().any(|m| !m.is_absorbing_only());
         Self {
+            scattering_media,
             geometry,
             materials,
             lights,
@@ -191,7 +208,7 @@ impl RenderScene {
     /// True if some medium scatters or glows (paths then pick their spectral-MIS hero slot at random from the
     /// start, since a shadow ray may track through a chromatic medium before the path enters one).
     pub fn has_scattering_media(&self) -> bool {
-        self.media.iter().any(|m| !m.is_absorbing_only())
+        self.scattering_media
     }
 
     /// The medium a light path leaving light `light` along `d` starts in (from a point whose geometric normal is
@@ -200,10 +217,7 @@ impl RenderScene {
         match self.light_media.get(light as usize) {
             None => self.camera_medium,
             Some(LightMedium::Fixed(m)) => *m,
-            Some(LightMedium::Surface(mi)) => match n {
-                Some(n) if d.dot(n) < 0.0 => mi.inside,
-                _ => mi.outside,
-            },
+            Some(LightMedium::Surface(mi)) => n.map_or(mi.outside, |n| mi.towards(d, n)),
         }
     }
 

@@ -35,8 +35,8 @@ use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{finite_or_zero, render_splatting, CameraSampler, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
 use super::transport::{
-    begin_bounce, sample_light_path, scatter, shadow_transmittance, Bounce, BounceSamples, PathRay, RayCounts,
-    ShadowTarget, ShadowTransmittance, SpectralMis,
+    begin_bounce, sample_light_path, scatter, shadow_transmittance, weigh_tracking, Bounce, BounceSamples, PathRay,
+    RayCounts, ShadowTarget, ShadowTransmittance, SpectralMis,
 };
 use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
@@ -177,16 +177,7 @@ impl Vertex {
 
     /// The medium on the side of this vertex that direction `w` leaves through.
     fn medium_towards(&self, w: Vec3) -> Option<u32> {
-        match self.media {
-            Some(mi) => {
-                if w.dot(self.ng) < 0.0 {
-                    mi.inside
-                } else {
-                    mi.outside
-                }
-            }
-            None => self.medium,
-        }
+        self.media.map_or(self.medium, |mi| mi.towards(w, self.ng))
     }
 
     /// A solid-angle density at this vertex turned into an area density at `next`: dω = |cos θ_next| dA / d²
@@ -584,13 +575,10 @@ impl BdptIntegrator {
                             Collision::Absorb => terminated = true,
                             Collision::Scatter => {
                                 // Distance and event sampled with density T_maj·σs at the hero (pbrt-v4 §14.1.3).
-                                let pdf = t_maj[h] * mp.sigma_s[h];
-                                if pdf <= 0.0 {
+                                if !weigh_tracking(&mut beta, &mut r, mis_now, t_maj, mp.sigma_s) {
                                     terminated = true;
                                     return false;
                                 }
-                                beta *= t_maj * mp.sigma_s / pdf;
-                                r *= mis_now.ratio(t_maj * mp.sigma_s / pdf);
                                 let mut v = Vertex::endpoint(Kind::Medium, p, Vec3::ZERO, beta, 0.0, Some(m));
                                 v.phase = Some(mp.phase.clone());
                                 v.wo = -d;
@@ -621,14 +609,10 @@ impl BdptIntegrator {
                                 }
                             }
                             Collision::Null => {
-                                let sigma_n = mp.sigma_n(sigma_maj);
-                                let pdf = t_maj[h] * sigma_n[h];
-                                if pdf <= 0.0 {
+                                if !weigh_tracking(&mut beta, &mut r, mis_now, t_maj, mp.sigma_n(sigma_maj)) {
                                     terminated = true;
                                     return false;
                                 }
-                                beta *= t_maj * sigma_n / pdf;
-                                r *= mis_now.ratio(t_maj * sigma_n / pdf);
                                 return !beta.is_black();
                             }
                         }
@@ -643,11 +627,9 @@ impl BdptIntegrator {
                     continue;
                 }
                 // No collision before the surface: probability T_maj at the hero.
-                if t_maj[h] <= 0.0 {
+                if !weigh_tracking(&mut beta, &mut r, mis, t_maj, SampledSpectrum::splat(1.0)) {
                     break;
                 }
-                beta *= t_maj / t_maj[h];
-                r *= mis.ratio(t_maj / t_maj[h]);
             }
             let Some(hit) = hit else {
                 if mode == TransportMode::Radiance && !scene.infinite_lights.is_empty() {
@@ -944,13 +926,7 @@ const BDPT_CONNECT_SEED_SALT: u32 = 0x636f_6e6e;
 
 impl Integrate for BdptIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
-        if params.media_glow {
-            params.warnings.push(format!(
-                "{}: warning: integrator \"bdpt\" does not render the light of media that glow (their scattering and \
-                 absorption are rendered); use \"volpath\"",
-                params.entity.loc
-            ));
-        }
+        params.warn_unrendered_media_glow("bdpt");
         Ok(BdptIntegrator { max_depth: params.max_depth()? })
     }
 

@@ -19,8 +19,8 @@ use spectral::{SampledSpectrum, SampledWavelengths};
 use super::drive::{render_splatting, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
 use super::path::CameraPaths;
 use super::transport::{
-    adjoint_cos, begin_bounce, next_medium, russian_roulette, sample_light_path, scatter, shadow_transmittance, Bounce,
-    BounceSamples, PathRay, RayCounts, ShadowTarget, SpectralMis,
+    adjoint_cos, begin_bounce, next_medium, russian_roulette, sample_light_path, scatter, shadow_transmittance,
+    weigh_tracking, Bounce, BounceSamples, PathRay, RayCounts, ShadowTarget, SpectralMis,
 };
 use super::volpath::VolPathIntegrator;
 use super::{Integrate, IntegratorParams, Needs, RenderJob};
@@ -129,9 +129,10 @@ pub(crate) fn walk_light_path(
                     }
                     if event == Collision::Scatter {
                         depth += 1;
-                        let pdf = t_maj[h] * mp.sigma_s[h];
-                        beta *= t_maj * mp.sigma_s / pdf;
-                        r *= mis.ratio(t_maj * mp.sigma_s / pdf);
+                        if !weigh_tracking(&mut beta, &mut r, &mis, t_maj, mp.sigma_s) {
+                            terminated = true;
+                            return false;
+                        }
                         let u = BounceSamples::draw(sampler);
                         let v = LightVertex {
                             at: LightVertexAt::Medium { p, phase: mp.phase },
@@ -160,14 +161,10 @@ pub(crate) fn walk_light_path(
                         scattered = Some((p, ps.wi));
                         return false;
                     }
-                    let sigma_n = mp.sigma_n(sigma_maj);
-                    let pdf = t_maj[h] * sigma_n[h];
-                    if pdf <= 0.0 {
+                    if !weigh_tracking(&mut beta, &mut r, &mis, t_maj, mp.sigma_n(sigma_maj)) {
                         terminated = true;
                         return false;
                     }
-                    beta *= t_maj * sigma_n / pdf;
-                    r *= mis.ratio(t_maj * sigma_n / pdf);
                     !beta.is_black()
                 });
                 if terminated || beta.is_black() {
@@ -177,11 +174,10 @@ pub(crate) fn walk_light_path(
                     ray = PathRay::new(p, wi, Some(m));
                     continue;
                 }
-                if t_maj[h] <= 0.0 {
+                // No collision before the surface: probability T_maj at the hero.
+                if !weigh_tracking(&mut beta, &mut r, &mis, t_maj, SampledSpectrum::splat(1.0)) {
                     break;
                 }
-                beta *= t_maj / t_maj[h];
-                r *= mis.ratio(t_maj / t_maj[h]);
             }
             _ => {
                 if let Some(hit) = &hit {
@@ -272,13 +268,7 @@ impl LightPathIntegrator {
 
 impl Integrate for LightPathIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
-        if params.media_glow {
-            params.warnings.push(format!(
-                "{}: warning: integrator \"lightpath\" does not render the light of media that glow (their scattering and \
-                 absorption are rendered); use \"volpath\"",
-                params.entity.loc
-            ));
-        }
+        params.warn_unrendered_media_glow("lightpath");
         Ok(LightPathIntegrator { max_depth: params.max_depth()? })
     }
 

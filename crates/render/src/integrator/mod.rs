@@ -83,6 +83,17 @@ pub struct IntegratorParams<'a> {
 }
 
 impl IntegratorParams<'_> {
+    /// Warns, for integrator `name`, that the light of media that glow is not rendered (if the scene has any).
+    pub fn warn_unrendered_media_glow(&mut self, name: &str) {
+        if self.media_glow {
+            self.warnings.push(format!(
+                "{}: warning: integrator \"{name}\" does not render the light of media that glow (their scattering \
+                 and absorption are rendered); use \"volpath\"",
+                self.entity.loc
+            ));
+        }
+    }
+
     /// Where parameter `name` was written, or the directive's location if it was not.
     pub fn loc_of(&self, name: &str) -> Loc {
         self.entity.params.loc_of(name, &self.entity.loc)

@@ -29,7 +29,8 @@ use super::drive::RenderStats;
 use super::drive::{CameraSample, CameraSampler};
 use super::lightpath::{walk_light_path, LightVertexAt};
 use super::transport::{
-    begin_bounce, sample_direct_light, scatter, Bounce, BounceSamples, DirectLight, PathRay, RayCounts, SpectralMis,
+    begin_bounce, sample_direct_light, scatter, weigh_tracking, Bounce, BounceSamples, DirectLight, PathRay, RayCounts,
+    SpectralMis,
 };
 use super::volpath::{sample_ld, Vertex};
 use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderJob};
@@ -261,7 +262,7 @@ impl SppmIntegrator {
     ) -> RenderStats {
         let (w, h) = (state.width, state.height);
         let npix = w as u64 * h as u64;
-        let media = scene.media.iter().any(|m| !m.is_absorbing_only());
+        let media = scene.has_scattering_media();
         let photons = self.photons_per_iteration.unwrap_or(npix).max(1);
         let mut stats = RenderStats::default();
         for it in iterations {
@@ -479,21 +480,18 @@ impl SppmIntegrator {
                                 terminated = true;
                                 return false;
                             }
-                            let pdf = t_maj[h] * mp.sigma_s[h];
-                            beta *= t_maj * mp.sigma_s / pdf;
-                            r_u *= mis.ratio(t_maj * mp.sigma_s / pdf);
-                            scattered = Some((p, mp.sigma_s));
+                            if weigh_tracking(&mut beta, &mut r_u, &mis, t_maj, mp.sigma_s) {
+                                scattered = Some((p, mp.sigma_s));
+                            } else {
+                                terminated = true;
+                            }
                             false
                         }
                         Collision::Null => {
-                            let sigma_n = mp.sigma_n(sigma_maj);
-                            let pdf = t_maj[h] * sigma_n[h];
-                            if pdf <= 0.0 {
+                            if !weigh_tracking(&mut beta, &mut r_u, &mis, t_maj, mp.sigma_n(sigma_maj)) {
                                 terminated = true;
                                 return false;
                             }
-                            beta *= t_maj * sigma_n / pdf;
-                            r_u *= mis.ratio(t_maj * sigma_n / pdf);
                             !beta.is_black()
                         }
                     }
@@ -510,11 +508,10 @@ impl SppmIntegrator {
                     let vp = VisiblePoint { p, at: VisibleAt::Medium { phase, d_in: d }, beta: weight, wl: *wl };
                     return (Some(vp), ld);
                 }
-                if t_maj[h] <= 0.0 {
+                // No collision before the surface: probability T_maj at the hero.
+                if !weigh_tracking(&mut beta, &mut r_u, &mis, t_maj, SampledSpectrum::splat(1.0)) {
                     return (None, ld);
                 }
-                beta *= t_maj / t_maj[h];
-                r_u *= mis.ratio(t_maj / t_maj[h]);
             } else if let Some(hit) = &hit {
                 ray.attenuate(scene, hit, wl, &mut beta);
             }
@@ -615,13 +612,7 @@ impl SppmIntegrator {
 
 impl Integrate for SppmIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
-        if params.media_glow {
-            params.warnings.push(format!(
-                "{}: warning: integrator \"sppm\" does not render the light of media that glow (their scattering and \
-                 absorption are rendered); use \"volpath\"",
-                params.entity.loc
-            ));
-        }
+        params.warn_unrendered_media_glow("sppm");
         let p = &params.entity.params;
         let photons = p.get_int("photonsperiteration", -1)?;
         let radius = p.get_float("radius", 1.0)?;

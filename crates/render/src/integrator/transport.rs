@@ -370,16 +370,7 @@ fn resolve_surface(
 /// The medium a ray enters when it leaves `hit` in direction `d` (unchanged if the surface has no interface).
 #[inline]
 pub(crate) fn next_medium(hit: &SurfaceHit, d: Vec3, current: Option<u32>) -> Option<u32> {
-    match hit.media {
-        Some(mi) => {
-            if d.dot(hit.n) < 0.0 {
-                mi.inside
-            } else {
-                mi.outside
-            }
-        }
-        None => current,
-    }
+    hit.media.map_or(current, |mi| mi.towards(d, hit.n))
 }
 
 /// The wavelengths that share one path in spectral MIS: which slots take part, and the hero slot whose densities
@@ -447,6 +438,28 @@ impl SpectralMis {
         }
         s / self.count
     }
+}
+
+/// Weighs a delta-tracking decision sampled with density T_maj·σ at the hero wavelength (σ = σs for a real
+/// scattering, σn for a null collision, 1 for crossing the rest of the segment; pbrt-v4 §14.1.3): the throughput
+/// `beta` is multiplied by T_maj·σ/pdf and the rescaled probabilities `r` by the same factor per slot. Returns
+/// false, changing nothing, if the decision had probability zero at the hero.
+#[inline]
+pub(crate) fn weigh_tracking(
+    beta: &mut SampledSpectrum,
+    r: &mut SampledSpectrum,
+    mis: &SpectralMis,
+    t_maj: SampledSpectrum,
+    sigma: SampledSpectrum,
+) -> bool {
+    let pdf = t_maj[mis.hero] * sigma[mis.hero];
+    if pdf.is_nan() || pdf <= 0.0 {
+        return false;
+    }
+    let w = t_maj * sigma / pdf;
+    *beta *= w;
+    *r *= mis.ratio(w);
+    true
 }
 
 /// Where a shadow ray goes.

@@ -13,8 +13,8 @@ use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::path::{CameraPaths, FirstHit, Radiance};
 use super::transport::{
-    begin_bounce, next_medium, russian_roulette, scatter, shadow_transmittance, Bounce, BounceSamples, PathRay,
-    RayCounts, ShadowTarget, SpectralMis,
+    begin_bounce, next_medium, russian_roulette, scatter, shadow_transmittance, weigh_tracking, Bounce, BounceSamples,
+    PathRay, RayCounts, ShadowTarget, SpectralMis,
 };
 use super::{Integrate, IntegratorParams, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
@@ -178,10 +178,10 @@ impl Radiance for VolPathIntegrator {
                                 return false;
                             }
                             depth += 1;
-                            let pdf = t_maj[h] * mp.sigma_s[h];
-                            beta *= t_maj * mp.sigma_s / pdf;
-                            r_u *= mis.ratio(t_maj * mp.sigma_s / pdf);
-                            if beta.is_black() || r_u.is_black() {
+                            if !weigh_tracking(&mut beta, &mut r_u, &mis, t_maj, mp.sigma_s)
+                                || beta.is_black()
+                                || r_u.is_black()
+                            {
                                 terminated = true;
                                 return false;
                             }
@@ -204,12 +204,10 @@ impl Radiance for VolPathIntegrator {
                         // A null collision.
                         let sigma_n = mp.sigma_n(sigma_maj);
                         let pdf = t_maj[h] * sigma_n[h];
-                        if pdf <= 0.0 {
-                            beta = SampledSpectrum::zero();
-                        } else {
-                            beta *= t_maj * sigma_n / pdf;
-                            r_u *= mis.ratio(t_maj * sigma_n / pdf);
+                        if weigh_tracking(&mut beta, &mut r_u, &mis, t_maj, sigma_n) {
                             r_l *= mis.ratio(t_maj * sigma_maj / pdf);
+                        } else {
+                            beta = SampledSpectrum::zero();
                         }
                         !beta.is_black() && !r_u.is_black()
                     });
@@ -222,11 +220,10 @@ impl Radiance for VolPathIntegrator {
                         ray = PathRay::new(p, wi, ray.medium);
                         continue;
                     }
-                    if t_maj[h] <= 0.0 {
+                    // No collision before the surface: probability T_maj at the hero.
+                    if !weigh_tracking(&mut beta, &mut r_u, &mis, t_maj, SampledSpectrum::splat(1.0)) {
                         break;
                     }
-                    beta *= t_maj / t_maj[h];
-                    r_u *= mis.ratio(t_maj / t_maj[h]);
                     if medium.has_closed_form_transmittance() {
                         // Shadow rays take this medium's transmittance in closed form, so light sampling has no
                         // tracking probability here: its density relative to this path's loses T_maj[h] only.
