@@ -150,10 +150,11 @@ pub(crate) fn render_splatting(
 ) -> RenderStats {
     let (w, h) = (film.width(), film.height());
     let spp = (samples.end - samples.start) as u64;
-    // A batch holds at most ~32k pixel samples' records (in dense fog a light path leaves ~8 splats of ~250 bytes
-    // each on their way into the film: 2^17 paths per batch peaked at 174 MB): a band of rows of one sample pass for large films, or
-    // several whole passes for small ones (work for every thread either way). Records are kept per pass within a
-    // row, so the batch adds them pass by pass, and the global order of additions is (pass, row, column).
+    // A batch holds at most ~32k pixel samples' records: a band of rows of one sample pass for large films, or
+    // several whole passes for small ones (work for every thread either way). In dense fog a light path leaves ~8
+    // splats of ~250 bytes each on their way into the film: 2^17 paths per batch peaked at 174 MB. Records are kept
+    // per pass within a row, so the batch adds them pass by pass, and the global order of additions is (pass, row,
+    // column).
     const BATCH_PATHS: u64 = 1 << 15;
     let rows_per_batch = (BATCH_PATHS / w as u64).clamp(1, h as u64) as u32;
     let passes_per_batch =
