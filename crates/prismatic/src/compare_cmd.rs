@@ -11,7 +11,9 @@ use clap::Args;
 #[command(after_help = "Examples:\n  prismatic compare seed1.exr seed2.exr\n  \
                         prismatic compare render.exr reference.exr --region 100,50,300,200\n\n\
                         Two renders of one scene with different --seed values differ only by noise: their relative \
-                        RMS difference divided by √2 is the relative noise of one of them.")]
+                        RMS difference divided by √2 is the relative noise of one of them. With a converged \
+                        reference as B, relative_mse = MSE / mean(B)² is A's error, and 1 / (relative_mse × CPU \
+                        seconds) its efficiency (scripts/efficiency.sh).")]
 pub struct CompareArgs {
     /// First image (.exr, .pfm or .png; linear RGB is compared, PNGs are linearised).
     pub a: PathBuf,
@@ -43,9 +45,23 @@ pub struct Comparison {
     pub mean: [f64; 2],
     /// Root mean square of the per-channel differences.
     pub rmse: f64,
+    /// Mean over pixels and channels of (a − b)² / (b² + 0.01): the per-pixel relative MSE of a against the
+    /// reference b (Rousselle et al. 2011's relMSE; the 0.01 keeps black pixels from dominating).
+    pub pixel_relative_mse: f64,
 }
 
 impl Comparison {
+    /// MSE divided by the square of b's mean: the relative MSE of a against the reference b. Efficiency
+    /// comparisons use 1 / (relative MSE × CPU time), which does not depend on the sample count of an unbiased
+    /// render.
+    pub fn relative_mse(&self) -> f64 {
+        if self.mean[1] > 0.0 {
+            (self.rmse / self.mean[1]).powi(2)
+        } else {
+            f64::INFINITY
+        }
+    }
+
     /// RMSE relative to the mean of both images.
     pub fn relative_rmse(&self) -> f64 {
         let m = 0.5 * (self.mean[0] + self.mean[1]);
@@ -63,7 +79,7 @@ pub fn compare(w: u32, h: u32, a: &[[f32; 3]], b: &[[f32; 3]], region: Option<[u
     if x1 > w || y1 > h {
         bail!("--region {x0},{y0},{x1},{y1} is outside the {w}x{h} image");
     }
-    let (mut sa, mut sb, mut d2, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+    let (mut sa, mut sb, mut d2, mut rel, mut n) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
     for y in y0..y1 {
         for x in x0..x1 {
             let i = (y * w + x) as usize;
@@ -75,12 +91,13 @@ pub fn compare(w: u32, h: u32, a: &[[f32; 3]], b: &[[f32; 3]], region: Option<[u
                 sa += va;
                 sb += vb;
                 d2 += (va - vb) * (va - vb);
+                rel += (va - vb) * (va - vb) / (vb * vb + 0.01);
             }
             n += 1;
         }
     }
     let k = (3 * n) as f64;
-    Ok(Comparison { pixels: n, mean: [sa / k, sb / k], rmse: (d2 / k).sqrt() })
+    Ok(Comparison { pixels: n, mean: [sa / k, sb / k], rmse: (d2 / k).sqrt(), pixel_relative_mse: rel / k })
 }
 
 /// Runs the subcommand and returns what to print.
@@ -96,6 +113,8 @@ pub fn run(args: &CompareArgs) -> Result<String> {
     let _ = writeln!(out, "mean {:.6e} {:.6e}", c.mean[0], c.mean[1]);
     let _ = writeln!(out, "rmse {:.6e}", c.rmse);
     let _ = writeln!(out, "relative_rmse {:.6}", c.relative_rmse());
+    let _ = writeln!(out, "relative_mse {:.6e}", c.relative_mse());
+    let _ = writeln!(out, "pixel_relative_mse {:.6e}", c.pixel_relative_mse);
     Ok(out)
 }
 
@@ -113,6 +132,9 @@ mod tests {
         // Differences 0 (×3) and 2 (×3): RMSE √(12/6) = √2; relative to the mean 1.5.
         assert!((c.rmse - 2f64.sqrt()).abs() < 1e-12);
         assert!((c.relative_rmse() - 2f64.sqrt() / 1.5).abs() < 1e-12);
+        // Against b (mean 1): MSE 2 / 1² = 2; per pixel, 0 for the first and 4 / 1.01 for the second.
+        assert!((c.relative_mse() - 2.0).abs() < 1e-12);
+        assert!((c.pixel_relative_mse - 0.5 * 4.0 / 1.01).abs() < 1e-12);
         let right = compare(2, 1, &a, &b, Some([1, 0, 2, 1])).unwrap();
         assert_eq!(right.mean, [3.0, 1.0]);
         assert!(compare(2, 1, &a, &b, Some([0, 0, 3, 1])).is_err());

@@ -364,6 +364,56 @@ fn sample_dispersive(
     }
 }
 
+/// The outcome of sampling a smooth dispersive interface without dropping wavelengths
+/// ([`Bxdf::sample_dispersive_split`]).
+#[derive(Clone, Debug)]
+pub enum DispersiveSplit {
+    /// A mirror reflection, which keeps every wavelength.
+    Reflection(BsdfSample),
+    /// A refraction of every active slot along its own direction (`None` where that slot is totally reflected);
+    /// each sample's `keep_slot` names its slot, and its `pdf` is the probability of refracting at all.
+    Refraction([Option<BsdfSample>; N_WAVELENGTHS]),
+}
+
+impl Bxdf {
+    /// Samples a smooth dispersive interface carrying several wavelengths by splitting instead of selecting: with
+    /// probability R̄ (the mean Fresnel reflectance of the active slots) a mirror reflection of all of them, and
+    /// otherwise a refraction of *every* active slot, slot i with weight Tᵢ/(1 − R̄) along its own direction, so
+    /// that the path continues once per wavelength and none is dropped (the expectation per slot is Rᵢ·L_R + Tᵢ·L_Tᵢ,
+    /// as for [`Bxdf::sample_f`], whose refraction keeps one slot chosen uniformly at k times the weight). `None`
+    /// for other BxDFs and when at most one slot is active.
+    pub fn sample_dispersive_split(&self, wo: Vec3, uc: f32, mode: TransportMode) -> Option<DispersiveSplit> {
+        let Bxdf::DispersiveDielectric { eta, active } = self else { return None };
+        let k = active.iter().filter(|&&a| a).count();
+        if k < 2 || wo.z == 0.0 {
+            return None;
+        }
+        let mut r = SampledSpectrum::zero();
+        let mut mean_r = 0.0;
+        for i in 0..N_WAVELENGTHS {
+            if active[i] {
+                r[i] = fresnel_dielectric(wo.z, eta[i]);
+                mean_r += r[i] / k as f32;
+            }
+        }
+        if uc < mean_r {
+            let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+            return Some(DispersiveSplit::Reflection(BsdfSample::reflection(r * (1.0 / wi.z.abs()), wi, mean_r, true)));
+        }
+        let p_refract = 1.0 - mean_r;
+        if p_refract <= 0.0 {
+            return None;
+        }
+        Some(DispersiveSplit::Refraction(std::array::from_fn(|i| {
+            if active[i] && r[i] < 1.0 {
+                smooth_transmission(wo, eta[i], 1.0 - r[i], p_refract, mode, Some(i))
+            } else {
+                None
+            }
+        })))
+    }
+}
+
 /// Refraction through a smooth interface of relative index `eta` with Fresnel transmittance `t`, chosen with
 /// probability `pdf`: f = T/|cos θi|, divided by η² for radiance (pbrt-v4 §9.3.5, non-symmetric scattering).
 fn smooth_transmission(

@@ -189,6 +189,18 @@ impl SampledWavelengths {
         }
         self.pdf[slot] /= k as f32;
     }
+
+    /// The wavelengths of one branch of a split path: slot `slot` alone, with its density unchanged (every active
+    /// slot gets its own branch, so none is selected and no 1/k enters; see [`Self::keep_only`] for selection).
+    pub fn branch(&self, slot: usize) -> Self {
+        let mut b = *self;
+        for i in 0..N_WAVELENGTHS {
+            if i != slot {
+                b.pdf[i] = 0.0;
+            }
+        }
+        b
+    }
 }
 
 #[cfg(test)]
@@ -205,6 +217,12 @@ mod tests {
         // A second termination changes nothing.
         assert_eq!(wl.terminate_secondary(0.1), 2);
         assert_eq!(wl.pdf().0, [0.0, 0.0, 1.0, 0.0]);
+        // A branch keeps one slot at its full density.
+        let wl = SampledWavelengths::new([400.0, 500.0, 600.0, 700.0], [4.0, 3.0, 2.0, 1.0]);
+        let b = wl.branch(1);
+        assert!(b.is_single() && b.is_active(1));
+        assert_eq!(b.pdf().0, [0.0, 3.0, 0.0, 0.0]);
+        assert_eq!(b.lambda(1), 500.0);
     }
 
     #[test]

@@ -11,13 +11,14 @@ use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{finite_or_zero, render_rows, CameraSampler, RenderStats};
 use super::transport::{
-    begin_bounce, russian_roulette, sample_direct_light, scatter, Bounce, DirectLight, PathRay, RayCounts,
+    begin_bounce, russian_roulette, sample_direct_light, scatter, Bounce, BounceSamples, DirectLight, PathRay,
+    RayCounts,
 };
 use super::{Integrate, IntegratorParams, RenderJob};
-use crate::bxdf::TransportMode;
+use crate::bxdf::{BsdfSample, Bxdf, DispersiveSplit, TransportMode};
 use crate::sampler::Sampler;
 use crate::sampling::{power_heuristic, Frame};
-use crate::scene::RenderScene;
+use crate::scene::{RenderScene, SurfaceHit};
 
 /// What the camera ray hit first, for AOVs.
 #[derive(Clone, Copy, Debug)]
@@ -33,6 +34,11 @@ pub struct FirstHit {
 pub struct PathIntegrator {
     /// Maximum number of scattering events (pbrt's `maxdepth`, default 5).
     pub max_depth: u32,
+    /// Whether a refraction through a smooth dispersive surface splits the path into one branch per carried
+    /// wavelength (Prismatic's `"bool splitdispersion"`, default true) instead of keeping one wavelength chosen at
+    /// random. Both are unbiased; splitting has no colour noise from the choice, at the cost of tracing the
+    /// branches.
+    pub split_dispersion: bool,
 }
 
 /// A camera-side estimator of radiance: what [`CameraPaths`] traces into each pixel.
@@ -52,6 +58,154 @@ pub trait Radiance: Copy + Send + Sync {
     ) -> SampledSpectrum;
 }
 
+/// A camera path between two bounces: what a split at a dispersive refraction copies into each branch.
+#[derive(Clone, Copy, Debug)]
+struct PathState {
+    ray: PathRay,
+    beta: SampledSpectrum,
+    specular_bounce: bool,
+    eta_scale: f32,
+    depth: u32,
+    prev_p: Vec3,
+    /// Density of the BSDF sample that chose `ray` (for MIS against light sampling where it lands).
+    p_b: f32,
+}
+
+impl PathState {
+    /// Follows a sampled scattering `bs` (local to `frame`) out of `hit`: throughput, MIS density, the ray leaving
+    /// the surface, then Russian roulette. False if the path ends.
+    fn follow(
+        &mut self,
+        bxdf: &Bxdf,
+        hit: &SurfaceHit,
+        bs: &BsdfSample,
+        wi: Vec3,
+        wo: Vec3,
+        u: &BounceSamples,
+    ) -> bool {
+        let mode = TransportMode::Radiance;
+        self.p_b = if bs.pdf_is_proportional { bxdf.pdf(wo, bs.wi, mode) } else { bs.pdf };
+        self.specular_bounce = bs.specular;
+        if bs.transmission {
+            self.eta_scale *= bs.eta * bs.eta;
+        }
+        self.prev_p = hit.p;
+        self.ray.leave(hit, wi, bs.transmission);
+        // Russian roulette on the throughput with refraction's radiance scaling undone.
+        if !russian_roulette((self.beta * self.eta_scale).max_value(), self.depth, u, &mut self.beta) {
+            return false;
+        }
+        self.beta.0.iter().all(|v| v.is_finite())
+    }
+}
+
+impl PathIntegrator {
+    /// Radiance along `st.ray` at the wavelengths of `wl`, continuing the path in `st` bounce by bounce.
+    #[allow(clippy::too_many_arguments)]
+    fn trace(
+        &self,
+        scene: &RenderScene,
+        st: &mut PathState,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+        mut first_hit: Option<&mut Option<FirstHit>>,
+    ) -> SampledSpectrum {
+        let mut l = SampledSpectrum::zero();
+        loop {
+            let d = st.ray.d;
+            let Some(hit) = st.ray.intersect(scene, counts) else {
+                // Escaped: infinite lights, weighted against the BSDF sample that found them.
+                for &li in &scene.infinite_lights {
+                    let light = &scene.lights[li as usize];
+                    let le = light.le(d, wl);
+                    if le.is_black() {
+                        continue;
+                    }
+                    if st.depth == 0 || st.specular_bounce {
+                        l += st.beta * le;
+                    } else {
+                        let p_l = scene.light_probability(li) * light.pdf_li_infinite(d);
+                        l += st.beta * le * power_heuristic(st.p_b, p_l);
+                    }
+                }
+                break;
+            };
+            st.ray.attenuate(scene, &hit, wl, &mut st.beta);
+            // Emission from an area light that was hit.
+            if let Some(li) = hit.area_light {
+                let light = &scene.lights[li as usize];
+                let le = light.l_area(hit.n, -d, wl);
+                if !le.is_black() {
+                    if st.depth == 0 || st.specular_bounce {
+                        l += st.beta * le;
+                    } else {
+                        let p_l = scene.light_probability(li) * light.pdf_li_area(st.prev_p, d);
+                        l += st.beta * le * power_heuristic(st.p_b, p_l);
+                    }
+                }
+            }
+            let (bxdf, u) = match begin_bounce(scene, &hit, &mut st.ray, wl, sampler) {
+                // A boundary between media does not count as a bounce.
+                Bounce::PassedThrough => continue,
+                Bounce::Stop | Bounce::Absorb => break,
+                Bounce::Scatter(bxdf, u) => (bxdf, u),
+            };
+            if st.depth == 0 {
+                if let Some(fh) = first_hit.take() {
+                    *fh = Some(FirstHit { albedo: bxdf.albedo_hint(), normal: hit.ns });
+                }
+            }
+            if st.depth == self.max_depth {
+                break;
+            }
+            st.depth += 1;
+            let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
+            let wo = frame.to_local(-d);
+            // Next-event estimation.
+            if !bxdf.is_specular() {
+                l += st.beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, &u, DirectLight::Mis, counts);
+            }
+            let mode = TransportMode::Radiance;
+            // A dispersive refraction splits the path into one branch per carried wavelength (each at its full
+            // density) instead of keeping one of them.
+            if self.split_dispersion {
+                if let Some(split) = bxdf.sample_dispersive_split(wo, u.lobe, mode) {
+                    match split {
+                        DispersiveSplit::Reflection(bs) => {
+                            let wi = frame.from_local(bs.wi);
+                            st.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+                            if !st.follow(&bxdf, &hit, &bs, wi, wo, &u) {
+                                break;
+                            }
+                            continue;
+                        }
+                        DispersiveSplit::Refraction(branches) => {
+                            for (slot, bs) in branches.iter().enumerate() {
+                                let Some(bs) = bs else { continue };
+                                let mut branch = *st;
+                                let mut wl_branch = wl.branch(slot);
+                                branch.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+                                if branch.follow(&bxdf, &hit, bs, frame.from_local(bs.wi), wo, &u) {
+                                    let lb = self.trace(scene, &mut branch, &mut wl_branch, sampler, counts, None);
+                                    l[slot] += lb[slot];
+                                }
+                            }
+                            break;
+                        }
+                    }
+                }
+            }
+            // BSDF sampling for the next direction.
+            let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut st.beta) else { break };
+            if !st.follow(&bxdf, &hit, &s.bs, s.wi, wo, &u) {
+                break;
+            }
+        }
+        l
+    }
+}
+
 impl Radiance for PathIntegrator {
     fn li(
         &self,
@@ -61,95 +215,25 @@ impl Radiance for PathIntegrator {
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
-        mut first_hit: Option<&mut Option<FirstHit>>,
+        first_hit: Option<&mut Option<FirstHit>>,
     ) -> SampledSpectrum {
-        let mut l = SampledSpectrum::zero();
-        let mut beta = SampledSpectrum::splat(1.0);
-        let mut specular_bounce = false;
-        let mut eta_scale = 1.0f32;
-        let mut depth = 0u32;
-        let mut prev_p = o;
-        let mut p_b = 1.0f32;
-        let mut ray = PathRay::new(o, d, scene.camera_medium);
-        loop {
-            let d = ray.d;
-            let Some(hit) = ray.intersect(scene, counts) else {
-                // Escaped: infinite lights, weighted against the BSDF sample that found them.
-                for &li in &scene.infinite_lights {
-                    let light = &scene.lights[li as usize];
-                    let le = light.le(d, wl);
-                    if le.is_black() {
-                        continue;
-                    }
-                    if depth == 0 || specular_bounce {
-                        l += beta * le;
-                    } else {
-                        let p_l = scene.light_probability(li) * light.pdf_li_infinite(d);
-                        l += beta * le * power_heuristic(p_b, p_l);
-                    }
-                }
-                break;
-            };
-            ray.attenuate(scene, &hit, wl, &mut beta);
-            // Emission from an area light that was hit.
-            if let Some(li) = hit.area_light {
-                let light = &scene.lights[li as usize];
-                let le = light.l_area(hit.n, -d, wl);
-                if !le.is_black() {
-                    if depth == 0 || specular_bounce {
-                        l += beta * le;
-                    } else {
-                        let p_l = scene.light_probability(li) * light.pdf_li_area(prev_p, d);
-                        l += beta * le * power_heuristic(p_b, p_l);
-                    }
-                }
-            }
-            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
-                // A boundary between media does not count as a bounce.
-                Bounce::PassedThrough => continue,
-                Bounce::Stop | Bounce::Absorb => break,
-                Bounce::Scatter(bxdf, u) => (bxdf, u),
-            };
-            if depth == 0 {
-                if let Some(fh) = first_hit.take() {
-                    *fh = Some(FirstHit { albedo: bxdf.albedo_hint(), normal: hit.ns });
-                }
-            }
-            if depth == self.max_depth {
-                break;
-            }
-            depth += 1;
-            let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
-            let wo = frame.to_local(-d);
-            // Next-event estimation.
-            if !bxdf.is_specular() {
-                l += beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, &u, DirectLight::Mis, counts);
-            }
-            // BSDF sampling for the next direction.
-            let mode = TransportMode::Radiance;
-            let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { break };
-            p_b = if s.bs.pdf_is_proportional { bxdf.pdf(wo, s.bs.wi, mode) } else { s.bs.pdf };
-            specular_bounce = s.bs.specular;
-            if s.bs.transmission {
-                eta_scale *= s.bs.eta * s.bs.eta;
-            }
-            prev_p = hit.p;
-            ray.leave(&hit, s.wi, s.bs.transmission);
-            // Russian roulette on the throughput with refraction's radiance scaling undone.
-            if !russian_roulette((beta * eta_scale).max_value(), depth, &u, &mut beta) {
-                break;
-            }
-            if !beta.0.iter().all(|v| v.is_finite()) {
-                break;
-            }
-        }
-        l
+        let mut st = PathState {
+            ray: PathRay::new(o, d, scene.camera_medium),
+            beta: SampledSpectrum::splat(1.0),
+            specular_bounce: false,
+            eta_scale: 1.0,
+            depth: 0,
+            prev_p: o,
+            p_b: 1.0,
+        };
+        self.trace(scene, &mut st, wl, sampler, counts, first_hit)
     }
 }
 
 impl Integrate for PathIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
         let max_depth = params.max_depth()?;
+        let split_dispersion = params.entity.params.get_bool("splitdispersion", true)?;
         if params.media_scatter {
             params.warnings.push(format!(
                 "{}: warning: integrator \"path\" ignores media that scatter or glow (as pbrt-v4's does); \
@@ -157,7 +241,7 @@ impl Integrate for PathIntegrator {
                 params.entity.loc
             ));
         }
-        Ok(PathIntegrator { max_depth })
+        Ok(PathIntegrator { max_depth, split_dispersion })
     }
 
     fn begin<'a>(
