@@ -182,7 +182,7 @@ fn path(max_depth: u32) -> Integrator {
 }
 
 fn volpath(max_depth: u32) -> Integrator {
-    Integrator::VolPath(VolPathIntegrator { max_depth })
+    Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true })
 }
 
 fn lightpath(max_depth: u32) -> Integrator {
@@ -357,14 +357,15 @@ fn volpath_agrees_with_path_without_media() {
     agrees_with_path(&room(extras), &volpath(4), 128, 128, 0.0, 0.03);
 }
 
-/// Splitting a path into its carried wavelengths at a dispersive refraction (the default) and keeping one of them
-/// at random estimate the same image: the room with an N-SF11 glass sphere, in X, Y and Z (the ends of the
+/// Splitting a path into its carried wavelengths at a dispersive refraction (the default, in `path` and `volpath`)
+/// and keeping one of them at random estimate the same image: the room with an N-SF11 glass sphere, in X, Y and Z (the ends of the
 /// spectrum, where the sphere's index differs most from its mean, show in X and Z), with no allowance for bias.
 #[test]
 fn path_splitting_at_dispersive_refraction_agrees_with_keeping_one_wavelength() {
     let scene = room(Extras { glass: true, ..Extras::default() });
     let keep_one = Integrator::Path(PathIntegrator { max_depth: 4, split_dispersion: false });
     agrees_with_in(&[0, 1, 2], &scene, &keep_one, &path(4), 512, 128, 0.0, 0.03);
+    agrees_with_in(&[0, 1, 2], &scene, &keep_one, &volpath(4), 512, 128, 0.0, 0.03);
 }
 
 /// The largest relative difference in mean Y between the same block of two images.

@@ -284,7 +284,7 @@ impl Integrate for LightPathIntegrator {
     ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
         // Emitters seen directly (through media, and media that glow): a volumetric path tracer that stops before
         // the first scattering event.
-        let direct = VolPathIntegrator { max_depth: 0 };
+        let direct = VolPathIntegrator { max_depth: 0, split_dispersion: true };
         let camera = CameraPaths::new(direct, scene, film, seed)?;
         Ok(Box::new(LightPaths { integrator: self, camera }))
     }

@@ -14,15 +14,15 @@ use spectral::{SampledSpectrum, SampledWavelengths};
 use super::path::{CameraPaths, FirstHit, Radiance};
 use super::transport::{
     begin_bounce, next_medium, russian_roulette, scatter, shadow_transmittance, weigh_tracking, Bounce, BounceSamples,
-    PathRay, RayCounts, ShadowTarget, SpectralMis,
+    PathRay, RayCounts, Scattered, ShadowTarget, SpectralMis,
 };
 use super::{Integrate, IntegratorParams, RenderJob};
-use crate::bxdf::{Bxdf, TransportMode};
+use crate::bxdf::{Bxdf, DispersiveSplit, TransportMode};
 use crate::light::LightSampleContext;
 use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::Sampler;
 use crate::sampling::Frame;
-use crate::scene::RenderScene;
+use crate::scene::{RenderScene, SurfaceHit};
 use film::{Film, FilmError};
 
 /// The `volpath` integrator.
@@ -30,6 +30,9 @@ use film::{Film, FilmError};
 pub struct VolPathIntegrator {
     /// Maximum number of scattering events, in media and at surfaces (pbrt's `maxdepth`, default 5).
     pub max_depth: u32,
+    /// Whether a refraction through a smooth dispersive surface splits the path into one branch per carried
+    /// wavelength (Prismatic's `"bool splitdispersion"`, default true; see [`super::path::PathIntegrator`]).
+    pub split_dispersion: bool,
 }
 
 /// Where the path scattered last, for the light-selection and MIS densities of the emitter it finds next.
@@ -114,54 +117,86 @@ pub(crate) fn sample_ld(
     }
 }
 
-impl Radiance for VolPathIntegrator {
-    fn li(
+/// A volumetric path between two events: what a split at a dispersive refraction copies into each branch.
+#[derive(Clone, Copy, Debug)]
+struct VolPathState {
+    ray: PathRay,
+    beta: SampledSpectrum,
+    /// Rescaled unidirectional and light-sampling path probabilities (pbrt-v4 §14.2.3).
+    r_u: SampledSpectrum,
+    r_l: SampledSpectrum,
+    mis: SpectralMis,
+    specular_bounce: bool,
+    eta_scale: f32,
+    depth: u32,
+    prev_p: Vec3,
+}
+
+impl VolPathState {
+    /// Follows a sampled scattering `s` out of `hit` (the throughput already includes f·|cos|/pdf): the MIS
+    /// probabilities, the ray leaving the surface, then Russian roulette. False if the path ends.
+    fn follow(
+        &mut self,
+        bxdf: &Bxdf,
+        hit: &SurfaceHit,
+        s: Scattered,
+        wo: Vec3,
+        u: &BounceSamples,
+        wl: &SampledWavelengths,
+    ) -> bool {
+        let mode = TransportMode::Radiance;
+        self.mis.update(wl);
+        let p_b = if s.bs.pdf_is_proportional { bxdf.pdf(wo, s.bs.wi, mode) } else { s.bs.pdf };
+        self.r_l = self.r_u / p_b;
+        self.specular_bounce = s.bs.specular;
+        if s.bs.transmission {
+            self.eta_scale *= s.bs.eta * s.bs.eta;
+        }
+        self.prev_p = hit.p;
+        self.ray.leave(hit, s.wi, s.bs.transmission);
+        let ratio = (self.beta * self.eta_scale / self.mis.average(self.r_u)).max_value();
+        if !russian_roulette(ratio, self.depth, u, &mut self.beta) {
+            return false;
+        }
+        self.beta.0.iter().all(|v| v.is_finite())
+    }
+}
+
+impl VolPathIntegrator {
+    /// Radiance along `st.ray` at the wavelengths of `wl`, continuing the path in `st` event by event.
+    #[allow(clippy::too_many_arguments)]
+    fn trace(
         &self,
         scene: &RenderScene,
-        o: Vec3,
-        d: Vec3,
+        st: &mut VolPathState,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
         mut first_hit: Option<&mut Option<FirstHit>>,
     ) -> SampledSpectrum {
         let mut l = SampledSpectrum::zero();
-        let mut beta = SampledSpectrum::splat(1.0);
-        let mut r_u = SampledSpectrum::splat(1.0);
-        let mut r_l = SampledSpectrum::splat(1.0);
-        let mut mis = SpectralMis::new(wl);
-        // A random hero from the start when there are media: a shadow ray may track through a chromatic medium
-        // before the path enters one, and spectral MIS is unbiased only for a uniformly chosen hero.
-        if scene.has_scattering_media() {
-            mis.choose(sampler.next_1d());
-        }
-        let mut specular_bounce = false;
-        let mut eta_scale = 1.0f32;
-        let mut depth = 0u32;
-        let mut prev_p = o;
-        let mut ray = PathRay::new(o, d, scene.camera_medium);
         loop {
-            let hit = ray.intersect(scene, counts);
+            let hit = st.ray.intersect(scene, counts);
             // Through the medium along the ray, up to the surface.
-            if let Some(m) = ray.medium {
+            if let Some(m) = st.ray.medium {
                 let medium = &scene.media[m as usize];
                 let t_end = hit.map_or(f32::INFINITY, |h| h.t);
                 if medium.is_absorbing_only() {
-                    beta *= medium.absorption_transmittance(t_end, wl);
+                    st.beta *= medium.absorption_transmittance(t_end, wl);
                 } else {
-                    mis.choose(sampler.next_1d());
-                    let h = mis.hero;
-                    let mut rng = TrackingRng::new(sampler.next_1d(), depth);
-                    let (ro, rd) = (ray.o, ray.d);
+                    st.mis.choose(sampler.next_1d());
+                    let h = st.mis.hero;
+                    let mut rng = TrackingRng::new(sampler.next_1d(), st.depth);
+                    let (ro, rd) = (st.ray.o, st.ray.d);
                     let mut scattered: Option<(Vec3, Vec3)> = None;
                     let mut terminated = false;
                     let t_maj = sample_t_maj(medium, ro, rd, t_end, &mut rng, wl, h, |p, mp, sigma_maj, t_maj, rng| {
                         // Emission, σa·Le, estimated at every tentative collision.
-                        if depth < self.max_depth && !mp.le.is_black() {
+                        if st.depth < self.max_depth && !mp.le.is_black() {
                             let pdf = sigma_maj[h] * t_maj[h];
-                            let betap = beta * t_maj / pdf;
-                            let r_e = r_u * mis.ratio(sigma_maj * t_maj / pdf);
-                            let avg = mis.average(r_e);
+                            let betap = st.beta * t_maj / pdf;
+                            let r_e = st.r_u * st.mis.ratio(sigma_maj * t_maj / pdf);
+                            let avg = st.mis.average(r_e);
                             if avg > 0.0 {
                                 l += betap * mp.sigma_a * mp.le / avg;
                             }
@@ -173,28 +208,33 @@ impl Radiance for VolPathIntegrator {
                         }
                         if event == Collision::Scatter {
                             // A real scattering event.
-                            if depth >= self.max_depth {
+                            if st.depth >= self.max_depth {
                                 terminated = true;
                                 return false;
                             }
-                            depth += 1;
-                            if !weigh_tracking(&mut beta, &mut r_u, &mis, t_maj, mp.sigma_s)
-                                || beta.is_black()
-                                || r_u.is_black()
+                            st.depth += 1;
+                            if !weigh_tracking(&mut st.beta, &mut st.r_u, &st.mis, t_maj, mp.sigma_s)
+                                || st.beta.is_black()
+                                || st.r_u.is_black()
                             {
                                 terminated = true;
                                 return false;
                             }
                             let u = BounceSamples::draw(sampler);
                             let v = Vertex::Medium { p, d_in: rd, phase: mp.phase, medium: Some(m) };
-                            l += beta * self.sample_ld(scene, v, wl, &u, &mis, r_u, counts);
+                            l += st.beta * self.sample_ld(scene, v, wl, &u, &st.mis, st.r_u, counts);
                             let Some(ps) = mp.phase.sample(rd, u.dir, u.lobe, wl) else {
                                 terminated = true;
                                 return false;
                             };
-                            beta *= ps.p / ps.pdf;
-                            r_l = r_u / ps.pdf;
-                            if !russian_roulette((beta / mis.average(r_u)).max_value(), depth, &u, &mut beta) {
+                            st.beta *= ps.p / ps.pdf;
+                            st.r_l = st.r_u / ps.pdf;
+                            if !russian_roulette(
+                                (st.beta / st.mis.average(st.r_u)).max_value(),
+                                st.depth,
+                                &u,
+                                &mut st.beta,
+                            ) {
                                 terminated = true;
                                 return false;
                             }
@@ -204,36 +244,36 @@ impl Radiance for VolPathIntegrator {
                         // A null collision.
                         let sigma_n = mp.sigma_n(sigma_maj);
                         let pdf = t_maj[h] * sigma_n[h];
-                        if weigh_tracking(&mut beta, &mut r_u, &mis, t_maj, sigma_n) {
-                            r_l *= mis.ratio(t_maj * sigma_maj / pdf);
+                        if weigh_tracking(&mut st.beta, &mut st.r_u, &st.mis, t_maj, sigma_n) {
+                            st.r_l *= st.mis.ratio(t_maj * sigma_maj / pdf);
                         } else {
-                            beta = SampledSpectrum::zero();
+                            st.beta = SampledSpectrum::zero();
                         }
-                        !beta.is_black() && !r_u.is_black()
+                        !st.beta.is_black() && !st.r_u.is_black()
                     });
-                    if terminated || beta.is_black() || r_u.is_black() {
+                    if terminated || st.beta.is_black() || st.r_u.is_black() {
                         break;
                     }
                     if let Some((p, wi)) = scattered {
-                        specular_bounce = false;
-                        prev_p = p;
-                        ray = PathRay::new(p, wi, ray.medium);
+                        st.specular_bounce = false;
+                        st.prev_p = p;
+                        st.ray = PathRay::new(p, wi, st.ray.medium);
                         continue;
                     }
                     // No collision before the surface: probability T_maj at the hero.
-                    if !weigh_tracking(&mut beta, &mut r_u, &mis, t_maj, SampledSpectrum::splat(1.0)) {
+                    if !weigh_tracking(&mut st.beta, &mut st.r_u, &st.mis, t_maj, SampledSpectrum::splat(1.0)) {
                         break;
                     }
                     if medium.has_closed_form_transmittance() {
                         // Shadow rays take this medium's transmittance in closed form, so light sampling has no
                         // tracking probability here: its density relative to this path's loses T_maj[h] only.
-                        r_l *= 1.0 / t_maj[h];
+                        st.r_l *= 1.0 / t_maj[h];
                     } else {
-                        r_l *= mis.ratio(t_maj / t_maj[h]);
+                        st.r_l *= st.mis.ratio(t_maj / t_maj[h]);
                     }
                 }
             }
-            let d = ray.d;
+            let d = st.ray.d;
             let Some(hit) = hit else {
                 // Escaped: infinite lights.
                 for &li in &scene.infinite_lights {
@@ -242,11 +282,11 @@ impl Radiance for VolPathIntegrator {
                     if le.is_black() {
                         continue;
                     }
-                    if depth == 0 || specular_bounce {
-                        l += beta * le / mis.average(r_u);
+                    if st.depth == 0 || st.specular_bounce {
+                        l += st.beta * le / st.mis.average(st.r_u);
                     } else {
                         let p_l = scene.light_probability(li) * light.pdf_li_infinite(d);
-                        l += beta * le / mis.average(r_u + r_l * p_l);
+                        l += st.beta * le / st.mis.average(st.r_u + st.r_l * p_l);
                     }
                 }
                 break;
@@ -256,51 +296,65 @@ impl Radiance for VolPathIntegrator {
                 let light = &scene.lights[li as usize];
                 let le = light.l_area(hit.n, -d, wl);
                 if !le.is_black() {
-                    if depth == 0 || specular_bounce {
-                        l += beta * le / mis.average(r_u);
+                    if st.depth == 0 || st.specular_bounce {
+                        l += st.beta * le / st.mis.average(st.r_u);
                     } else {
-                        let p_l = scene.light_probability(li) * light.pdf_li_area(prev_p, d);
-                        l += beta * le / mis.average(r_u + r_l * p_l);
+                        let p_l = scene.light_probability(li) * light.pdf_li_area(st.prev_p, d);
+                        l += st.beta * le / st.mis.average(st.r_u + st.r_l * p_l);
                     }
                 }
             }
-            let arrived_in = ray.medium;
-            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+            let arrived_in = st.ray.medium;
+            let (bxdf, u) = match begin_bounce(scene, &hit, &mut st.ray, wl, sampler) {
                 Bounce::PassedThrough => continue,
                 Bounce::Stop | Bounce::Absorb => break,
                 Bounce::Scatter(bxdf, u) => (bxdf, u),
             };
-            mis.update(wl);
-            if depth == 0 {
+            st.mis.update(wl);
+            if st.depth == 0 {
                 if let Some(fh) = first_hit.take() {
                     *fh = Some(FirstHit { albedo: bxdf.albedo_hint(), normal: hit.ns });
                 }
             }
-            if depth == self.max_depth {
+            if st.depth == self.max_depth {
                 break;
             }
-            depth += 1;
+            st.depth += 1;
             let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
             let wo = frame.to_local(-d);
             if !bxdf.is_specular() {
                 let v = Vertex::Surface { hit: &hit, frame: &frame, bxdf: &bxdf, wo, medium: arrived_in };
-                l += beta * self.sample_ld(scene, v, wl, &u, &mis, r_u, counts);
+                l += st.beta * self.sample_ld(scene, v, wl, &u, &st.mis, st.r_u, counts);
             }
             let mode = TransportMode::Radiance;
-            let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { break };
-            mis.update(wl);
-            let p_b = if s.bs.pdf_is_proportional { bxdf.pdf(wo, s.bs.wi, mode) } else { s.bs.pdf };
-            r_l = r_u / p_b;
-            specular_bounce = s.bs.specular;
-            if s.bs.transmission {
-                eta_scale *= s.bs.eta * s.bs.eta;
-            }
-            prev_p = hit.p;
-            ray.leave(&hit, s.wi, s.bs.transmission);
-            if !russian_roulette((beta * eta_scale / mis.average(r_u)).max_value(), depth, &u, &mut beta) {
-                break;
-            }
-            if !beta.0.iter().all(|v| v.is_finite()) {
+            // A dispersive refraction splits the path into one branch per carried wavelength (each at its full
+            // density) instead of keeping one of them (as `path` does).
+            let split = if self.split_dispersion { bxdf.sample_dispersive_split(wo, u.lobe, mode) } else { None };
+            let s = match split {
+                Some(DispersiveSplit::Refraction(branches)) => {
+                    for (slot, bs) in branches.into_iter().enumerate() {
+                        let Some(bs) = bs else { continue };
+                        let mut branch = *st;
+                        let mut wl_branch = wl.branch(slot);
+                        branch.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+                        let wi = frame.from_local(bs.wi);
+                        if branch.follow(&bxdf, &hit, Scattered { bs, wi }, wo, &u, &wl_branch) {
+                            let lb = self.trace(scene, &mut branch, &mut wl_branch, sampler, counts, None);
+                            l[slot] += lb[slot];
+                        }
+                    }
+                    break;
+                }
+                Some(DispersiveSplit::Reflection(bs)) => {
+                    st.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+                    Scattered { wi: frame.from_local(bs.wi), bs }
+                }
+                None => {
+                    let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut st.beta) else { break };
+                    s
+                }
+            };
+            if !st.follow(&bxdf, &hit, s, wo, &u, wl) {
                 break;
             }
         }
@@ -308,9 +362,44 @@ impl Radiance for VolPathIntegrator {
     }
 }
 
+impl Radiance for VolPathIntegrator {
+    fn li(
+        &self,
+        scene: &RenderScene,
+        o: Vec3,
+        d: Vec3,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+        first_hit: Option<&mut Option<FirstHit>>,
+    ) -> SampledSpectrum {
+        let mut mis = SpectralMis::new(wl);
+        // A random hero from the start when there are media: a shadow ray may track through a chromatic medium
+        // before the path enters one, and spectral MIS is unbiased only for a uniformly chosen hero.
+        if scene.has_scattering_media() {
+            mis.choose(sampler.next_1d());
+        }
+        let mut st = VolPathState {
+            ray: PathRay::new(o, d, scene.camera_medium),
+            beta: SampledSpectrum::splat(1.0),
+            r_u: SampledSpectrum::splat(1.0),
+            r_l: SampledSpectrum::splat(1.0),
+            mis,
+            specular_bounce: false,
+            eta_scale: 1.0,
+            depth: 0,
+            prev_p: o,
+        };
+        self.trace(scene, &mut st, wl, sampler, counts, first_hit)
+    }
+}
+
 impl Integrate for VolPathIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
-        Ok(VolPathIntegrator { max_depth: params.max_depth()? })
+        Ok(VolPathIntegrator {
+            max_depth: params.max_depth()?,
+            split_dispersion: params.entity.params.get_bool("splitdispersion", true)?,
+        })
     }
 
     fn begin<'a>(
