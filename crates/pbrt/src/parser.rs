@@ -126,18 +126,19 @@ fn canonical(path: &Path) -> PathBuf {
     std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
 }
 
-/// Reads a scene file's text, with errors about the file as a whole at `at` (or at the file itself).
+/// Reads a scene file's text (decompressing gzip data), with errors about the file as a whole at `at` (or at the
+/// file itself).
 pub(crate) fn read_text(path: &Path, at: Option<&Loc>) -> Result<String> {
     let file: Arc<Path> = Arc::from(path);
     let here = || at.cloned().unwrap_or_else(|| Loc::new(file.clone(), 1, 1));
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz")) {
-        return Err(ParseError::new(
-            here(),
-            format!("'{}': gzip-compressed scene files are not supported; decompress it first", path.display()),
-        ));
-    }
-    let bytes =
+    let mut bytes =
         std::fs::read(path).map_err(|e| ParseError::new(here(), format!("cannot read '{}': {e}", path.display())))?;
+    // pbrt-v4 reads gzip-compressed scene files (`.pbrt.gz`); recognised by content, so a misnamed file works too.
+    // Locations then name the compressed file and the line and column in its decompressed text.
+    if geometry::gzip::is_gzip(&bytes) {
+        bytes = geometry::gzip::gunzip(&bytes, geometry::gzip::MAX_DECOMPRESSED_BYTES)
+            .map_err(|e| ParseError::new(here(), format!("cannot read '{}': {e}", path.display())))?;
+    }
     if bytes.starts_with(&[0xfe, 0xff]) || bytes.starts_with(&[0xff, 0xfe]) {
         return Err(ParseError::new(
             Loc::new(file.clone(), 1, 1),

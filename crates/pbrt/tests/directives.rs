@@ -294,3 +294,36 @@ fn options_and_deprecated_directives() {
     assert!(s.warnings.iter().any(|w| w.message.contains("TransformBegin")));
     assert!(s.warnings.iter().any(|w| w.message.contains("WorldEnd")));
 }
+
+fn gzip(data: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(data).unwrap();
+    e.finish().unwrap()
+}
+
+#[test]
+fn gzip_compressed_scene_include_and_import_files() {
+    let dir = temp_dir("gzip");
+    std::fs::write(dir.join("mats.pbrt.gz"), gzip(b"Material \"conductor\"\n")).unwrap();
+    // Recognised by content: this one is gzip data under a plain name.
+    std::fs::write(dir.join("geo.pbrt"), gzip(b"Translate 5 0 0\n\n  Shape \"disk\"\n")).unwrap();
+    std::fs::write(
+        dir.join("main.pbrt.gz"),
+        gzip(b"WorldBegin\nInclude \"mats.pbrt.gz\"\nImport \"geo.pbrt\"\nShape \"sphere\"\n"),
+    )
+    .unwrap();
+    let s = pbrt::parse_file(&dir.join("main.pbrt.gz")).unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<_> = s.shapes.iter().map(|s| s.entity.name.as_str()).collect();
+    assert_eq!(names, ["disk", "sphere"]);
+    assert_eq!(s.material(&s.shapes[1].material).unwrap().name, "conductor");
+    assert!(close(s.shapes[0].render_from_object.point(DVec3::ZERO), DVec3::new(5.0, 0.0, 0.0)));
+    // The Import's transform stays inside it.
+    assert!(s.shapes[1].render_from_object.is_identity());
+    // Locations are lines and columns of the decompressed text, in the compressed file.
+    let l = &s.shapes[0].entity.loc;
+    assert!(l.file.ends_with("geo.pbrt") && (l.line, l.column) == (3, 3), "{l}");
+    let l = &s.shapes[1].entity.loc;
+    assert!(l.file.ends_with("main.pbrt.gz") && (l.line, l.column) == (4, 1), "{l}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
