@@ -311,6 +311,28 @@ impl Parser {
         self.scene.warnings.push(Diagnostic::new(loc.clone(), message));
     }
 
+    /// pbrt-v4 accepts singular transforms (an axis scaled to zero, common in exported scenes); say what follows.
+    fn warn_singular(&mut self, what: &str, loc: &Loc) {
+        self.warn(
+            loc,
+            format!(
+                "{what} makes the transform singular (some direction is scaled to zero); accepted as pbrt-v4 does: \
+                 meshes under it are flattened and shaded with their geometric normals, while other shapes, object \
+                 instances and lights other than point lights under it are left out"
+            ),
+        );
+    }
+
+    /// Under a singular CTM, pbrt-v4's inverse is NaN: things that need it (rays into an analytic shape's or an
+    /// instance's space, a light's directions) never contribute. They are left out with a warning; true if so.
+    fn skip_under_singular_ctm(&mut self, what: &str, loc: &Loc) -> bool {
+        if self.gs.ctm.is_invertible() {
+            return false;
+        }
+        self.warn(loc, format!("{what} under a singular transform is left out (it needs the transform's inverse, which does not exist; pbrt-v4 renders nothing of it either)"));
+        true
+    }
+
     fn warn_once(&mut self, key: &'static str, loc: &Loc, message: impl Into<String>) {
         if self.warned_once.insert(key) {
             self.warn(loc, message);
@@ -583,12 +605,14 @@ impl Parser {
             }
             "Scale" => {
                 let [x, y, z] = self.numbers::<3>(word)?;
-                let t = Transform::scale(DVec3::new(x, y, z)).ok_or_else(|| {
-                    ParseError::new(
-                        loc.clone(),
-                        format!("Scale {x} {y} {z}: a zero factor makes the transform singular"),
-                    )
-                })?;
+                let t = match Transform::scale(DVec3::new(x, y, z)) {
+                    Some(t) => t,
+                    None => {
+                        self.warn_singular(&format!("Scale {x} {y} {z}: a zero factor"), &loc);
+                        Transform::from_matrix_allow_singular(glam::DMat4::from_scale(DVec3::new(x, y, z)))
+                            .ok_or_else(|| ParseError::new(loc.clone(), "Scale: the factors are not finite"))?
+                    }
+                };
                 self.apply(t, false, &loc);
             }
             "Rotate" => {
@@ -611,8 +635,14 @@ impl Parser {
             }
             "Transform" | "ConcatTransform" => {
                 let m = self.numbers::<16>(word)?;
-                let t = Transform::from_pbrt_array(&m)
-                    .ok_or_else(|| ParseError::new(loc.clone(), format!("{word}: the matrix is singular")))?;
+                let t = match Transform::from_pbrt_array(&m) {
+                    Some(t) => t,
+                    None => {
+                        self.warn_singular(&format!("{word}: the matrix"), &loc);
+                        Transform::from_matrix_allow_singular(glam::DMat4::from_cols_array(&m))
+                            .ok_or_else(|| ParseError::new(loc.clone(), format!("{word}: the matrix is not finite")))?
+                    }
+                };
                 self.apply(t, word == "Transform", &loc);
             }
             "CoordinateSystem" => {
@@ -672,6 +702,13 @@ impl Parser {
                     self.warn(&loc, format!("a second Camera replaces the one at {}", self.scene.camera.entity.loc));
                 }
                 let camera_from_world = self.gs.ctm;
+                if !camera_from_world.is_invertible() {
+                    return Err(ParseError::new(
+                        loc,
+                        "the camera transform is singular (some direction is scaled to zero), so the camera has no \
+                         position and orientation in the world",
+                    ));
+                }
                 self.named_coordinate_systems.insert("camera".to_owned(), camera_from_world.inverse());
                 let medium = self.gs.outside_medium.clone();
                 if let Some(m) = &medium {
@@ -916,6 +953,10 @@ impl Parser {
                 self.require_world(word, &loc)?;
                 let (name, _) = self.expect_string("a light type")?;
                 let own = self.params()?;
+                // A point light needs only its position, which a singular transform still maps.
+                if name != "point" && self.skip_under_singular_ctm(&format!("LightSource \"{name}\""), &loc) {
+                    return Ok(());
+                }
                 let params = self.param_set(Some(LIGHT), own);
                 self.scene.lights.push(LightEntity {
                     entity: Entity::new(name, params, loc),
@@ -933,6 +974,12 @@ impl Parser {
                 self.require_world(word, &loc)?;
                 let (name, _) = self.expect_string("a shape type")?;
                 let own = self.params()?;
+                // Meshes are transformed to render space vertex by vertex, so a singular transform flattens them;
+                // the other shapes are intersected in object space, which a singular transform has none of.
+                let mesh = matches!(name.as_str(), "trianglemesh" | "plymesh" | "loopsubdiv" | "bilinearmesh");
+                if !mesh && self.skip_under_singular_ctm(&format!("Shape \"{name}\""), &loc) {
+                    return Ok(());
+                }
                 let mut area_light = self.gs.area_light.clone();
                 if self.active_object.is_some() && area_light.is_some() {
                     self.warn(&loc, "area lights are not supported inside object definitions (as in pbrt-v4); this shape does not emit");
@@ -995,6 +1042,9 @@ impl Parser {
                         loc,
                         format!("ObjectInstance inside the definition of object '{}' (at {})", o.name, o.loc),
                     ));
+                }
+                if self.skip_under_singular_ctm(&format!("ObjectInstance \"{name}\""), &loc) {
+                    return Ok(());
                 }
                 if !self.gs.start_active {
                     self.warn(&loc, "ObjectInstance under ActiveTransform EndTime: motion is not supported; the start transform is used");

@@ -117,7 +117,7 @@ fn world_begin_twice_and_misplaced_directives() {
     check("WorldBegin\nMakeNamedMaterial \"m\" \"float x\" 1", 2, 1, "\"string type\"");
     check("WorldBegin\nAttribute \"camera\" \"float x\" 1", 2, 11, "unknown Attribute target");
     check("WorldBegin\nTexture \"t\" \"colour\" \"imagemap\"", 2, 13, "unknown texture type");
-    check("Scale 1 0 1\nWorldBegin", 1, 1, "singular");
+    check("Scale 1 0 1\n  Camera \"perspective\"\nWorldBegin", 2, 3, "camera transform is singular");
     check("LookAt 0 0 0 0 0 0 0 1 0\nWorldBegin", 1, 1, "degenerate");
     check("Camera perspective\nWorldBegin", 1, 8, "quoted string");
     check("WorldBegin\nShape \"sphere\" \"string s\" \"a\\qb\"", 2, 29, "unknown escape");
