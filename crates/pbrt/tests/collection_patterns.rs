@@ -149,7 +149,7 @@ fn media_before_the_camera_and_in_nested_blocks() {
     assert_eq!(s.media[0].entity.params.get_float("scale", 1.0).unwrap(), 0.0015);
     // fog_0's medium-to-world: translate, then scale by 0.5, then move by (1, 2, 3).
     let m = s.media[1].render_from_medium;
-    assert!(close(m.point(DVec3::ZERO), DVec3::new(1.0 - 0.65000000000000035, 2.0, 3.0 - 6.25)));
+    assert!(close(m.point(DVec3::ZERO), DVec3::new(1.0 + 0.5 * -1.3000000000000007, 2.0, 3.0 - 6.25)));
     let sphere = &s.shapes[0];
     assert_eq!((sphere.inside_medium.as_deref(), sphere.outside_medium.as_deref()), (Some("fog_0"), None));
     assert_eq!(s.material(&sphere.material).unwrap().name, "interface");
