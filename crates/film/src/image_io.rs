@@ -631,8 +631,13 @@ pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
     Ok((w, h, out))
 }
 
-/// Reads a linear RGB image by extension: EXR (`R`, `G`, `B`), PNG (sRGB-decoded) or PFM — for textures.
+/// Reads a linear RGB image by extension: EXR (`R`, `G`, `B`), PNG or TGA (8-bit sRGB-decoded, [`crate::tga`]) or
+/// PFM — for textures.
 pub fn read_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
+    // TGA is read, never written, so it is not an `ImageFormat`.
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("tga")) {
+        return crate::tga::read_tga_linear(path);
+    }
     match ImageFormat::from_path(path)? {
         ImageFormat::Exr => read_exr_rgb(path),
         ImageFormat::Png => read_png_linear(path),

@@ -8,7 +8,8 @@
 //!   wavelengths: the conversion to XYZ, the bucket assignment and the sensor's response are its own
 //!   ([`SampleConversion`]), written once for camera samples, splats and photon-mapping estimates.
 //! - [`write_image`]: EXR (linear float RGB, AOV layers, and the spectral layout of Fichet et al. 2021), PNG (sRGB,
-//!   dithered 8-bit) or PFM by extension, always atomically; readers for each format.
+//!   dithered 8-bit) or PFM by extension, always atomically; readers for each format, and for TGA textures
+//!   ([`tga`]).
 //!
 //! ```
 //! use film::{Film, FilmKind, FilmSpec, FilterSampler};
@@ -36,6 +37,7 @@ mod error;
 pub mod film;
 pub mod filter;
 pub mod image_io;
+pub mod tga;
 
 pub use error::{FilmError, ImageError};
 pub use film::{AovImages, Film, FilmKind, FilmRow, FilmSpec, PixelSensor, SampleConversion, SpectralEstimates, Splat};

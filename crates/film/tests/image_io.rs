@@ -344,3 +344,25 @@ fn replacing_a_file_is_atomic() {
     assert!(temp_leftovers(&dir).is_empty());
     fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn tga_textures_are_read_through_read_rgb() {
+    let dir = std::env::temp_dir().join(format!("prismatic-film-tga-{}", std::process::id()));
+    fs::create_dir_all(&dir).unwrap();
+    // 2×1 RLE true colour, top-left origin: one run of two pixels B=0 G=188 R=255.
+    let mut f = vec![0u8, 0, 10, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 0, 24, 0x20];
+    f.extend([0x81, 0, 188, 255]);
+    let path = dir.join("t.TGA");
+    fs::write(&path, &f).unwrap();
+    let (w, h, px) = read_rgb(&path).unwrap();
+    assert_eq!((w, h), (2, 1));
+    // sRGB-decoded as an 8-bit PNG would be: 255 → 1, 188 → 0.5029, 0 → 0.
+    for p in &px {
+        assert_eq!((p[0], p[2]), (1.0, 0.0));
+        assert!((p[1] - 0.5029).abs() < 2e-4, "{p:?}");
+    }
+    fs::write(&path, &f[..20]).unwrap();
+    let msg = read_rgb(&path).unwrap_err().to_string();
+    assert!(msg.contains("t.TGA") && msg.contains("truncated"), "{msg}");
+    fs::remove_dir_all(&dir).unwrap();
+}

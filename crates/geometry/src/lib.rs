@@ -5,7 +5,7 @@
 //! - [`ray`]: [`Ray`], floating-point error bounds and robust ray spawning ([`spawn_ray`], [`spawn_ray_to`]).
 //! - [`mesh`]: [`TriangleMesh`] and [`BilinearMesh`] in render space from object-space [`MeshData`] and
 //!   [`BilinearMeshData`] (one [`IndexedMesh`] type with one validation for both); PLY loading ([`ply`]), Loop
-//!   subdivision ([`subdiv`]).
+//!   subdivision ([`subdiv`]); gzip-compressed input files ([`gzip`]).
 //! - [`bilinear`]: [`BilinearMesh`], bilinear patches intersected exactly (Reshetov 2019), and their sampling.
 //! - [`shapes`]: [`Shape`], which answers intersection, surface-geometry and sampling queries ([`ShapeSample`]) for
 //!   every kind of shape ([`Sphere`], [`Disk`], triangles, bilinear patches), one file per kind.
@@ -18,6 +18,7 @@
 pub mod accel;
 pub mod bilinear;
 pub mod bounds;
+pub mod gzip;
 pub mod mesh;
 pub mod ply;
 pub mod ray;

@@ -118,7 +118,8 @@ pub type TriangleMesh = IndexedMesh<3>;
 
 impl<const N: usize> IndexedMesh<N> {
     /// Transforms object-space `data` to render space with `render_from_object`. `reverse_orientation` is pbrt's
-    /// `ReverseOrientation` state; per-vertex normals are negated when it is set (as pbrt-v4 does). Errors if the
+    /// `ReverseOrientation` state; per-vertex normals are negated when it is set (as pbrt-v4 does), and dropped when
+    /// the transform is singular (see [`Transform::is_invertible`]: the geometric normals are used). Errors if the
     /// data is invalid (see [`IndexedMeshData::validate`]) or the transform produces non-finite positions.
     pub fn new(
         render_from_object: &Transform,
@@ -138,6 +139,12 @@ impl<const N: usize> IndexedMesh<N> {
                     positions[i]
                 )));
             }
+        }
+        if !render_from_object.is_invertible() {
+            // A singular transform (an axis scaled to zero) flattens the mesh and has no inverse transpose for
+            // normals: pbrt-v4's normals become NaN there and every hit falls back to the geometric normal of the
+            // flattened face, which dropping them reproduces.
+            normals = None;
         }
         if let Some(ns) = &mut normals {
             for n in ns.iter_mut() {

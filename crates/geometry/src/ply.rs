@@ -93,10 +93,12 @@ impl PropertyAccess for Skip {
 /// Loads a PLY file into object-space mesh data. Errors name the file and the problem (unreadable file, missing
 /// `vertex` or `face` element, missing `x`/`y`/`z`, non-integer face lists, faces with fewer than 3 vertices,
 /// indices out of range).
+/// A gzip-compressed file (`.ply.gz`, which pbrt-v4 reads) is recognised by its magic bytes and decompressed
+/// first ([`crate::gzip`]).
 pub fn read_ply_file(path: &Path) -> Result<MeshData, GeometryError> {
-    let file = std::fs::File::open(path)
-        .map_err(|e| GeometryError::Ply { path: path.display().to_string(), message: e.to_string() })?;
-    read_ply(&mut BufReader::new(file), &path.display().to_string())
+    let bytes = crate::gzip::read_maybe_gzip(path)
+        .map_err(|message| GeometryError::Ply { path: path.display().to_string(), message })?;
+    read_ply(&mut bytes.as_slice(), &path.display().to_string())
 }
 
 /// Loads PLY data from a reader; `name` is used in error messages.
@@ -235,6 +237,29 @@ mod tests {
             assert!(m.normals.is_none());
             assert_eq!(m.uvs.as_ref().unwrap()[3], Vec2::new(3.0, -3.0));
         }
+    }
+
+    #[test]
+    fn gzip_compressed_files_by_magic_bytes() {
+        use std::io::Write;
+        let plain = binary(false, "vertex_indices", false);
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        e.write_all(&plain).unwrap();
+        let z = e.finish().unwrap();
+        // Detected by content: the same result under a .gz name and under a misleading .ply name.
+        for name in ["mesh.ply.gz", "misnamed.ply"] {
+            let path = temp_path(name);
+            std::fs::write(&path, &z).unwrap();
+            let m = read_ply_file(&path).unwrap();
+            assert_eq!(m.positions, POS.map(Vec3::from).to_vec(), "{name}");
+            assert_eq!(m.indices, expected_indices(), "{name}");
+            assert_eq!(m.uvs.as_ref().unwrap()[3], Vec2::new(3.0, -3.0), "{name}");
+        }
+        // Truncated: an error naming the file, not a panic.
+        let path = temp_path("cut.ply.gz");
+        std::fs::write(&path, &z[..z.len() / 2]).unwrap();
+        let e = read_ply_file(&path).unwrap_err().to_string();
+        assert!(e.contains("cut.ply.gz") && e.contains("corrupt or truncated gzip"), "{e}");
     }
 
     #[test]

@@ -29,6 +29,23 @@ impl Transform {
         m_inv.is_finite().then_some(Self { m, m_inv })
     }
 
+    /// From a matrix that may be singular, as pbrt-v4 accepts (`Scale 1 1 0`, a `ConcatTransform` with an axis
+    /// scaled to zero). A singular matrix gets an inverse of NaNs, as in pbrt-v4's `Transform`, so everything that
+    /// needs the inverse (normals, rays into object space) is undefined and [`Transform::is_invertible`] is false;
+    /// composing with it keeps the NaNs. `None` if the matrix is not finite.
+    pub fn from_matrix_allow_singular(m: DMat4) -> Option<Self> {
+        if !m.is_finite() {
+            return None;
+        }
+        Some(Self::from_matrix(m).unwrap_or(Self { m, m_inv: DMat4::NAN }))
+    }
+
+    /// False for a transform made from a singular matrix ([`Transform::from_matrix_allow_singular`]) or composed
+    /// with one: it maps points and vectors, but has no inverse.
+    pub fn is_invertible(&self) -> bool {
+        self.m_inv.is_finite()
+    }
+
     /// From a matrix and its known inverse.
     pub fn from_matrix_and_inverse(m: DMat4, m_inv: DMat4) -> Self {
         Self { m, m_inv }
@@ -190,6 +207,22 @@ mod tests {
         assert!(cam.point(DVec3::new(1.0, 0.0, 0.0)).x > 0.0);
         assert!(Transform::look_at(eye, eye, DVec3::Y).is_none());
         assert!(Transform::look_at(eye, DVec3::ZERO, DVec3::Z).is_none());
+    }
+
+    #[test]
+    fn singular_matrices_map_points_but_have_no_inverse() {
+        let flat = Transform::from_matrix_allow_singular(DMat4::from_scale(DVec3::new(2.0, 1.0, 0.0))).unwrap();
+        assert!(!flat.is_invertible());
+        assert!(close(flat.point(DVec3::new(1.0, 2.0, 3.0)), DVec3::new(2.0, 2.0, 0.0)));
+        // Composition keeps it singular on either side, as pbrt-v4's NaN inverse does.
+        let t = Transform::translate(DVec3::new(0.0, 0.0, 5.0));
+        assert!(!(t * flat).is_invertible() && !(flat * t).is_invertible());
+        assert!(close((t * flat).point(DVec3::new(1.0, 1.0, 1.0)), DVec3::new(2.0, 1.0, 5.0)));
+        assert!(flat.normal(DVec3::Z).is_nan());
+        // Invertible matrices are unchanged by the permissive constructor; non-finite ones are refused.
+        let r = Transform::from_matrix_allow_singular(t.matrix()).unwrap();
+        assert!(r.is_invertible() && r.inverse_matrix() == t.inverse_matrix());
+        assert!(Transform::from_matrix_allow_singular(DMat4::from_scale(DVec3::new(f64::INFINITY, 1.0, 1.0))).is_none());
     }
 
     #[test]

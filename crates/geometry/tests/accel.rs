@@ -357,3 +357,46 @@ fn hit_geometry_of_a_mesh_with_normals_and_uvs() {
     assert!((h.dpdu - Vec3::new(0.5, 0.0, 0.0)).length() < 1e-6, "{:?}", h.dpdu);
     assert!(h.tangent.dot(h.ns).abs() < 1e-6 && (h.tangent.length() - 1.0).abs() < 1e-6);
 }
+
+/// A cube [-1, 1]³ with outward per-vertex normals (4 vertices per face).
+fn cube_with_normals() -> MeshData {
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut indices = Vec::new();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let unit = |i: usize| Vec3::from_array(std::array::from_fn(|k| if k == i { 1.0 } else { 0.0 }));
+            let n = sign * unit(axis);
+            let (u, v) = (unit((axis + 1) % 3), n.cross(unit((axis + 1) % 3)));
+            let base = positions.len() as u32;
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                positions.push(n + a * u + b * v);
+                normals.push(n);
+            }
+            indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    MeshData { positions, normals: Some(normals), uvs: None, indices }
+}
+
+#[test]
+fn a_mesh_under_a_singular_transform_is_flattened_and_uses_geometric_normals() {
+    // The pattern of pbrt-v4 scenes exported from a modeller: a ConcatTransform whose first column is zero (x scaled
+    // to zero), here with a half-turn about y and a translation to x = 3.
+    let m = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, -1.2246469e-16, 0.0, -1.0, 0.0, 3.0, 0.5, 0.0, 1.0];
+    let t = Transform::from_matrix_allow_singular(geometry::DMat4::from_cols_array(&m)).unwrap();
+    assert!(!t.is_invertible());
+    let mesh = TriangleMesh::new(&t, cube_with_normals(), false).unwrap();
+    assert!(mesh.normals().is_none() && !mesh.flip_normal());
+    let b = mesh.bounds();
+    assert!((b.min.x - 3.0).abs() < 1e-6 && (b.max.x - 3.0).abs() < 1e-6, "{b:?}");
+    assert!((b.min.y + 0.5).abs() < 1e-6 && (b.max.y - 1.5).abs() < 1e-6, "{b:?}");
+    let scene = GeometryScene::from_shapes(vec![Shape::Mesh(Arc::new(mesh))]).unwrap();
+    // Seen edge-on from the side it is a plane at x = 3: hit at t = 7 with the plane's normal as shading normal.
+    let h = scene.intersect(&Ray::new(Vec3::new(10.0, 0.5, 0.2), Vec3::NEG_X), f32::INFINITY).unwrap();
+    assert!((h.t - 7.0).abs() < 1e-5 && (h.p.x - 3.0).abs() < 1e-5, "{h:?}");
+    assert!((h.n.x.abs() - 1.0).abs() < 1e-6 && h.ns == h.n, "{h:?}");
+    // Where the cube would have been hit, off the plane, nothing is.
+    assert!(scene.intersect(&Ray::new(Vec3::new(3.5, 10.0, 0.2), Vec3::NEG_Y), f32::INFINITY).is_none());
+    assert!(scene.intersect(&Ray::new(Vec3::new(2.5, 0.5, 10.0), Vec3::NEG_Z), f32::INFINITY).is_none());
+}

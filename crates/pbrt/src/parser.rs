@@ -126,18 +126,19 @@ fn canonical(path: &Path) -> PathBuf {
     std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
 }
 
-/// Reads a scene file's text, with errors about the file as a whole at `at` (or at the file itself).
+/// Reads a scene file's text (decompressing gzip data), with errors about the file as a whole at `at` (or at the
+/// file itself).
 pub(crate) fn read_text(path: &Path, at: Option<&Loc>) -> Result<String> {
     let file: Arc<Path> = Arc::from(path);
     let here = || at.cloned().unwrap_or_else(|| Loc::new(file.clone(), 1, 1));
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz")) {
-        return Err(ParseError::new(
-            here(),
-            format!("'{}': gzip-compressed scene files are not supported; decompress it first", path.display()),
-        ));
-    }
-    let bytes =
+    let mut bytes =
         std::fs::read(path).map_err(|e| ParseError::new(here(), format!("cannot read '{}': {e}", path.display())))?;
+    // pbrt-v4 reads gzip-compressed scene files (`.pbrt.gz`); recognised by content, so a misnamed file works too.
+    // Locations then name the compressed file and the line and column in its decompressed text.
+    if geometry::gzip::is_gzip(&bytes) {
+        bytes = geometry::gzip::gunzip(&bytes, geometry::gzip::MAX_DECOMPRESSED_BYTES)
+            .map_err(|e| ParseError::new(here(), format!("cannot read '{}': {e}", path.display())))?;
+    }
     if bytes.starts_with(&[0xfe, 0xff]) || bytes.starts_with(&[0xff, 0xfe]) {
         return Err(ParseError::new(
             Loc::new(file.clone(), 1, 1),
@@ -308,6 +309,28 @@ impl Parser {
 
     fn warn(&mut self, loc: &Loc, message: impl Into<String>) {
         self.scene.warnings.push(Diagnostic::new(loc.clone(), message));
+    }
+
+    /// pbrt-v4 accepts singular transforms (an axis scaled to zero, common in exported scenes); say what follows.
+    fn warn_singular(&mut self, what: &str, loc: &Loc) {
+        self.warn(
+            loc,
+            format!(
+                "{what} makes the transform singular (some direction is scaled to zero); accepted as pbrt-v4 does: \
+                 meshes under it are flattened and shaded with their geometric normals, while other shapes, object \
+                 instances and lights other than point lights under it are left out"
+            ),
+        );
+    }
+
+    /// Under a singular CTM, pbrt-v4's inverse is NaN: things that need it (rays into an analytic shape's or an
+    /// instance's space, a light's directions) never contribute. They are left out with a warning; true if so.
+    fn skip_under_singular_ctm(&mut self, what: &str, loc: &Loc) -> bool {
+        if self.gs.ctm.is_invertible() {
+            return false;
+        }
+        self.warn(loc, format!("{what} under a singular transform is left out (it needs the transform's inverse, which does not exist; pbrt-v4 renders nothing of it either)"));
+        true
     }
 
     fn warn_once(&mut self, key: &'static str, loc: &Loc, message: impl Into<String>) {
@@ -582,12 +605,14 @@ impl Parser {
             }
             "Scale" => {
                 let [x, y, z] = self.numbers::<3>(word)?;
-                let t = Transform::scale(DVec3::new(x, y, z)).ok_or_else(|| {
-                    ParseError::new(
-                        loc.clone(),
-                        format!("Scale {x} {y} {z}: a zero factor makes the transform singular"),
-                    )
-                })?;
+                let t = match Transform::scale(DVec3::new(x, y, z)) {
+                    Some(t) => t,
+                    None => {
+                        self.warn_singular(&format!("Scale {x} {y} {z}: a zero factor"), &loc);
+                        Transform::from_matrix_allow_singular(glam::DMat4::from_scale(DVec3::new(x, y, z)))
+                            .ok_or_else(|| ParseError::new(loc.clone(), "Scale: the factors are not finite"))?
+                    }
+                };
                 self.apply(t, false, &loc);
             }
             "Rotate" => {
@@ -610,8 +635,14 @@ impl Parser {
             }
             "Transform" | "ConcatTransform" => {
                 let m = self.numbers::<16>(word)?;
-                let t = Transform::from_pbrt_array(&m)
-                    .ok_or_else(|| ParseError::new(loc.clone(), format!("{word}: the matrix is singular")))?;
+                let t = match Transform::from_pbrt_array(&m) {
+                    Some(t) => t,
+                    None => {
+                        self.warn_singular(&format!("{word}: the matrix"), &loc);
+                        Transform::from_matrix_allow_singular(glam::DMat4::from_cols_array(&m))
+                            .ok_or_else(|| ParseError::new(loc.clone(), format!("{word}: the matrix is not finite")))?
+                    }
+                };
                 self.apply(t, word == "Transform", &loc);
             }
             "CoordinateSystem" => {
@@ -671,6 +702,13 @@ impl Parser {
                     self.warn(&loc, format!("a second Camera replaces the one at {}", self.scene.camera.entity.loc));
                 }
                 let camera_from_world = self.gs.ctm;
+                if !camera_from_world.is_invertible() {
+                    return Err(ParseError::new(
+                        loc,
+                        "the camera transform is singular (some direction is scaled to zero), so the camera has no \
+                         position and orientation in the world",
+                    ));
+                }
                 self.named_coordinate_systems.insert("camera".to_owned(), camera_from_world.inverse());
                 let medium = self.gs.outside_medium.clone();
                 if let Some(m) = &medium {
@@ -915,6 +953,10 @@ impl Parser {
                 self.require_world(word, &loc)?;
                 let (name, _) = self.expect_string("a light type")?;
                 let own = self.params()?;
+                // A point light needs only its position, which a singular transform still maps.
+                if name != "point" && self.skip_under_singular_ctm(&format!("LightSource \"{name}\""), &loc) {
+                    return Ok(());
+                }
                 let params = self.param_set(Some(LIGHT), own);
                 self.scene.lights.push(LightEntity {
                     entity: Entity::new(name, params, loc),
@@ -932,6 +974,12 @@ impl Parser {
                 self.require_world(word, &loc)?;
                 let (name, _) = self.expect_string("a shape type")?;
                 let own = self.params()?;
+                // Meshes are transformed to render space vertex by vertex, so a singular transform flattens them;
+                // the other shapes are intersected in object space, which a singular transform has none of.
+                let mesh = matches!(name.as_str(), "trianglemesh" | "plymesh" | "loopsubdiv" | "bilinearmesh");
+                if !mesh && self.skip_under_singular_ctm(&format!("Shape \"{name}\""), &loc) {
+                    return Ok(());
+                }
                 let mut area_light = self.gs.area_light.clone();
                 if self.active_object.is_some() && area_light.is_some() {
                     self.warn(&loc, "area lights are not supported inside object definitions (as in pbrt-v4); this shape does not emit");
@@ -994,6 +1042,9 @@ impl Parser {
                         loc,
                         format!("ObjectInstance inside the definition of object '{}' (at {})", o.name, o.loc),
                     ));
+                }
+                if self.skip_under_singular_ctm(&format!("ObjectInstance \"{name}\""), &loc) {
+                    return Ok(());
                 }
                 if !self.gs.start_active {
                     self.warn(&loc, "ObjectInstance under ActiveTransform EndTime: motion is not supported; the start transform is used");

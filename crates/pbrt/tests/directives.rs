@@ -294,3 +294,92 @@ fn options_and_deprecated_directives() {
     assert!(s.warnings.iter().any(|w| w.message.contains("TransformBegin")));
     assert!(s.warnings.iter().any(|w| w.message.contains("WorldEnd")));
 }
+
+fn gzip(data: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(data).unwrap();
+    e.finish().unwrap()
+}
+
+#[test]
+fn gzip_compressed_scene_include_and_import_files() {
+    let dir = temp_dir("gzip");
+    std::fs::write(dir.join("mats.pbrt.gz"), gzip(b"Material \"conductor\"\n")).unwrap();
+    // Recognised by content: this one is gzip data under a plain name.
+    std::fs::write(dir.join("geo.pbrt"), gzip(b"Translate 5 0 0\n\n  Shape \"disk\"\n")).unwrap();
+    std::fs::write(
+        dir.join("main.pbrt.gz"),
+        gzip(b"WorldBegin\nInclude \"mats.pbrt.gz\"\nImport \"geo.pbrt\"\nShape \"sphere\"\n"),
+    )
+    .unwrap();
+    let s = pbrt::parse_file(&dir.join("main.pbrt.gz")).unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<_> = s.shapes.iter().map(|s| s.entity.name.as_str()).collect();
+    assert_eq!(names, ["disk", "sphere"]);
+    assert_eq!(s.material(&s.shapes[1].material).unwrap().name, "conductor");
+    assert!(close(s.shapes[0].render_from_object.point(DVec3::ZERO), DVec3::new(5.0, 0.0, 0.0)));
+    // The Import's transform stays inside it.
+    assert!(s.shapes[1].render_from_object.is_identity());
+    // Locations are lines and columns of the decompressed text, in the compressed file.
+    let l = &s.shapes[0].entity.loc;
+    assert!(l.file.ends_with("geo.pbrt") && (l.line, l.column) == (3, 3), "{l}");
+    let l = &s.shapes[1].entity.loc;
+    assert!(l.file.ends_with("main.pbrt.gz") && (l.line, l.column) == (4, 1), "{l}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Exported scenes (transparent-machines) scale an axis of a nested object's transform to zero; pbrt-v4 accepts it.
+#[test]
+fn singular_transforms_are_accepted_as_pbrt_v4_does() {
+    let s = parse(
+        "WorldBegin
+AttributeBegin
+  ObjectBegin \"part\"
+  AttributeBegin
+    ConcatTransform [ -0 0 -0 0  0 1 0 0  0 0 -1 0  7 -2 3 1 ]
+    AttributeBegin
+      ConcatTransform [ 1 0 0 0  0 1 0 0  0 0 1 0  5 0 1 1 ]
+      Shape \"trianglemesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 1 ] \"normal N\" [ 1 0 0  1 0 0  1 0 0 ]
+      Shape \"sphere\"
+    AttributeEnd
+  AttributeEnd
+  ObjectEnd
+AttributeEnd
+ObjectInstance \"part\"
+AttributeBegin
+  Scale 2 0 2
+  ObjectInstance \"part\"
+  LightSource \"spot\"
+  LightSource \"point\" \"point3 from\" [ 1 5 1 ]
+  Shape \"disk\"
+  Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0  1 1 0 ]
+AttributeEnd
+Shape \"sphere\"",
+    );
+    let warned_at = |line: u32, column: u32, needle: &str| {
+        s.warnings.iter().any(|w| (w.loc.line, w.loc.column) == (line, column) && w.message.contains(needle))
+    };
+    assert!(warned_at(5, 5, "ConcatTransform: the matrix makes the transform singular"), "{:?}", s.warnings);
+    assert!(warned_at(16, 3, "Scale 2 0 2: a zero factor"), "{:?}", s.warnings);
+    // The mesh is kept and flattened onto the plane x = 7 (object x, then x + 5, scaled to zero and moved to 7).
+    let part = &s.objects[0];
+    assert_eq!(part.shapes.len(), 1);
+    let t = part.shapes[0].render_from_object;
+    assert!(!t.is_invertible());
+    assert!(close(t.point(DVec3::new(1.0, 2.0, 3.0)), DVec3::new(7.0, 0.0, -1.0)));
+    // What needs the inverse is left out, each with a warning at its own directive.
+    assert!(warned_at(9, 7, "Shape \"sphere\" under a singular transform is left out"), "{:?}", s.warnings);
+    assert!(warned_at(17, 3, "ObjectInstance \"part\""), "{:?}", s.warnings);
+    assert!(warned_at(18, 3, "LightSource \"spot\""), "{:?}", s.warnings);
+    assert!(warned_at(20, 3, "Shape \"disk\""), "{:?}", s.warnings);
+    assert_eq!(s.instances.len(), 1);
+    assert!(s.instances[0].render_from_instance.is_identity());
+    // A point light keeps its flattened position; a bilinear mesh is kept like a triangle mesh.
+    assert_eq!(s.lights.len(), 1);
+    assert_eq!(s.lights[0].entity.name, "point");
+    assert!(close(s.lights[0].render_from_light.point(DVec3::new(1.0, 5.0, 1.0)), DVec3::new(2.0, 0.0, 2.0)));
+    let names: Vec<_> = s.shapes.iter().map(|s| s.entity.name.as_str()).collect();
+    assert_eq!(names, ["bilinearmesh", "sphere"]);
+    // AttributeEnd restores an invertible transform.
+    assert!(s.shapes[1].render_from_object.is_invertible() && s.shapes[1].render_from_object.is_identity());
+}

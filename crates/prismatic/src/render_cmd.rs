@@ -98,6 +98,7 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     }
     let start = Instant::now();
     let desc = pbrt::parse_file(&args.scene).map_err(|e| anyhow!("{e}"))?;
+    let parsed = start.elapsed();
     let options = BuildOptions { resolution: args.resolution, spp: args.spp, output: args.output.clone() };
     let built = build_scene(&desc, &options).map_err(|e| anyhow!("{e}"))?;
     for w in &built.warnings {
@@ -111,6 +112,7 @@ pub fn run(args: &RenderArgs) -> Result<String> {
             bail!("cannot write {}: directory {} does not exist", out_path.display(), dir.display());
         }
     }
+    // Scene load: parsing the files, then building (shapes and their PLY files, textures, lights, the BVH).
     let setup = start.elapsed();
     let mut spec = built.film.clone();
     if args.aovs {
@@ -194,7 +196,7 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     let peak = peak_rss_bytes().map(|b| format!("{:.1} MB", b as f64 / 1e6)).unwrap_or_else(|| "unknown".into());
     Ok(format!(
         "wrote {} ({}x{}, {} {}, {} wavelengths, {})\n\
-         scene setup {:.2} s ({} triangles, {} lights), render {:.2} s\n\
+         scene load {:.2} s (parse {:.2} s, build {:.2} s; {} triangles, {} lights), render {:.2} s\n\
          {:.3} Msamples/s, {:.3} Mrays/s, peak memory {}\n",
         path.display(),
         w,
@@ -204,6 +206,8 @@ pub fn run(args: &RenderArgs) -> Result<String> {
         args.wavelengths,
         built.integrator.name(),
         setup.as_secs_f64(),
+        parsed.as_secs_f64(),
+        (setup - parsed).as_secs_f64(),
         built.triangles,
         built.scene.lights.len(),
         secs,

@@ -10,6 +10,7 @@ use geometry::mesh::BilinearMeshData;
 use geometry::subdiv::loop_subdivide;
 use geometry::{BilinearMesh, GeometryScene, Instance, MeshData, Object, Shape, Transform, TriangleMesh};
 use glam::{DVec3, Vec2, Vec3};
+use rayon::prelude::*;
 use scene::{Loc, ParamSet, SceneDescription, SceneError, ShapeEntity};
 
 use super::lights::area_lights;
@@ -45,8 +46,11 @@ pub(super) fn make_geometry(
      -> Result<(Vec<Shape>, Vec<ShapeInfo>)> {
         let mut lights = lights;
         let (mut out, mut out_info) = (vec![], vec![]);
-        for se in shapes {
-            let Some(shape) = make_shape(se)? else { continue };
+        // The geometry of every shape (PLY files read and decoded, vertices transformed) is made on all cores;
+        // the results are then taken in file order, so the first error in the file is the one reported.
+        let built: Vec<Result<Option<Shape>>> = shapes.par_iter().map(make_shape).collect();
+        for (se, shape) in shapes.iter().zip(built) {
+            let Some(shape) = shape? else { continue };
             triangles += shape_triangles(&shape);
             let material = materials.index(&se.material, &se.entity.loc)?;
             let inside = named_media.of(&se.inside_medium, &se.entity.loc)?;
