@@ -123,7 +123,8 @@ impl Radiance for PathIntegrator {
             let wo = frame.to_local(-d);
             // Next-event estimation.
             if !bxdf.is_specular() {
-                l += beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, &u, DirectLight::Mis, counts);
+                let mis = DirectLight::Mis;
+                l += beta * sample_direct_light(scene, &hit, ray.medium, &frame, &bxdf, wo, wl, &u, mis, counts);
             }
             // BSDF sampling for the next direction.
             let mode = TransportMode::Radiance;

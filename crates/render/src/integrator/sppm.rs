@@ -429,7 +429,7 @@ impl SppmIntegrator {
             let wo = frame.to_local(-d);
             if !bxdf.is_specular() {
                 let weighting = DirectLight::LightSamplingOnly;
-                ld += beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, &u, weighting, counts);
+                ld += beta * sample_direct_light(scene, &hit, ray.medium, &frame, &bxdf, wo, wl, &u, weighting, counts);
                 let vp = VisiblePoint { p: hit.p, at: VisibleAt::Surface { frame, wo, bxdf }, beta, wl: *wl };
                 return (Some(vp), ld);
             }
