@@ -94,7 +94,7 @@ impl Radiance for PathIntegrator {
             // Emission from an area light that was hit.
             if let Some(li) = hit.area_light {
                 let light = &scene.lights[li as usize];
-                let le = light.l_area(hit.n, -d, wl);
+                let le = light.l_area(hit.p, hit.uv, hit.n, -d, wl);
                 if !le.is_black() {
                     if depth == 0 || specular_bounce {
                         l += beta * le;

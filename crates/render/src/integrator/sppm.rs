@@ -414,7 +414,7 @@ impl SppmIntegrator {
             };
             ray.attenuate(scene, &hit, wl, &mut beta);
             if let Some(li) = hit.area_light {
-                ld += beta * scene.lights[li as usize].l_area(hit.n, -d, wl);
+                ld += beta * scene.lights[li as usize].l_area(hit.p, hit.uv, hit.n, -d, wl);
             }
             let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
                 Bounce::PassedThrough => continue,
@@ -522,7 +522,7 @@ impl SppmIntegrator {
                 return (None, ld);
             };
             if let Some(li) = hit.area_light {
-                ld += beta * scene.lights[li as usize].l_area(hit.n, -d, wl) / mis.average(r_u);
+                ld += beta * scene.lights[li as usize].l_area(hit.p, hit.uv, hit.n, -d, wl) / mis.average(r_u);
             }
             let arrived_in = ray.medium;
             let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
