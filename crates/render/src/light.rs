@@ -8,6 +8,8 @@ use spectral::{Distribution2D, SampledSpectrum, SampledWavelengths, Spectrum};
 use std::f32::consts::PI;
 
 use crate::sampling::{sample_uniform_sphere, Frame};
+use crate::texture::{FloatTexture, TextureEvalContext};
+use std::sync::Arc;
 
 /// Where light arrives: a point and (for surfaces) its normal.
 #[derive(Clone, Copy, Debug)]
@@ -141,7 +143,39 @@ pub enum Light {
         l: Spectrum,
         /// Emit from both sides.
         two_sided: bool,
+        /// The shape's alpha texture, if it is a cut-out: points where pbrt-v4's alpha test fails emit nothing.
+        alpha: Option<Arc<FloatTexture>>,
+        /// The shape has constant alpha 0: no ray ever hits it, so the light is found only by light sampling and
+        /// counts as a delta light for MIS (pbrt-v4's invisible area lights).
+        invisible: bool,
     },
+}
+
+/// pbrt-v4's alpha test for a point of an emitter (`AlphaMasked`): true if the point at `p`, `uv` is cut away, where
+/// a fractional alpha keeps a point when a hash of its position does not exceed it.
+fn alpha_masked(alpha: &Option<Arc<FloatTexture>>, p: Vec3, uv: Vec2) -> bool {
+    let Some(t) = alpha else { return false };
+    let a = t.eval(&TextureEvalContext { uv, p });
+    if a >= 1.0 {
+        false
+    } else if a <= 0.0 || a.is_nan() {
+        true
+    } else {
+        hash_point(p) > a
+    }
+}
+
+/// A number in [0, 1) from the bits of a point (splitmix64's finaliser over each coordinate).
+fn hash_point(p: Vec3) -> f32 {
+    let mut h: u64 = 0x2545_f491_4f6c_dd1d;
+    for v in [p.x, p.y, p.z] {
+        h ^= u64::from(v.to_bits());
+        h = h.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        h ^= h >> 31;
+    }
+    (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }
 
 impl Light {
@@ -222,8 +256,11 @@ impl Light {
                     n: Vec3::ZERO,
                 })
             }
-            Light::DiffuseArea { shape, element, l, two_sided } => {
+            Light::DiffuseArea { shape, element, l, two_sided, alpha, invisible } => {
                 let ss = shape.sample_solid_angle(*element as usize, ctx.p, u)?;
+                if alpha_masked(alpha, ss.p, ss.uv) {
+                    return None;
+                }
                 let (p, n, pdf) = (ss.p, ss.n, ss.pdf);
                 if !(pdf > 0.0 && pdf.is_finite()) {
                     return None;
@@ -238,7 +275,7 @@ impl Light {
                 if !facing && !two_sided {
                     return None;
                 }
-                Some(LightLiSample { l: l.sample(wl), wi, pdf, dist, p, delta: false, n })
+                Some(LightLiSample { l: l.sample(wl), wi, pdf, dist, p, delta: *invisible, n })
             }
         }
     }
@@ -305,8 +342,11 @@ impl Light {
                 let (o, d, pdf_pos) = from_infinity(map.frame.from_local(w_local));
                 LightLeSample { o, d, l: map.lookup(uv, wl) * *scale, surface: None, pdf_pos, pdf_dir }
             }
-            Light::DiffuseArea { shape, element, l, two_sided } => {
+            Light::DiffuseArea { shape, element, l, two_sided, alpha, .. } => {
                 let ss = shape.sample_area(*element as usize, u_pos)?;
+                if alpha_masked(alpha, ss.p, ss.uv) {
+                    return None;
+                }
                 // Cosine-weighted about the emitting side; a two-sided emitter picks a side with probability ½.
                 let (mut u, mut n) = (u_dir, ss.n);
                 let mut side_pdf = 1.0;
@@ -335,9 +375,10 @@ impl Light {
         (s.pdf_pos > 0.0 && s.pdf_dir > 0.0 && s.pdf_pos.is_finite() && s.pdf_dir.is_finite()).then_some(s)
     }
 
-    /// True for lights whose position is a delta (point and spot lights): no ray can hit them.
+    /// True for lights whose position is a delta (point and spot lights) and for area lights on shapes of alpha 0,
+    /// as pbrt-v4 marks them: no ray can hit them.
     pub fn is_delta_position(&self) -> bool {
-        matches!(self, Light::Point { .. } | Light::Spot { .. })
+        matches!(self, Light::Point { .. } | Light::Spot { .. } | Light::DiffuseArea { invisible: true, .. })
     }
 
     /// True for lights whose direction is a delta (distant lights).
@@ -394,11 +435,11 @@ impl Light {
         }
     }
 
-    /// Radiance emitted from an area light's surface point with normal `n` towards `w`.
-    pub fn l_area(&self, n: Vec3, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+    /// Radiance emitted from an area light's surface point `p` (surface coordinates `uv`, normal `n`) towards `w`.
+    pub fn l_area(&self, p: Vec3, uv: Vec2, n: Vec3, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
-            Light::DiffuseArea { l, two_sided, .. } => {
-                if *two_sided || n.dot(w) > 0.0 {
+            Light::DiffuseArea { l, two_sided, alpha, .. } => {
+                if (*two_sided || n.dot(w) > 0.0) && !alpha_masked(alpha, p, uv) {
                     l.sample(wl)
                 } else {
                     SampledSpectrum::zero()
@@ -434,7 +475,7 @@ impl Light {
             Light::ImageInfinite { map, scale, scene_radius } => {
                 4.0 * pi * pi * (*scene_radius as f64).powi(2) * (*scale as f64) * map.average_luminance() as f64
             }
-            Light::DiffuseArea { shape, element, l, two_sided } => {
+            Light::DiffuseArea { shape, element, l, two_sided, .. } => {
                 pi * shape.area(*element as usize) as f64 * y(l) * if *two_sided { 2.0 } else { 1.0 }
             }
         }
@@ -628,8 +669,22 @@ mod tests {
             },
             Light::Distant { w: Vec3::new(0.0, 0.0, 1.0), l: c(1.5), scene_radius: 2.0 },
             Light::UniformInfinite { l: c(0.5), scene_radius: 2.0 },
-            Light::DiffuseArea { shape: Box::new(sphere.clone()), element: 0, l: c(1.25), two_sided: false },
-            Light::DiffuseArea { shape: Box::new(sphere), element: 0, l: c(1.25), two_sided: true },
+            Light::DiffuseArea {
+                shape: Box::new(sphere.clone()),
+                element: 0,
+                l: c(1.25),
+                two_sided: false,
+                alpha: None,
+                invisible: false,
+            },
+            Light::DiffuseArea {
+                shape: Box::new(sphere),
+                element: 0,
+                l: c(1.25),
+                two_sided: true,
+                alpha: None,
+                invisible: false,
+            },
         ];
         let n = 64;
         for light in &lights {

@@ -124,6 +124,16 @@ pub enum Material {
         /// Albedo.
         reflectance: SpectrumTexture,
     },
+    /// Lambertian reflection and Lambertian transmission (pbrt-v4's `diffusetransmission`): leaves, paper,
+    /// lamp shades.
+    DiffuseTransmission {
+        /// Reflectance (before `scale`).
+        reflectance: SpectrumTexture,
+        /// Transmittance (before `scale`).
+        transmittance: SpectrumTexture,
+        /// Multiplies both; the products are clamped to [0, 1].
+        scale: f32,
+    },
     /// Metal.
     Conductor {
         /// Optical constants.
@@ -184,6 +194,10 @@ impl Material {
     pub fn bxdf(&self, ctx: &TextureEvalContext, wl: &mut SampledWavelengths, u: f32) -> Option<Bxdf> {
         match self {
             Material::Diffuse { reflectance } => Some(Bxdf::Diffuse { r: clamp01(reflectance.eval(ctx, wl)) }),
+            Material::DiffuseTransmission { reflectance, transmittance, scale } => Some(Bxdf::DiffuseTransmission {
+                r: clamp01(reflectance.eval(ctx, wl) * *scale),
+                t: clamp01(transmittance.eval(ctx, wl) * *scale),
+            }),
             Material::Conductor { spec, roughness } => {
                 let (eta, k) = spec.eta_k(ctx, wl);
                 Some(Bxdf::Conductor { eta, k, distrib: roughness.distribution(ctx) })
@@ -269,6 +283,18 @@ mod tests {
     use super::*;
     use crate::texture::FloatTexture;
     use glam::{Vec2, Vec3};
+
+    #[test]
+    fn diffuse_transmission_scales_then_clamps() {
+        // pbrt-v4: R = clamp(scale·reflectance, 0, 1), T likewise.
+        let constant = |v: f64| SpectrumTexture::Constant(Spectrum::Constant(v));
+        let m = Material::DiffuseTransmission { reflectance: constant(0.5), transmittance: constant(0.25), scale: 3.0 };
+        let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
+        let ctx = TextureEvalContext { uv: Vec2::ZERO, p: Vec3::ZERO };
+        let Some(Bxdf::DiffuseTransmission { r, t }) = m.bxdf(&ctx, &mut wl, 0.5) else { panic!() };
+        assert_eq!(r.0, [1.0; 4]);
+        assert_eq!(t.0, [0.75; 4]);
+    }
 
     #[test]
     fn dispersive_glass_keeps_one_wavelength_and_uses_its_index() {

@@ -9,6 +9,7 @@ use crate::camera::Camera;
 use crate::light::Light;
 use crate::material::Material;
 use crate::medium::Medium;
+use crate::texture::{FloatTexture, TextureEvalContext};
 
 /// Material index meaning "no surface" (a boundary between media only).
 pub const NO_MATERIAL: u32 = u32::MAX;
@@ -103,21 +104,38 @@ pub struct SceneGeometry {
     accel: GeometryScene,
     /// `[object][shape]`.
     info: Vec<Vec<ShapeInfo>>,
+    /// The alpha textures of cut-out shapes (empty when no shape has one: then rays never look at alpha).
+    alphas: Vec<FloatTexture>,
+    /// `[object][shape]`: index into `alphas` (empty when `alphas` is).
+    alpha_of: Vec<Vec<Option<u32>>>,
 }
+
+/// Longest run of cut-out surfaces a ray passes through before it counts as escaped.
+const MAX_ALPHA_SKIPS: u32 = 1024;
 
 impl SceneGeometry {
     /// Wraps `accel`; `info[object][shape]` describes shape `shape` of the accel's object `object`.
     pub fn new(accel: GeometryScene, info: Vec<Vec<ShapeInfo>>) -> Self {
-        Self { accel, info }
+        Self { accel, info, alphas: vec![], alpha_of: vec![] }
     }
-}
 
-impl Geometry for SceneGeometry {
-    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit> {
-        use geometry::Accel;
-        let hit = self.accel.intersect(&geometry::Ray::new(o, d), t_max)?;
+    /// [`SceneGeometry::new`] with cut-outs: `alpha_of[object][shape]` names the alpha texture (in `alphas`) of
+    /// shape `shape` of object `object`, if it has one (pbrt-v4's `"float alpha"` / `"texture alpha"`).
+    pub fn with_alpha(
+        accel: GeometryScene,
+        info: Vec<Vec<ShapeInfo>>,
+        alphas: Vec<FloatTexture>,
+        alpha_of: Vec<Vec<Option<u32>>>,
+    ) -> Self {
+        if alphas.is_empty() {
+            return Self::new(accel, info);
+        }
+        Self { accel, info, alphas, alpha_of }
+    }
+
+    fn surface_hit(&self, hit: &geometry::Hit) -> SurfaceHit {
         let info = self.info[hit.object as usize][hit.shape as usize];
-        Some(SurfaceHit {
+        SurfaceHit {
             t: hit.t,
             p: hit.p,
             n: hit.n,
@@ -128,12 +146,75 @@ impl Geometry for SceneGeometry {
             material: info.material,
             area_light: info.area_light_base.map(|b| b + hit.element),
             media: info.media,
-        })
+        }
+    }
+
+    /// pbrt-v4's stochastic alpha test of a hit found by the ray (`o`, `d`): true if the ray passes through. Alpha
+    /// 0 always passes and 1 never does; in between the ray passes if a hash of the ray exceeds alpha, so the
+    /// decision is the same for the same ray whatever thread traces it.
+    fn cut_out(&self, hit: &geometry::Hit, o: Vec3, d: Vec3) -> bool {
+        let Some(Some(i)) = self.alpha_of.get(hit.object as usize).and_then(|v| v.get(hit.shape as usize)) else {
+            return false;
+        };
+        let a = self.alphas[*i as usize].eval(&TextureEvalContext { uv: hit.uv, p: hit.p });
+        if a >= 1.0 {
+            false
+        } else if a <= 0.0 || a.is_nan() {
+            true
+        } else {
+            hash_ray(o, d) > a
+        }
+    }
+}
+
+/// A number in [0, 1) from the bits of a ray's origin and direction (splitmix64's finaliser over each component).
+fn hash_ray(o: Vec3, d: Vec3) -> f32 {
+    let mut h: u64 = 0x9e37_79b9_7f4a_7c15;
+    for v in [o.x, o.y, o.z, d.x, d.y, d.z] {
+        h ^= u64::from(v.to_bits());
+        h = h.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        h ^= h >> 31;
+    }
+    (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+}
+
+impl Geometry for SceneGeometry {
+    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit> {
+        use geometry::Accel;
+        if self.alphas.is_empty() {
+            let hit = self.accel.intersect(&geometry::Ray::new(o, d), t_max)?;
+            return Some(self.surface_hit(&hit));
+        }
+        // Past each cut-out hit the ray goes on from just beyond it (pbrt-v4's GeometricPrimitive::Intersect).
+        let (mut origin, mut remaining) = (o, t_max);
+        let d2 = d.length_squared();
+        for _ in 0..MAX_ALPHA_SKIPS {
+            let hit = self.accel.intersect(&geometry::Ray::new(origin, d), remaining)?;
+            if !self.cut_out(&hit, origin, d) {
+                let mut sh = self.surface_hit(&hit);
+                if origin != o {
+                    sh.t = (hit.p - o).dot(d) / d2;
+                }
+                return Some(sh);
+            }
+            origin = geometry::offset_ray_origin(hit.p, hit.p_error, hit.n, d);
+            remaining = t_max - (origin - o).dot(d) / d2;
+            if remaining.is_nan() || remaining <= 0.0 {
+                return None;
+            }
+        }
+        None
     }
 
     fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         use geometry::Accel;
-        self.accel.occluded(&geometry::Ray::new(o, d), t_max)
+        if self.alphas.is_empty() {
+            return self.accel.occluded(&geometry::Ray::new(o, d), t_max);
+        }
+        // Shadow rays take the same alpha tests as other rays (pbrt-v4's IntersectP runs Intersect on cut-outs).
+        self.intersect(o, d, t_max).is_some()
     }
 
     fn bounding_sphere(&self) -> (Vec3, f32) {

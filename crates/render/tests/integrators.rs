@@ -97,6 +97,8 @@ fn room(extras: Extras) -> RenderScene {
                     element,
                     l: l.clone(),
                     two_sided: false,
+                    alpha: None,
+                    invisible: false,
                 });
             }
             base

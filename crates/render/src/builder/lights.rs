@@ -8,6 +8,9 @@ use scene::{Entity, Loc, SceneDescription, SceneError, SpectrumKind};
 use spectral::rgb_uplift::RgbIlluminantSpectrum;
 use spectral::{Distribution2D, Observer, RgbColorSpace, Spectrum};
 
+use std::sync::Arc;
+
+use super::shapes::ShapeAlpha;
 use super::{err, unsupported, Result};
 use crate::light::{EnvironmentMap, Light};
 use crate::sampling::Frame;
@@ -52,8 +55,8 @@ pub(super) fn normalise_emission(loc: &Loc, s: Spectrum, scale: f64) -> Result<S
     Ok(scaled)
 }
 
-/// Creates one area light per primitive of `shape`; returns the index of the first.
-pub(super) fn area_lights(al: &Entity, shape: &Shape, lights: &mut Vec<Light>) -> Result<u32> {
+/// Creates one area light per primitive of `shape` (whose alpha is `alpha`); returns the index of the first.
+pub(super) fn area_lights(al: &Entity, shape: &Shape, alpha: &ShapeAlpha, lights: &mut Vec<Light>) -> Result<u32> {
     let p = &al.params;
     if al.name != "diffuse" {
         return err(&al.loc, unsupported("area light", &al.name, &["diffuse"]));
@@ -78,12 +81,19 @@ pub(super) fn area_lights(al: &Entity, shape: &Shape, lights: &mut Vec<Light>) -
     }
     let l = normalise_emission(&al.loc, l, scale)?;
     let base = lights.len() as u32;
+    let (alpha, invisible) = match alpha {
+        ShapeAlpha::Opaque => (None, false),
+        ShapeAlpha::Invisible => (None, true),
+        ShapeAlpha::CutOut(t) => (Some(Arc::new(t.clone())), false),
+    };
     for element in 0..n {
         lights.push(Light::DiffuseArea {
             shape: Box::new(shape.clone()),
             element: element as u32,
             l: l.clone(),
             two_sided,
+            alpha: alpha.clone(),
+            invisible,
         });
     }
     Ok(base)

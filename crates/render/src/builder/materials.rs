@@ -1,6 +1,7 @@
-//! Materials: pbrt-v4's `Material` and `MakeNamedMaterial` directives (`diffuse`, `conductor`, `dielectric`,
-//! `thindielectric`, `coateddiffuse`, `coatedconductor`, `mix`, `interface`) with their roughness, conductor,
-//! index-of-refraction and layer parameters, and the index a shape's material reference resolves to.
+//! Materials: pbrt-v4's `Material` and `MakeNamedMaterial` directives (`diffuse`, `diffusetransmission`,
+//! `conductor`, `dielectric`, `thindielectric`, `coateddiffuse`, `coatedconductor`, `mix`, `interface`) with their
+//! roughness, conductor, index-of-refraction and layer parameters, and the index a shape's material reference
+//! resolves to.
 
 use std::collections::HashMap;
 
@@ -158,6 +159,18 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>) -> Result<Ma
     let p = &e.params;
     Ok(match e.name.as_str() {
         "diffuse" => Material::Diffuse { reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.5)? },
+        "diffusetransmission" => {
+            // pbrt-v4's defaults: 0.25 each, scale 1 (a float, not a texture).
+            let scale = p.get_float("scale", 1.0)?;
+            if !(scale.is_finite() && scale >= 0.0) {
+                return err(&p.loc_of("scale", &e.loc), format!("'scale' must be a finite number ≥ 0, got {scale}"));
+            }
+            Material::DiffuseTransmission {
+                reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.25)?,
+                transmittance: t.spectrum_param(p, "transmittance", SpectrumKind::Albedo, 0.25)?,
+                scale: scale as f32,
+            }
+        }
         "conductor" => {
             Material::Conductor { spec: conductor_spec(t, p, &e.loc, "eta", "k")?, roughness: roughness(t, p)? }
         }
@@ -200,6 +213,7 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>) -> Result<Ma
                     other,
                     &[
                         "diffuse",
+                        "diffusetransmission",
                         "conductor",
                         "dielectric",
                         "thindielectric",

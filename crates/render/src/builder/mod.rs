@@ -100,7 +100,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     let camera_medium = media.of(&desc.camera.medium, &desc.camera.entity.loc)?;
     // Area lights are made with their shapes, so they come before the `LightSource` lights.
     let (mut lights, mut light_media) = (vec![], vec![]);
-    let shapes = shapes::make_geometry(desc, &materials, &media, &mut lights, &mut light_media)?;
+    let shapes = shapes::make_geometry(desc, &textures, &materials, &media, &mut lights, &mut light_media)?;
     lights::make_lights(desc, shapes.scene_radius, &mut lights, &mut warnings)?;
     for le in &desc.lights {
         light_media.push(crate::scene::LightMedium::Fixed(media.of(&le.medium, &le.entity.loc)?));

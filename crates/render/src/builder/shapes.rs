@@ -1,7 +1,7 @@
 //! Shapes: pbrt-v4's `Shape` directive (`trianglemesh`, `plymesh`, `loopsubdiv`, `bilinearmesh`, `sphere`,
 //! `disk`), and the two-level BVH over the world's shapes and the `ObjectBegin`/`ObjectEnd` definitions placed by
-//! `ObjectInstance`. Each shape's material, `MediumInterface` and `AreaLightSource` are resolved here, so the
-//! geometry a ray hits knows what it is made of.
+//! `ObjectInstance`. Each shape's material, `MediumInterface`, `AreaLightSource` and alpha (cut-outs) are resolved
+//! here, so the geometry a ray hits knows what it is made of.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -16,9 +16,11 @@ use scene::{Loc, ParamSet, SceneDescription, SceneError, ShapeEntity};
 use super::lights::area_lights;
 use super::materials::Materials;
 use super::media::Media;
+use super::textures::Textures;
 use super::{err, unsupported, Result};
 use crate::light::Light;
 use crate::scene::{LightMedium, MediumInterface, SceneGeometry, ShapeInfo, NO_MATERIAL};
+use crate::texture::FloatTexture;
 
 /// The scene's shapes, ready for ray queries.
 pub(super) struct BuiltGeometry {
@@ -30,9 +32,40 @@ pub(super) struct BuiltGeometry {
     pub(super) scene_radius: f32,
 }
 
+/// An object's shapes, what a hit on each means, and each one's alpha texture (an index into the scene's list).
+type ObjectShapes = (Vec<Shape>, Vec<ShapeInfo>, Vec<Option<u32>>);
+
+/// A shape's alpha (pbrt-v4's `"float alpha"` / `"texture alpha"`): what rays and its area light make of it.
+pub(super) enum ShapeAlpha {
+    /// No alpha, or a constant 1: the fast path.
+    Opaque,
+    /// A constant 0: rays never hit the shape (it is left out of the BVH); an area light on it still emits, found
+    /// only by light sampling, as pbrt-v4's invisible area lights.
+    Invisible,
+    /// Anything else: a stochastic test at every hit.
+    CutOut(FloatTexture),
+}
+
+/// Reads a shape's `alpha`: a constant must lie in [0, 1] (an error naming `alpha` otherwise); a texture is taken
+/// as it is (values are clamped by the test).
+fn shape_alpha(textures: &Textures, p: &ParamSet, loc: &Loc) -> Result<ShapeAlpha> {
+    if !p.contains("alpha") {
+        return Ok(ShapeAlpha::Opaque);
+    }
+    Ok(match textures.float_param(p, "alpha", 1.0)? {
+        FloatTexture::Constant(a) if !(0.0..=1.0).contains(&a) => {
+            return err(&p.loc_of("alpha", loc), format!("'alpha' must be in [0, 1], got {a}"));
+        }
+        FloatTexture::Constant(a) if a >= 1.0 => ShapeAlpha::Opaque,
+        FloatTexture::Constant(a) if a <= 0.0 => ShapeAlpha::Invisible,
+        t => ShapeAlpha::CutOut(t),
+    })
+}
+
 /// Builds every shape into the BVH; the world's area lights are appended to `lights`, one per primitive.
 pub(super) fn make_geometry(
     desc: &SceneDescription,
+    textures: &Textures,
     materials: &Materials,
     named_media: &Media,
     lights: &mut Vec<Light>,
@@ -41,46 +74,58 @@ pub(super) fn make_geometry(
     // Shapes: object 0 holds the world's shapes; each ObjectBegin definition becomes another object. Area lights
     // are only created for world shapes (pbrt-v4 drops them inside instances, with a warning at parse time).
     let mut triangles = 0usize;
-    let mut object_shapes = |shapes: &[ShapeEntity],
-                             lights: Option<(&mut Vec<Light>, &mut Vec<LightMedium>)>|
-     -> Result<(Vec<Shape>, Vec<ShapeInfo>)> {
-        let mut lights = lights;
-        let (mut out, mut out_info) = (vec![], vec![]);
-        // The geometry of every shape (PLY files read and decoded, vertices transformed) is made on all cores;
-        // the results are then taken in file order, so the first error in the file is the one reported.
-        let built: Vec<Result<Option<Shape>>> = shapes.par_iter().map(make_shape).collect();
-        for (se, shape) in shapes.iter().zip(built) {
-            let Some(shape) = shape? else { continue };
-            triangles += shape_triangles(&shape);
-            let material = materials.index(&se.material, &se.entity.loc)?;
-            let inside = named_media.of(&se.inside_medium, &se.entity.loc)?;
-            let outside = named_media.of(&se.outside_medium, &se.entity.loc)?;
-            let media = (inside.is_some() || outside.is_some() || material == NO_MATERIAL)
-                .then_some(MediumInterface { inside, outside });
-            let area_light_base = match (&se.area_light, lights.as_mut()) {
-                (Some(al), Some((lights, light_media))) => {
-                    let base = area_lights(al, &shape, lights)?;
-                    // Emission leaves into the shape's media (none named: vacuum, as pbrt-v4's "").
-                    let lm = media.map_or(LightMedium::Fixed(None), LightMedium::Surface);
-                    light_media.resize(lights.len(), lm);
-                    Some(base)
-                }
-                _ => None,
-            };
-            out_info.push(ShapeInfo { material, area_light_base, media });
-            out.push(shape);
-        }
-        Ok((out, out_info))
-    };
-    let (world_shapes, world_info) = object_shapes(&desc.shapes, Some((lights, light_media)))?;
+    let mut alphas: Vec<FloatTexture> = vec![];
+    let mut object_shapes =
+        |shapes: &[ShapeEntity], lights: Option<(&mut Vec<Light>, &mut Vec<LightMedium>)>| -> Result<ObjectShapes> {
+            let mut lights = lights;
+            let (mut out, mut out_info, mut out_alpha) = (vec![], vec![], vec![]);
+            // The geometry of every shape (PLY files read and decoded, vertices transformed) is made on all
+            // cores; the results are then taken in file order, so the first error in the file is the one reported.
+            let built: Vec<Result<Option<Shape>>> = shapes.par_iter().map(make_shape).collect();
+            for (se, shape) in shapes.iter().zip(built) {
+                let alpha = shape_alpha(textures, &se.entity.params, &se.entity.loc)?;
+                let Some(shape) = shape? else { continue };
+                let material = materials.index(&se.material, &se.entity.loc)?;
+                let inside = named_media.of(&se.inside_medium, &se.entity.loc)?;
+                let outside = named_media.of(&se.outside_medium, &se.entity.loc)?;
+                let media = (inside.is_some() || outside.is_some() || material == NO_MATERIAL)
+                    .then_some(MediumInterface { inside, outside });
+                let area_light_base = match (&se.area_light, lights.as_mut()) {
+                    (Some(al), Some((lights, light_media))) => {
+                        let base = area_lights(al, &shape, &alpha, lights)?;
+                        // Emission leaves into the shape's media (none named: vacuum, as pbrt-v4's "").
+                        let lm = media.map_or(LightMedium::Fixed(None), LightMedium::Surface);
+                        light_media.resize(lights.len(), lm);
+                        Some(base)
+                    }
+                    _ => None,
+                };
+                out_alpha.push(match alpha {
+                    // Rays never meet a shape of alpha 0: it stays out of the BVH (its light, if any, is made above).
+                    ShapeAlpha::Invisible => continue,
+                    ShapeAlpha::Opaque => None,
+                    ShapeAlpha::CutOut(t) => {
+                        alphas.push(t);
+                        Some(alphas.len() as u32 - 1)
+                    }
+                });
+                triangles += shape_triangles(&shape);
+                out_info.push(ShapeInfo { material, area_light_base, media });
+                out.push(shape);
+            }
+            Ok((out, out_info, out_alpha))
+        };
+    let (world_shapes, world_info, world_alpha) = object_shapes(&desc.shapes, Some((lights, light_media)))?;
     let mut objects = vec![Object::new(world_shapes)];
     let mut info = vec![world_info];
+    let mut alpha_of = vec![world_alpha];
     let mut object_index: HashMap<&str, u32> = HashMap::new();
     for od in &desc.objects {
-        let (shapes, oinfo) = object_shapes(&od.shapes, None)?;
+        let (shapes, oinfo, oalpha) = object_shapes(&od.shapes, None)?;
         object_index.insert(od.name.as_str(), objects.len() as u32);
         objects.push(Object::new(shapes));
         info.push(oinfo);
+        alpha_of.push(oalpha);
     }
     let mut instances = vec![Instance { object: 0, render_from_instance: Transform::IDENTITY }];
     for iu in &desc.instances {
@@ -96,7 +141,8 @@ pub(super) fn make_geometry(
         accel.bounds()
     };
     let (_, scene_radius) = if bounds.is_empty() { (Vec3::ZERO, 1.0) } else { bounds.bounding_sphere() };
-    Ok(BuiltGeometry { geometry: SceneGeometry::new(accel, info), triangles, scene_radius })
+    let geometry = SceneGeometry::with_alpha(accel, info, alphas, alpha_of);
+    Ok(BuiltGeometry { geometry, triangles, scene_radius })
 }
 
 fn shape_triangles(s: &Shape) -> usize {

@@ -72,6 +72,8 @@ struct Vertex {
     kind: Kind,
     p: Vec3,
     p_error: Vec3,
+    /// Surface coordinates (for an emitter's alpha test).
+    uv: Vec2,
     /// Geometric normal (zero where there is no surface: point lights, pinhole camera, lights at infinity).
     ng: Vec3,
     /// Shading normal.
@@ -109,6 +111,7 @@ impl Vertex {
             kind,
             p,
             p_error: Vec3::ZERO,
+            uv: Vec2::ZERO,
             ng,
             ns: ng,
             frame: Frame::from_z(if ng == Vec3::ZERO { Vec3::Z } else { ng }),
@@ -289,7 +292,7 @@ impl Vertex {
                 l
             }
             Kind::Surface => match (self.area_light, (v.p - self.p).try_normalize()) {
-                (Some(li), Some(w)) => scene.lights[li as usize].l_area(self.ng, w, wl),
+                (Some(li), Some(w)) => scene.lights[li as usize].l_area(self.p, self.uv, self.ng, w, wl),
                 _ => SampledSpectrum::zero(),
             },
             _ => SampledSpectrum::zero(),
@@ -406,7 +409,9 @@ impl BdptIntegrator {
         let light = self.light_subpath(scene, wl, &mut mis, light_sampler, counts);
         let mut l = SampledSpectrum::zero();
         for t in 1..=camera.len() {
-            for s in 0..=light.len() {
+            // s = 1 samples its own light point, so it runs even when the light subpath is empty (a light path
+            // that started on a point an alpha cut-out masks): the MIS weights count on it.
+            for s in 0..=light.len().max(1) {
                 let depth = s as i64 + t as i64 - 2;
                 if (s == 1 && t == 1) || depth < 0 || depth > self.max_depth as i64 {
                     continue;
@@ -654,6 +659,7 @@ impl BdptIntegrator {
                 kind: Kind::Surface,
                 p: hit.p,
                 p_error: hit.p_error,
+                uv: hit.uv,
                 ng: hit.n,
                 ns: hit.ns,
                 frame,
@@ -850,7 +856,7 @@ impl BdptIntegrator {
         let qs: Option<&Vertex> = if s == 0 {
             None
         } else if s == 1 {
-            Some(sampled.unwrap_or(&light[0]))
+            sampled.or(light.first())
         } else {
             Some(&light[s - 1])
         };
@@ -861,7 +867,11 @@ impl BdptIntegrator {
         // Densities of the camera subpath (index i < t) and light subpath (i < s) with the four vertices around
         // the connection updated for this strategy.
         let mut cam: Vec<(f32, f32, bool)> = camera[..t].iter().map(|v| (v.pdf_fwd, v.pdf_rev, v.delta)).collect();
-        let mut lig: Vec<(f32, f32, bool)> = light[..s].iter().map(|v| (v.pdf_fwd, v.pdf_rev, v.delta)).collect();
+        let mut lig: Vec<(f32, f32, bool)> = if s == 1 {
+            vec![(0.0, 0.0, false)]
+        } else {
+            light[..s].iter().map(|v| (v.pdf_fwd, v.pdf_rev, v.delta)).collect()
+        };
         if t == 1 {
             cam[0] = (pt.pdf_fwd, pt.pdf_rev, pt.delta);
         }

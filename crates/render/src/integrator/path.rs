@@ -135,7 +135,7 @@ impl PathIntegrator {
             // Emission from an area light that was hit.
             if let Some(li) = hit.area_light {
                 let light = &scene.lights[li as usize];
-                let le = light.l_area(hit.n, -d, wl);
+                let le = light.l_area(hit.p, hit.uv, hit.n, -d, wl);
                 if !le.is_black() {
                     if st.depth == 0 || st.specular_bounce {
                         l += st.beta * le;
@@ -164,7 +164,8 @@ impl PathIntegrator {
             let wo = frame.to_local(-d);
             // Next-event estimation.
             if !bxdf.is_specular() {
-                l += st.beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, &u, DirectLight::Mis, counts);
+                let (mis, medium) = (DirectLight::Mis, st.ray.medium);
+                l += st.beta * sample_direct_light(scene, &hit, medium, &frame, &bxdf, wo, wl, &u, mis, counts);
             }
             let mode = TransportMode::Radiance;
             // A dispersive refraction splits the path into one branch per carried wavelength (each at its full

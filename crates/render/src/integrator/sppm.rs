@@ -414,7 +414,7 @@ impl SppmIntegrator {
             };
             ray.attenuate(scene, &hit, wl, &mut beta);
             if let Some(li) = hit.area_light {
-                ld += beta * scene.lights[li as usize].l_area(hit.n, -d, wl);
+                ld += beta * scene.lights[li as usize].l_area(hit.p, hit.uv, hit.n, -d, wl);
             }
             let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
                 Bounce::PassedThrough => continue,
@@ -429,7 +429,7 @@ impl SppmIntegrator {
             let wo = frame.to_local(-d);
             if !bxdf.is_specular() {
                 let weighting = DirectLight::LightSamplingOnly;
-                ld += beta * sample_direct_light(scene, &hit, &frame, &bxdf, wo, wl, &u, weighting, counts);
+                ld += beta * sample_direct_light(scene, &hit, ray.medium, &frame, &bxdf, wo, wl, &u, weighting, counts);
                 let vp = VisiblePoint { p: hit.p, at: VisibleAt::Surface { frame, wo, bxdf }, beta, wl: *wl };
                 return (Some(vp), ld);
             }
@@ -522,7 +522,7 @@ impl SppmIntegrator {
                 return (None, ld);
             };
             if let Some(li) = hit.area_light {
-                ld += beta * scene.lights[li as usize].l_area(hit.n, -d, wl) / mis.average(r_u);
+                ld += beta * scene.lights[li as usize].l_area(hit.p, hit.uv, hit.n, -d, wl) / mis.average(r_u);
             }
             let arrived_in = ray.medium;
             let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {

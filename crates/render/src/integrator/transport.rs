@@ -34,14 +34,16 @@ pub(crate) enum DirectLight {
     LightSamplingOnly,
 }
 
-/// Next-event estimation at a surface: picks a light and a point on it with the bounce's connection numbers, and
-/// returns
-/// its contribution `f·|cos|·L / p` (weighted as `weighting` says; delta lights always unweighted), or zero if
-/// occluded.
+/// Next-event estimation at a surface reached through `medium`: picks a light and a point on it with the bounce's
+/// connection numbers, and returns its contribution `f·|cos|·L·Tr / p` (weighted as `weighting` says; delta lights
+/// always unweighted), or zero if occluded. Tr is the Beer–Lambert transmittance of the media that only absorb
+/// along the shadow ray, which starts in the medium on the light's side of the surface (see
+/// [`absorbing_transmittance`]).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn sample_direct_light(
     scene: &RenderScene,
     hit: &SurfaceHit,
+    medium: Option<u32>,
     frame: &Frame,
     bxdf: &Bxdf,
     wo: Vec3,
@@ -65,12 +67,22 @@ pub(crate) fn sample_direct_light(
         return SampledSpectrum::zero();
     }
     let origin = hit.spawn_origin(ls.wi);
-    counts.shadow += 1;
-    // Stop just short of the light's surface (pbrt's ShadowEpsilon, relative).
-    let t_max = if ls.dist.is_finite() { (ls.p - origin).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-    if scene.geometry.occluded(origin, ls.wi, t_max) {
-        return SampledSpectrum::zero();
-    }
+    let f = if scene.media.is_empty() {
+        counts.shadow += 1;
+        // Stop just short of the light's surface (pbrt's ShadowEpsilon, relative).
+        let t_max = if ls.dist.is_finite() { (ls.p - origin).length() * (1.0 - 1e-4) } else { f32::INFINITY };
+        if scene.geometry.occluded(origin, ls.wi, t_max) {
+            return SampledSpectrum::zero();
+        }
+        f
+    } else {
+        let target = if ls.dist.is_finite() { ShadowTarget::Point(ls.p) } else { ShadowTarget::Direction(ls.wi) };
+        let medium = next_medium(hit, ls.wi, medium);
+        let Some(tr) = absorbing_transmittance(scene, origin, target, medium, wl, counts) else {
+            return SampledSpectrum::zero();
+        };
+        f * tr
+    };
     let p_l = p_sel * ls.pdf;
     if ls.delta || weighting == DirectLight::LightSamplingOnly {
         f * ls.l * (1.0 / p_l)
@@ -78,6 +90,48 @@ pub(crate) fn sample_direct_light(
         let p_b = bxdf.pdf(wo, wi_local, TransportMode::Radiance);
         f * ls.l * (power_heuristic(p_l, p_b) / p_l)
     }
+}
+
+/// The transmittance of a shadow ray from `origin` (in `medium`) to `target` for the integrators that render only
+/// media that absorb (`path`, and photon mapping's camera paths where no medium scatters): `None` if a surface with
+/// a material blocks it, otherwise the product of exp(−σa·d) over the absorbing media it crosses, through
+/// material-less boundaries. Media that scatter count as vacuum, as they do along these integrators' paths
+/// ([`PathRay::attenuate`]).
+fn absorbing_transmittance(
+    scene: &RenderScene,
+    mut origin: Vec3,
+    target: ShadowTarget,
+    mut medium: Option<u32>,
+    wl: &SampledWavelengths,
+    counts: &mut RayCounts,
+) -> Option<SampledSpectrum> {
+    let mut tr = SampledSpectrum::splat(1.0);
+    for _ in 0..=MAX_SHADOW_CROSSINGS {
+        let (d, t_max) = match target {
+            ShadowTarget::Point(p) => {
+                let to = p - origin;
+                let len = to.length();
+                // Stop just short of the target (pbrt's ShadowEpsilon, relative).
+                (to / len, len * (1.0 - 1e-4))
+            }
+            ShadowTarget::Direction(d) => (d, f32::INFINITY),
+        };
+        if t_max.is_nan() || t_max <= 0.0 {
+            return Some(tr);
+        }
+        counts.shadow += 1;
+        let hit = scene.geometry.intersect(origin, d, t_max);
+        if hit.is_some_and(|h| h.material != NO_MATERIAL) {
+            return None;
+        }
+        if let Some(m) = medium {
+            tr *= scene.media[m as usize].absorption_transmittance(hit.map_or(t_max, |h| h.t), wl);
+        }
+        let Some(h) = hit else { return Some(tr) };
+        medium = next_medium(&h, d, medium);
+        origin = h.spawn_origin(d);
+    }
+    None
 }
 
 /// The start of a light path: a light chosen by power, and a ray of light leaving it.

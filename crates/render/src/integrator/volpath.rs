@@ -294,7 +294,7 @@ impl VolPathIntegrator {
             // Emission from an area light that was hit.
             if let Some(li) = hit.area_light {
                 let light = &scene.lights[li as usize];
-                let le = light.l_area(hit.n, -d, wl);
+                let le = light.l_area(hit.p, hit.uv, hit.n, -d, wl);
                 if !le.is_black() {
                     if st.depth == 0 || st.specular_bounce {
                         l += st.beta * le / st.mis.average(st.r_u);
