@@ -26,6 +26,7 @@
 #![warn(missing_docs)]
 
 pub mod builder;
+pub mod bump;
 pub mod bxdf;
 pub mod camera;
 pub mod integrator;

@@ -5,6 +5,7 @@ use geometry::GeometryScene;
 use glam::{Vec2, Vec3};
 use spectral::Distribution1D;
 
+use crate::bump::NormalPerturbation;
 use crate::camera::Camera;
 use crate::light::Light;
 use crate::material::Material;
@@ -60,6 +61,10 @@ pub struct SurfaceHit {
     pub uv: Vec2,
     /// Tangent for the shading frame.
     pub dpdu: Vec3,
+    /// pbrt-v4's shading ∂p/∂u (not normalised; see [`geometry::Hit::shading_dpdu`]), for bump and normal maps.
+    pub shading_dpdu: Vec3,
+    /// pbrt-v4's shading ∂p/∂v (not normalised).
+    pub shading_dpdv: Vec3,
     /// Conservative absolute error bound of each coordinate of `p` (for spawning rays that cannot re-hit).
     pub p_error: Vec3,
     /// Material index, or [`NO_MATERIAL`].
@@ -124,6 +129,8 @@ impl Geometry for SceneGeometry {
             ns: hit.ns,
             uv: hit.uv,
             dpdu: hit.tangent,
+            shading_dpdu: hit.shading_dpdu,
+            shading_dpdv: hit.shading_dpdv,
             p_error: hit.p_error,
             material: info.material,
             area_light: info.area_light_base.map(|b| b + hit.element),
@@ -148,6 +155,8 @@ pub struct RenderScene {
     pub geometry: Box<dyn Geometry>,
     /// Materials, indexed by [`SurfaceHit::material`].
     pub materials: Vec<Material>,
+    /// Each material's bump or normal map, indexed like `materials` (empty, or `None`, for none).
+    pub normal_perturbations: Vec<Option<NormalPerturbation>>,
     /// Lights.
     pub lights: Vec<Light>,
     /// Light selection by power (None when there are no lights).
@@ -194,6 +203,7 @@ impl RenderScene {
             scattering_media,
             geometry,
             materials,
+            normal_perturbations: vec![],
             lights,
             light_distribution,
             infinite_lights,

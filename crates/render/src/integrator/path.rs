@@ -73,7 +73,7 @@ impl Radiance for PathIntegrator {
         let mut ray = PathRay::new(o, d, scene.camera_medium);
         loop {
             let d = ray.d;
-            let Some(hit) = ray.intersect(scene, counts) else {
+            let Some(mut hit) = ray.intersect(scene, counts) else {
                 // Escaped: infinite lights, weighted against the BSDF sample that found them.
                 for &li in &scene.infinite_lights {
                     let light = &scene.lights[li as usize];
@@ -104,7 +104,7 @@ impl Radiance for PathIntegrator {
                     }
                 }
             }
-            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut ray, wl, sampler) {
                 // A boundary between media does not count as a bounce.
                 Bounce::PassedThrough => continue,
                 Bounce::Stop | Bounce::Absorb => break,

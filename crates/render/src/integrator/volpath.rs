@@ -234,7 +234,7 @@ impl Radiance for VolPathIntegrator {
                 }
             }
             let d = ray.d;
-            let Some(hit) = hit else {
+            let Some(mut hit) = hit else {
                 // Escaped: infinite lights.
                 for &li in &scene.infinite_lights {
                     let light = &scene.lights[li as usize];
@@ -265,7 +265,7 @@ impl Radiance for VolPathIntegrator {
                 }
             }
             let arrived_in = ray.medium;
-            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut ray, wl, sampler) {
                 Bounce::PassedThrough => continue,
                 Bounce::Stop | Bounce::Absorb => break,
                 Bounce::Scatter(bxdf, u) => (bxdf, u),
