@@ -524,6 +524,85 @@ fn open_read(path: &Path) -> Result<Vec<u8>, ImageError> {
 /// Reads a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette; alpha ignored), decoding the sRGB transfer
 /// function: (width, height, linear pixels row-major from the top).
 pub fn read_png_linear(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
+    let png = read_png_samples(path)?;
+    let lut8: Vec<f32> = (0..256).map(|v| spectral::color::srgb_decode(v as f64 / 255.0) as f32).collect();
+    let decode = |v: u16| {
+        if png.sixteen {
+            spectral::color::srgb_decode(v as f64 / 65535.0) as f32
+        } else {
+            lut8[v as usize]
+        }
+    };
+    Ok((png.width, png.height, png.samples.iter().map(|s| s.map(decode)).collect()))
+}
+
+/// How the integer samples of an 8- or 16-bit image become linear values (pbrt-v4's `ColorEncoding`, the
+/// `"string encoding"` of image textures).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ColorEncoding {
+    /// v/max as is.
+    Linear,
+    /// The sRGB transfer function (IEC 61966-2-1) undone.
+    Srgb,
+    /// (v/max)^γ.
+    Gamma(f32),
+}
+
+impl ColorEncoding {
+    /// The linear value of a stored value `v` in [0, 1].
+    pub fn to_linear(self, v: f64) -> f64 {
+        match self {
+            ColorEncoding::Linear => v,
+            ColorEncoding::Srgb => spectral::color::srgb_decode(v),
+            ColorEncoding::Gamma(g) => v.max(0.0).powf(g as f64),
+        }
+    }
+}
+
+/// Reads an RGB image for a texture, with `encoding` turning the samples of integer formats (PNG, 8 or 16 bit)
+/// into linear values as pbrt-v4 does (TGA: 8-bit); float formats (EXR, PFM) are linear and ignore it. With
+/// [`ColorEncoding::Srgb`] this returns what [`read_rgb`] does.
+pub fn read_rgb_encoded(path: &Path, encoding: ColorEncoding) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("tga")) {
+        // TGA holds 8-bit samples only: the encoding decodes all of them.
+        let image = crate::tga::read_tga(path)?;
+        let lut: Vec<f32> = (0..256).map(|v| encoding.to_linear(v as f64 / 255.0) as f32).collect();
+        return Ok((image.width, image.height, crate::tga::samples_to_rgb(&image, &lut)));
+    }
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Png => {
+            let png = read_png_samples(path)?;
+            let max = if png.sixteen { 65535.0 } else { 255.0 };
+            let lut: Vec<f32> = if png.sixteen {
+                Vec::new()
+            } else {
+                (0..256).map(|v| encoding.to_linear(v as f64 / max) as f32).collect()
+            };
+            let decode = |v: u16| {
+                if png.sixteen {
+                    encoding.to_linear(v as f64 / max) as f32
+                } else {
+                    lut[v as usize]
+                }
+            };
+            Ok((png.width, png.height, png.samples.iter().map(|s| s.map(decode)).collect()))
+        }
+        _ => read_rgb(path),
+    }
+}
+
+/// A PNG's samples as stored (grey replicated to three channels, alpha dropped).
+struct PngSamples {
+    width: u32,
+    height: u32,
+    /// 16-bit samples (else 8-bit).
+    sixteen: bool,
+    /// Row-major from the top.
+    samples: Vec<[u16; 3]>,
+}
+
+/// Decodes a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette) without touching the samples' values.
+fn read_png_samples(path: &Path) -> Result<PngSamples, ImageError> {
     let png_err = |e: png::DecodingError| ImageError::Png { path: path.to_path_buf(), message: e.to_string() };
     let file = File::open(path).map_err(io_err(path))?;
     let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
@@ -551,7 +630,6 @@ pub fn read_png_linear(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageEr
             })
         }
     };
-    let lut8: Vec<f32> = (0..256).map(|v| spectral::color::srgb_decode(v as f64 / 255.0) as f32).collect();
     let bytes_per_sample = if sixteen { 2 } else { 1 };
     let stride = info.line_size;
     let n = w as usize * h as usize;
@@ -561,19 +639,18 @@ pub fn read_png_linear(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageEr
             .get(y * stride..(y + 1) * stride)
             .ok_or_else(|| ImageError::Malformed { path: path.to_path_buf(), message: "short image data".into() })?;
         for x in 0..w as usize {
-            let sample = |c: usize| -> f32 {
+            let sample = |c: usize| -> u16 {
                 let o = (x * channels + c) * bytes_per_sample;
                 if sixteen {
-                    let v = u16::from_be_bytes([line[o], line[o + 1]]);
-                    spectral::color::srgb_decode(v as f64 / 65535.0) as f32
+                    u16::from_be_bytes([line[o], line[o + 1]])
                 } else {
-                    lut8[line[o] as usize]
+                    line[o] as u16
                 }
             };
             out.push(if channels < 3 { [sample(0); 3] } else { [sample(0), sample(1), sample(2)] });
         }
     }
-    Ok((w, h, out))
+    Ok(PngSamples { width: w, height: h, sixteen, samples: out })
 }
 
 /// Reads a PFM (`PF` colour or `Pf` grey, either byte order; values multiplied by |scale| when it is not 1):
@@ -642,5 +719,53 @@ pub fn read_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
         ImageFormat::Exr => read_exr_rgb(path),
         ImageFormat::Png => read_png_linear(path),
         ImageFormat::Pfm => read_pfm(path),
+    }
+}
+
+#[cfg(test)]
+mod encoding_tests {
+    use super::*;
+
+    /// Writes a PNG of `width`×1 pixels with the given raw samples (8 or 16 bit, RGB or grey).
+    fn write_png(path: &Path, width: u32, color: png::ColorType, depth: png::BitDepth, data: &[u8]) {
+        let file = File::create(path).unwrap();
+        let mut enc = png::Encoder::new(BufWriter::new(file), width, 1);
+        enc.set_color(color);
+        enc.set_depth(depth);
+        enc.write_header().unwrap().write_image_data(data).unwrap();
+    }
+
+    #[test]
+    fn encoding_decides_what_integer_samples_mean() {
+        let dir = std::env::temp_dir().join(format!("prismatic-encoding-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let p8 = dir.join("rgb8.png");
+        write_png(&p8, 2, png::ColorType::Rgb, png::BitDepth::Eight, &[128, 64, 255, 0, 10, 200]);
+        let raw: [[f64; 3]; 2] = [[128.0, 64.0, 255.0], [0.0, 10.0, 200.0]];
+        let read = |e| read_rgb_encoded(&p8, e).unwrap().2;
+        let (lin, srgb, gamma) =
+            (read(ColorEncoding::Linear), read(ColorEncoding::Srgb), read(ColorEncoding::Gamma(2.2)));
+        for (i, px) in raw.iter().enumerate() {
+            for c in 0..3 {
+                let v = px[c] / 255.0;
+                assert_eq!(lin[i][c], v as f32, "linear is v/255");
+                assert!((gamma[i][c] as f64 - v.powf(2.2)).abs() < 1e-6);
+                // sRGB by its definition (IEC 61966-2-1), independently of the decoder used above.
+                let s = if v <= 0.04045 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) };
+                assert!((srgb[i][c] as f64 - s).abs() < 1e-6);
+            }
+        }
+        // 128 in sRGB is 0.2158605, linearly 0.5019608: the two readings of the same byte differ by 2.3×.
+        assert!((srgb[0][0] - 0.215_860_5).abs() < 1e-6 && (lin[0][0] - 0.501_960_8).abs() < 1e-6);
+        // sRGB is what read_rgb (and read_png_linear) return, bit for bit.
+        assert_eq!(read_rgb(&p8).unwrap().2, srgb);
+        // 16-bit grey goes through the encoding too (pbrt-v4 decodes 16-bit PNG samples with it).
+        let p16 = dir.join("grey16.png");
+        write_png(&p16, 1, png::ColorType::Grayscale, png::BitDepth::Sixteen, &32768u16.to_be_bytes());
+        let v: f64 = 32768.0 / 65535.0;
+        assert_eq!(read_rgb_encoded(&p16, ColorEncoding::Linear).unwrap().2, vec![[v as f32; 3]]);
+        let g = read_rgb_encoded(&p16, ColorEncoding::Gamma(2.2)).unwrap().2[0][1] as f64;
+        assert!((g - v.powf(2.2)).abs() < 1e-6);
+        fs::remove_dir_all(&dir).ok();
     }
 }

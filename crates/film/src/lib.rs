@@ -46,3 +46,4 @@ pub use image_io::{
     parse_spectral_channel_name, read_exr_aovs, read_exr_rgb, read_exr_spectral, read_pfm, read_png_linear, read_rgb,
     spectral_channel_name, write_image, write_rgb, ImageFormat, SpectralImage,
 };
+pub use image_io::{read_rgb_encoded, ColorEncoding};

@@ -152,6 +152,12 @@ pub fn read_tga(path: &Path) -> Result<Image8, ImageError> {
 /// repeated in R, G and B and alpha is ignored. Pixels row-major from the top.
 pub fn srgb8_to_linear(image: &Image8) -> Vec<[f32; 3]> {
     let lut: Vec<f32> = (0..256).map(|v| spectral::color::srgb_decode(v as f64 / 255.0) as f32).collect();
+    samples_to_rgb(image, &lut)
+}
+
+/// RGB pixels from 8-bit samples through a 256-entry table (a colour encoding's decode): grey is repeated in R, G
+/// and B and alpha is ignored. Pixels row-major from the top.
+pub fn samples_to_rgb(image: &Image8, lut: &[f32]) -> Vec<[f32; 3]> {
     image
         .data
         .chunks_exact(image.channels)

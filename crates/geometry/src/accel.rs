@@ -71,6 +71,13 @@ pub struct Hit {
     pub dpdu: Vec3,
     /// Unit tangent perpendicular to `ns` (∂p/∂u made orthogonal to `ns`), for shading frames.
     pub tangent: Vec3,
+    /// pbrt-v4's shading ∂p/∂u (not normalized): ∂p/∂u, or for meshes with vertex normals ∂p/∂u turned to `ns`
+    /// (triangles: made perpendicular to `ns`; bilinear patches: rotated with the normal), as pbrt-v4's shapes set
+    /// it. Bump and normal mapping perturb these.
+    pub shading_dpdu: Vec3,
+    /// pbrt-v4's shading ∂p/∂v (not normalized): ∂p/∂v, or for triangles with vertex normals `ns × ∂p/∂u`, for
+    /// bilinear patches with vertex normals ∂p/∂v rotated with the normal.
+    pub shading_dpdv: Vec3,
     /// The instance hit (index into the `instances` given to [`GeometryScene::build`]).
     pub instance: u32,
     /// The object of that instance (index into the `objects`).
@@ -413,7 +420,16 @@ impl InstanceData {
         if ns.dot(n) < 0.0 {
             ns = -ns;
         }
-        SurfaceGeom { p, p_error, n, ns, uv: g.uv, dpdu: self.linear * g.dpdu }
+        SurfaceGeom {
+            p,
+            p_error,
+            n,
+            ns,
+            uv: g.uv,
+            dpdu: self.linear * g.dpdu,
+            shading_dpdu: self.linear * g.shading_dpdu,
+            shading_dpdv: self.linear * g.shading_dpdv,
+        }
     }
 }
 
@@ -552,6 +568,8 @@ impl GeometryScene {
             uv: g.uv,
             dpdu: g.dpdu,
             tangent,
+            shading_dpdu: g.shading_dpdu,
+            shading_dpdv: g.shading_dpdv,
             instance: c.instance,
             object: inst.object,
             primitive: c.prim,

@@ -224,8 +224,9 @@ impl IndexedMesh<4> {
         if self.flip_normal() {
             n = -n;
         }
-        // Texture coordinates and ∂p/∂s in texture space: [∂p/∂u ∂p/∂v] = [∂p/∂s ∂p/∂t]·J, J = ∂(s,t)/∂(u,v).
-        let (tex_uv, mut dpds) = match self.uvs() {
+        // Texture coordinates and ∂p/∂s, ∂p/∂t in texture space: [∂p/∂u ∂p/∂v] = [∂p/∂s ∂p/∂t]·J,
+        // J = ∂(s,t)/∂(u,v).
+        let (tex_uv, mut dpds, mut dpdt) = match self.uvs() {
             Some(uvs) => {
                 let t = self.patch(k).map(|i| uvs[i as usize].as_dvec2());
                 let st = bilerp(t, u, v);
@@ -233,25 +234,47 @@ impl IndexedMesh<4> {
                 let dstdv = (t[2] - t[0]).lerp(t[3] - t[1], u);
                 let det = dstdu.x * dstdv.y - dstdv.x * dstdu.y;
                 let dpds = (dpdu * dstdv.y - dpdv * dstdu.y) / det;
-                let dpds = if det.abs() > 1e-12 && dpds.is_finite() { dpds } else { dpdu };
-                (st.as_vec2(), dpds)
+                let dpdt = (dpdv * dstdu.x - dpdu * dstdv.x) / det;
+                if det.abs() > 1e-12 && dpds.is_finite() && dpdt.is_finite() {
+                    (st.as_vec2(), dpds, dpdt)
+                } else {
+                    (st.as_vec2(), dpdu, dpdv)
+                }
             }
-            None => (uv, dpdu),
+            None => (uv, dpdu, dpdv),
         };
         if dpds.length_squared() == 0.0 {
             dpds = coordinate_system(n).0.as_dvec3();
         }
+        if dpdt.length_squared() == 0.0 {
+            dpdt = n.as_dvec3().cross(dpds);
+        }
         let mut ns = n;
+        let (mut shading_dpdu, mut shading_dpdv) = (dpds.as_vec3(), dpdt.as_vec3());
         if let Some(normals) = self.normals() {
             let nv = self.patch(k).map(|i| normals[i as usize]);
             if let Some(m) = bilerp(nv.map(|x| x.as_dvec3()), u, v).as_vec3().try_normalize() {
                 ns = m;
+                // pbrt-v4's BilinearPatch: ∂p/∂u and ∂p/∂v turn with the normal (a rotation about n × ns taking n
+                // to ns), then ∂p/∂u is made perpendicular to ns.
+                let (nd, nsd) = (n.as_dvec3(), ns.as_dvec3());
+                let axis = nd.cross(nsd);
+                if axis.length_squared() > 1e-14 {
+                    let axis = axis.normalize();
+                    let cos = nd.dot(nsd).clamp(-1.0, 1.0);
+                    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+                    // Rodrigues' rotation formula.
+                    let rot = |w: DVec3| w * cos + axis.cross(w) * sin + axis * axis.dot(w) * (1.0 - cos);
+                    let (su, sv) = (rot(dpds), rot(dpdt));
+                    shading_dpdu = (su - nsd * su.dot(nsd)).as_vec3();
+                    shading_dpdv = sv.as_vec3();
+                }
                 if n.dot(ns) < 0.0 {
                     n = -n;
                 }
             }
         }
-        SurfaceGeom { p: p.as_vec3(), p_error, n, ns, uv: tex_uv, dpdu: dpds.as_vec3() }
+        SurfaceGeom { p: p.as_vec3(), p_error, n, ns, uv: tex_uv, dpdu: dpds.as_vec3(), shading_dpdu, shading_dpdv }
     }
 
     /// Corner area elements of patch `k`, the weights of the bilinear density used to sample it.
@@ -371,6 +394,14 @@ mod tests {
         let uvs = vec![Vec2::ZERO, Vec2::new(2.0, 0.0), Vec2::new(0.0, 3.0), Vec2::new(2.0, 3.0)];
         let g = square(None, Some(uvs), false).geom(0, Vec2::new(0.25, 0.5));
         assert!((g.uv - Vec2::new(0.5, 1.5)).length() < 1e-6 && (g.dpdu - 0.5 * Vec3::X).length() < 1e-6);
+        assert!((g.shading_dpdu - 0.5 * Vec3::X).length() < 1e-6 && (g.shading_dpdv - Vec3::Y / 3.0).length() < 1e-6);
+        // Tilted vertex normals (pbrt-v4): ∂p/∂u and ∂p/∂v rotate with the normal, keeping their lengths.
+        let tilted = Vec3::new(0.0, 0.6, 0.8);
+        let g = square(Some(vec![tilted; 4]), None, false).geom(0, Vec2::new(0.25, 0.5));
+        assert!(g.shading_dpdu.cross(g.shading_dpdv).dot(tilted) > 1.0 - 1e-6);
+        assert!(
+            (g.shading_dpdu - Vec3::X).length() < 1e-6 && (g.shading_dpdv - Vec3::new(0.0, 0.8, -0.6)).length() < 1e-6
+        );
         // Per-vertex normals −z: the shading normal is −z and the geometric normal is turned to its side; under
         // ReverseOrientation the normals are negated (to +z) and so is the geometric one (−z, then turned to +z).
         let g = square(Some(vec![-Vec3::Z; 4]), None, false).geom(0, Vec2::new(0.5, 0.5));

@@ -43,7 +43,7 @@ fn write_scene(dir: &Path) -> Vec<usize> {
          Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 9 \"string filename\" \"out.exr\"\n\
          Sampler \"zsobol\" \"integer pixelsamples\" 4\nIntegrator \"path\" \"integer maxdepth\" 2\nWorldBegin\n\
          LightSource \"distant\" \"point3 from\" [ 0 0 1 ] \"point3 to\" [ 0 0 0 ]\n\
-         Texture \"wood\" \"spectrum\" \"imagemap\" \"string filename\" \"wood.tga\"\n\
+         Texture \"wood\" \"spectrum\" \"imagemap\" \"string filename\" \"wood.tga\" \"string encoding\" \"sRGB\"\n\
          Material \"diffuse\" \"texture reflectance\" \"wood\"\n",
     );
     let mut lines = Vec::new();

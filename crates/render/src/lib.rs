@@ -8,9 +8,9 @@
 //!   and reads the [`Integrator`].
 //! - [`Integrator`] ([`integrator`], one file per algorithm: `path`, `lightpath`, `bdpt`, `sppm`) starts a
 //!   [`RenderJob`] that renders ranges of passes into the film and finishes into it.
-//! - Underneath: [`bxdf`], [`layered`] and [`microfacet`] (scattering models), [`material`] and [`texture`] (what
-//!   builds them at a hit), [`light`], [`camera`], [`sampler`] (the per-sample random numbers) and [`sampling`]
-//!   (warps and MIS heuristics).
+//! - Underneath: [`bxdf`], [`layered`] and [`microfacet`] (scattering models), [`material`], [`texture`] and
+//!   [`bump`] (what builds them at a hit), [`light`], [`camera`], [`sampler`] (the per-sample random numbers) and
+//!   [`sampling`] (warps and MIS heuristics).
 //!
 //! ```no_run
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -26,6 +26,7 @@
 #![warn(missing_docs)]
 
 pub mod builder;
+pub mod bump;
 pub mod bxdf;
 pub mod camera;
 pub mod integrator;

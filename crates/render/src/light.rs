@@ -151,11 +151,11 @@ pub enum Light {
     },
 }
 
-/// pbrt-v4's alpha test for a point of an emitter (`AlphaMasked`): true if the point at `p`, `uv` is cut away, where
+/// pbrt-v4's alpha test for a point of an emitter (`AlphaMasked`): true if the point at `p` (normal `n`), `uv` is cut away, where
 /// a fractional alpha keeps a point when a hash of its position does not exceed it.
-fn alpha_masked(alpha: &Option<Arc<FloatTexture>>, p: Vec3, uv: Vec2) -> bool {
+fn alpha_masked(alpha: &Option<Arc<FloatTexture>>, p: Vec3, n: Vec3, uv: Vec2) -> bool {
     let Some(t) = alpha else { return false };
-    let a = t.eval(&TextureEvalContext { uv, p });
+    let a = t.eval(&TextureEvalContext::new(p, n, uv));
     if a >= 1.0 {
         false
     } else if a <= 0.0 || a.is_nan() {
@@ -258,7 +258,7 @@ impl Light {
             }
             Light::DiffuseArea { shape, element, l, two_sided, alpha, invisible } => {
                 let ss = shape.sample_solid_angle(*element as usize, ctx.p, u)?;
-                if alpha_masked(alpha, ss.p, ss.uv) {
+                if alpha_masked(alpha, ss.p, ss.n, ss.uv) {
                     return None;
                 }
                 let (p, n, pdf) = (ss.p, ss.n, ss.pdf);
@@ -344,7 +344,7 @@ impl Light {
             }
             Light::DiffuseArea { shape, element, l, two_sided, alpha, .. } => {
                 let ss = shape.sample_area(*element as usize, u_pos)?;
-                if alpha_masked(alpha, ss.p, ss.uv) {
+                if alpha_masked(alpha, ss.p, ss.n, ss.uv) {
                     return None;
                 }
                 // Cosine-weighted about the emitting side; a two-sided emitter picks a side with probability ½.
@@ -439,7 +439,7 @@ impl Light {
     pub fn l_area(&self, p: Vec3, uv: Vec2, n: Vec3, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Light::DiffuseArea { l, two_sided, alpha, .. } => {
-                if (*two_sided || n.dot(w) > 0.0) && !alpha_masked(alpha, p, uv) {
+                if (*two_sided || n.dot(w) > 0.0) && !alpha_masked(alpha, p, n, uv) {
                     l.sample(wl)
                 } else {
                     SampledSpectrum::zero()

@@ -290,7 +290,7 @@ mod tests {
         let constant = |v: f64| SpectrumTexture::Constant(Spectrum::Constant(v));
         let m = Material::DiffuseTransmission { reflectance: constant(0.5), transmittance: constant(0.25), scale: 3.0 };
         let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
-        let ctx = TextureEvalContext { uv: Vec2::ZERO, p: Vec3::ZERO };
+        let ctx = TextureEvalContext::new(Vec3::ZERO, Vec3::Z, Vec2::ZERO);
         let Some(Bxdf::DiffuseTransmission { r, t }) = m.bxdf(&ctx, &mut wl, 0.5) else { panic!() };
         assert_eq!(r.0, [1.0; 4]);
         assert_eq!(t.0, [0.75; 4]);
@@ -301,7 +301,7 @@ mod tests {
         let sf11 = optics::catalogue::lookup("N-SF11").unwrap().ior;
         let m = Material::Dielectric { ior: DielectricIor::Model(sf11.clone()), roughness: Roughness::smooth() };
         let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
-        let ctx = TextureEvalContext { uv: Vec2::ZERO, p: Vec3::ZERO };
+        let ctx = TextureEvalContext::new(Vec3::ZERO, Vec3::Z, Vec2::ZERO);
         let Some(Bxdf::DispersiveDielectric { eta, active }) = m.bxdf(&ctx, &mut wl, 0.6) else { panic!() };
         assert_eq!(active, [true; 4], "a smooth dispersive interface keeps all wavelengths until it refracts");
         assert!((eta[2] as f64 - sf11.n(650.0)).abs() < 1e-6);

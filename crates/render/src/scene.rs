@@ -5,6 +5,7 @@ use geometry::GeometryScene;
 use glam::{Vec2, Vec3};
 use spectral::Distribution1D;
 
+use crate::bump::NormalPerturbation;
 use crate::camera::Camera;
 use crate::light::Light;
 use crate::material::Material;
@@ -61,6 +62,10 @@ pub struct SurfaceHit {
     pub uv: Vec2,
     /// Tangent for the shading frame.
     pub dpdu: Vec3,
+    /// pbrt-v4's shading ∂p/∂u (not normalised; see [`geometry::Hit::shading_dpdu`]), for bump and normal maps.
+    pub shading_dpdu: Vec3,
+    /// pbrt-v4's shading ∂p/∂v (not normalised).
+    pub shading_dpdv: Vec3,
     /// Conservative absolute error bound of each coordinate of `p` (for spawning rays that cannot re-hit).
     pub p_error: Vec3,
     /// Material index, or [`NO_MATERIAL`].
@@ -142,6 +147,8 @@ impl SceneGeometry {
             ns: hit.ns,
             uv: hit.uv,
             dpdu: hit.tangent,
+            shading_dpdu: hit.shading_dpdu,
+            shading_dpdv: hit.shading_dpdv,
             p_error: hit.p_error,
             material: info.material,
             area_light: info.area_light_base.map(|b| b + hit.element),
@@ -156,7 +163,7 @@ impl SceneGeometry {
         let Some(Some(i)) = self.alpha_of.get(hit.object as usize).and_then(|v| v.get(hit.shape as usize)) else {
             return false;
         };
-        let a = self.alphas[*i as usize].eval(&TextureEvalContext { uv: hit.uv, p: hit.p });
+        let a = self.alphas[*i as usize].eval(&TextureEvalContext::new(hit.p, hit.n, hit.uv));
         if a >= 1.0 {
             false
         } else if a <= 0.0 || a.is_nan() {
@@ -229,6 +236,8 @@ pub struct RenderScene {
     pub geometry: Box<dyn Geometry>,
     /// Materials, indexed by [`SurfaceHit::material`].
     pub materials: Vec<Material>,
+    /// Each material's bump or normal map, indexed like `materials` (empty, or `None`, for none).
+    pub normal_perturbations: Vec<Option<NormalPerturbation>>,
     /// Lights.
     pub lights: Vec<Light>,
     /// Light selection by power (None when there are no lights).
@@ -275,6 +284,7 @@ impl RenderScene {
             scattering_media,
             geometry,
             materials,
+            normal_perturbations: vec![],
             lights,
             light_distribution,
             infinite_lights,

@@ -1,17 +1,36 @@
-//! Textures: constant, checkerboard and image textures over (u, v), for scalars and spectra.
+//! Textures: pbrt-v4's float and spectrum textures (pbrt-v4 §10.3–10.6) — constant, scale, mix, directionmix,
+//! bilerp, checkerboard (2-D and 3-D), dots, fbm, wrinkled, windy, marble and image maps — with their 2-D mappings
+//! (`uv`, `spherical`, `cylindrical`, `planar`) and the 3-D mapping to texture space.
+//!
+//! Prismatic traces no ray differentials, so every texture is evaluated at a point (pbrt-v4's lookups with a
+//! vanishing filter footprint): image maps are interpolated bilinearly at full resolution, checkerboards are sharp,
+//! and noise sums all its octaves. The pixel filter's supersampling does the antialiasing; the mean over a pixel is
+//! the one pbrt-v4's filtered lookups give.
 
-use glam::{Vec2, Vec3};
-use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbUnboundedSpectrum};
-use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
 use std::sync::Arc;
 
-/// Where a texture is evaluated.
+use glam::{Affine3A, Vec2, Vec3};
+use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbUnboundedSpectrum};
+use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
+
+pub mod noise;
+
+/// Where a texture is evaluated (pbrt-v4's `TextureEvalContext` without differentials).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TextureEvalContext {
+    /// Render-space point.
+    pub p: Vec3,
+    /// Geometric normal (pbrt-v4 gives textures the surface's geometric normal, not the shading one).
+    pub n: Vec3,
     /// Surface (u, v).
     pub uv: Vec2,
-    /// World-space point.
-    pub p: Vec3,
+}
+
+impl TextureEvalContext {
+    /// A context at point `p` with geometric normal `n` and surface coordinates `uv`.
+    pub fn new(p: Vec3, n: Vec3, uv: Vec2) -> Self {
+        Self { p, n, uv }
+    }
 }
 
 /// pbrt's `uv` mapping: s = su·u + du, t = sv·v + dv.
@@ -40,7 +59,129 @@ impl UvMapping {
     }
 }
 
-/// A linear RGB image (rows top to bottom), with bilinear lookup and repeat wrapping.
+/// How a 2-D texture finds its (s, t) coordinates (pbrt-v4's `TextureMapping2D`). The matrices are the inverse of
+/// the texture's CTM: they take render space to the texture's own space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TextureMapping2D {
+    /// (s, t) from the surface's (u, v), scaled and offset.
+    Uv(UvMapping),
+    /// s = θ/π and t = φ/2π of the direction from the texture space's origin (pbrt-v4's `SphericalMapping`: s runs
+    /// from the +z pole to the −z pole).
+    Spherical(Affine3A),
+    /// s = (π + atan2(y, x))/2π around the texture space's z axis, t = z.
+    Cylindrical(Affine3A),
+    /// s = ds + p·vs, t = dt + p·vt for the texture-space point p.
+    Planar {
+        /// Render to texture space.
+        texture_from_render: Affine3A,
+        /// The s axis (`v1`).
+        vs: Vec3,
+        /// The t axis (`v2`).
+        vt: Vec3,
+        /// Offset of s (`udelta`).
+        ds: f32,
+        /// Offset of t (`vdelta`).
+        dt: f32,
+    },
+}
+
+impl TextureMapping2D {
+    /// Texture coordinates (s, t) for a context.
+    pub fn map(&self, ctx: &TextureEvalContext) -> Vec2 {
+        use std::f32::consts::PI;
+        match self {
+            TextureMapping2D::Uv(m) => m.map(ctx),
+            TextureMapping2D::Spherical(m) => {
+                let d = m.transform_point3(ctx.p).normalize_or_zero();
+                let theta = d.z.clamp(-1.0, 1.0).acos();
+                let mut phi = d.y.atan2(d.x);
+                if phi < 0.0 {
+                    phi += 2.0 * PI;
+                }
+                Vec2::new(theta / PI, phi / (2.0 * PI))
+            }
+            TextureMapping2D::Cylindrical(m) => {
+                let p = m.transform_point3(ctx.p);
+                Vec2::new((PI + p.y.atan2(p.x)) / (2.0 * PI), p.z)
+            }
+            TextureMapping2D::Planar { texture_from_render, vs, vt, ds, dt } => {
+                let p = texture_from_render.transform_point3(ctx.p);
+                Vec2::new(ds + p.dot(*vs), dt + p.dot(*vt))
+            }
+        }
+    }
+}
+
+impl Default for TextureMapping2D {
+    fn default() -> Self {
+        TextureMapping2D::Uv(UvMapping::default())
+    }
+}
+
+/// The 3-D textures' mapping: the point in the texture's own space (pbrt-v4's `PointTransformMapping`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointMapping {
+    /// Render to texture space (the inverse of the texture's CTM).
+    pub texture_from_render: Affine3A,
+}
+
+impl PointMapping {
+    /// The texture-space point for a context.
+    pub fn map(&self, ctx: &TextureEvalContext) -> Vec3 {
+        self.texture_from_render.transform_point3(ctx.p)
+    }
+}
+
+/// A checkerboard's squares: in (s, t) of a 2-D mapping, or cubes in texture space (`"integer dimension" 3`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CheckerMapping {
+    /// Squares in (s, t).
+    Planar(TextureMapping2D),
+    /// Cubes of the texture-space point.
+    Solid(PointMapping),
+}
+
+impl CheckerMapping {
+    /// True on the checks of the first texture: those whose integer coordinates sum to an even number.
+    fn even(&self, ctx: &TextureEvalContext) -> bool {
+        let sum = match self {
+            CheckerMapping::Planar(m) => {
+                let st = m.map(ctx);
+                st.x.floor() as i64 + st.y.floor() as i64
+            }
+            CheckerMapping::Solid(m) => {
+                let p = m.map(ctx);
+                p.x.floor() as i64 + p.y.floor() as i64 + p.z.floor() as i64
+            }
+        };
+        sum.rem_euclid(2) == 0
+    }
+}
+
+/// What an image lookup does outside [0, 1]² (pbrt-v4's `WrapMode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WrapMode {
+    /// The image tiles the plane.
+    Repeat,
+    /// Zero outside the image.
+    Black,
+    /// The nearest edge texel.
+    Clamp,
+    /// Each edge folded at its midpoint, continuing an equal-area octahedral sphere map across its seams.
+    OctahedralSphere,
+}
+
+/// How an image texture is sampled between texels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFilter {
+    /// The nearest texel (pbrt-v4's `point`).
+    Point,
+    /// Bilinear interpolation between the four nearest texel centres (pbrt-v4's `bilinear`; `trilinear` and `ewa`
+    /// too, which without a filter footprint are bilinear lookups at full resolution, as in pbrt-v4).
+    Bilinear,
+}
+
+/// A linear RGB image (rows top to bottom), with bilinear and nearest lookups under a wrap mode.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RgbImage {
     /// Width in pixels.
@@ -52,20 +193,94 @@ pub struct RgbImage {
 }
 
 impl RgbImage {
-    /// Bilinear lookup at texture coordinates `st` (t = 0 at the top row, as pbrt flips images on load).
+    /// Texel (x, y) (row 0 at the top) under `wrap`.
+    pub fn texel(&self, x: i64, y: i64, wrap: WrapMode) -> [f32; 3] {
+        let (w, h) = (self.width as i64, self.height as i64);
+        if w == 0 || h == 0 {
+            return [0.0; 3];
+        }
+        let (x, y) = match wrap {
+            WrapMode::Repeat => (x.rem_euclid(w), y.rem_euclid(h)),
+            WrapMode::Clamp => (x.clamp(0, w - 1), y.clamp(0, h - 1)),
+            WrapMode::Black => {
+                if x < 0 || y < 0 || x >= w || y >= h {
+                    return [0.0; 3];
+                }
+                (x, y)
+            }
+            WrapMode::OctahedralSphere => crate::light::octahedral_wrap(x, y, w, h),
+        };
+        self.pixels[(y * w + x) as usize]
+    }
+
+    /// Bilinear lookup at texture coordinates `st` with repeat wrapping (t = 0 at the bottom row: pbrt flips
+    /// images, whose first row is the top, on lookup).
     pub fn bilerp(&self, st: Vec2) -> [f32; 3] {
+        self.bilerp_wrapped(st, WrapMode::Repeat)
+    }
+
+    /// Bilinear lookup at `st` between texel centres, under `wrap`.
+    pub fn bilerp_wrapped(&self, st: Vec2, wrap: WrapMode) -> [f32; 3] {
         let x = st.x * self.width as f32 - 0.5;
         let y = (1.0 - st.y) * self.height as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let texel = |xi: i64, yi: i64| {
-            let xi = xi.rem_euclid(self.width as i64) as usize;
-            let yi = yi.rem_euclid(self.height as i64) as usize;
-            self.pixels[yi * self.width + xi]
-        };
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let (a, b, c, d) = (texel(x0, y0), texel(x0 + 1, y0), texel(x0, y0 + 1), texel(x0 + 1, y0 + 1));
+        let a = self.texel(x0, y0, wrap);
+        let b = self.texel(x0 + 1, y0, wrap);
+        let c = self.texel(x0, y0 + 1, wrap);
+        let d = self.texel(x0 + 1, y0 + 1, wrap);
         std::array::from_fn(|i| (1.0 - fy) * ((1.0 - fx) * a[i] + fx * b[i]) + fy * ((1.0 - fx) * c[i] + fx * d[i]))
+    }
+
+    /// The texel nearest to `st` under `wrap` (pbrt-v4's point lookup: texel centres at half-integers).
+    pub fn nearest(&self, st: Vec2, wrap: WrapMode) -> [f32; 3] {
+        let x = (st.x * self.width as f32 - 0.5).round() as i64;
+        let y = ((1.0 - st.y) * self.height as f32 - 0.5).round() as i64;
+        self.texel(x, y, wrap)
+    }
+}
+
+/// An image map: an image looked up through a mapping, scaled and optionally inverted (pbrt-v4's `imagemap`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageTexture {
+    /// Mapping.
+    pub map: TextureMapping2D,
+    /// The image (already linear: its encoding was applied when it was read).
+    pub image: Arc<RgbImage>,
+    /// Outside [0, 1]².
+    pub wrap: WrapMode,
+    /// Between texels.
+    pub filter: ImageFilter,
+    /// Multiplier.
+    pub scale: f32,
+    /// 1 − value (clamped at zero).
+    pub invert: bool,
+}
+
+impl ImageTexture {
+    fn rgb(&self, ctx: &TextureEvalContext) -> [f32; 3] {
+        let st = self.map.map(ctx);
+        match self.filter {
+            ImageFilter::Point => self.image.nearest(st, self.wrap),
+            ImageFilter::Bilinear => self.image.bilerp_wrapped(st, self.wrap),
+        }
+    }
+
+    /// The scalar value: the channels' mean for bilinear lookups, the first channel for point lookups (pbrt-v4's
+    /// MIP map reads a float from an RGB image so), times `scale`, then inverted.
+    fn value(&self, ctx: &TextureEvalContext) -> f32 {
+        let rgb = self.rgb(ctx);
+        let v = match self.filter {
+            ImageFilter::Point => rgb[0],
+            ImageFilter::Bilinear => (rgb[0] + rgb[1] + rgb[2]) / 3.0,
+        };
+        let v = self.scale * v;
+        if self.invert {
+            (1.0 - v).max(0.0)
+        } else {
+            v
+        }
     }
 }
 
@@ -74,26 +289,81 @@ impl RgbImage {
 pub enum FloatTexture {
     /// The same value everywhere.
     Constant(f32),
-    /// Alternating squares of two textures in (s, t).
-    Checkerboard {
-        /// Mapping.
-        map: UvMapping,
-        /// Texture of the even squares.
+    /// `tex` × `scale` (`tex` is not evaluated where the scale is zero).
+    Scale {
+        /// The texture.
+        tex: Box<FloatTexture>,
+        /// Its factor.
+        scale: Box<FloatTexture>,
+    },
+    /// (1 − amount)·tex1 + amount·tex2.
+    Mix {
+        /// Where `amount` is 0.
         tex1: Box<FloatTexture>,
-        /// Texture of the odd squares.
+        /// Where `amount` is 1.
+        tex2: Box<FloatTexture>,
+        /// The blend.
+        amount: Box<FloatTexture>,
+    },
+    /// a·tex1 + (1 − a)·tex2 with a = |n·dir| for the geometric normal n.
+    DirectionMix {
+        /// Facing `dir`.
+        tex1: Box<FloatTexture>,
+        /// Perpendicular to `dir`.
+        tex2: Box<FloatTexture>,
+        /// Unit render-space direction.
+        dir: Vec3,
+    },
+    /// Bilinear interpolation of four values over (s, t): v00 at (0, 0), v01 at (0, 1), v10 at (1, 0), v11 at (1, 1).
+    Bilerp {
+        /// Mapping.
+        map: Box<TextureMapping2D>,
+        /// v00, v01, v10, v11.
+        v: [f32; 4],
+    },
+    /// Alternating checks of two textures.
+    Checkerboard {
+        /// Squares or cubes.
+        map: Box<CheckerMapping>,
+        /// Texture of the even checks.
+        tex1: Box<FloatTexture>,
+        /// Texture of the odd checks.
         tex2: Box<FloatTexture>,
     },
-    /// The mean of an image's channels.
-    Image {
+    /// Randomly placed polka dots (one per cell at most, by noise).
+    Dots {
         /// Mapping.
-        map: UvMapping,
-        /// The image.
-        image: Arc<RgbImage>,
-        /// Multiplier.
-        scale: f32,
-        /// Invert (1 − value).
-        invert: bool,
+        map: Box<TextureMapping2D>,
+        /// Inside the dots.
+        dot: Box<FloatTexture>,
+        /// Between the dots.
+        background: Box<FloatTexture>,
     },
+    /// Fractional Brownian motion of the texture-space point.
+    Fbm {
+        /// Mapping.
+        map: Box<PointMapping>,
+        /// Octaves summed.
+        octaves: u32,
+        /// Amplitude ratio between octaves (`roughness`).
+        omega: f32,
+    },
+    /// Turbulence of the texture-space point.
+    Wrinkled {
+        /// Mapping.
+        map: Box<PointMapping>,
+        /// Octaves summed.
+        octaves: u32,
+        /// Amplitude ratio between octaves (`roughness`).
+        omega: f32,
+    },
+    /// Waves under wind: |fBm(p/10, 3 octaves)|·fBm(p, 6 octaves), both with ω = 0.5.
+    Windy {
+        /// Mapping.
+        map: Box<PointMapping>,
+    },
+    /// An image map.
+    Image(Box<ImageTexture>),
 }
 
 impl FloatTexture {
@@ -101,28 +371,78 @@ impl FloatTexture {
     pub fn eval(&self, ctx: &TextureEvalContext) -> f32 {
         match self {
             FloatTexture::Constant(v) => *v,
+            FloatTexture::Scale { tex, scale } => {
+                let s = scale.eval(ctx);
+                if s == 0.0 {
+                    0.0
+                } else {
+                    tex.eval(ctx) * s
+                }
+            }
+            FloatTexture::Mix { tex1, tex2, amount } => {
+                let a = amount.eval(ctx);
+                let t1 = if a != 1.0 { tex1.eval(ctx) } else { 0.0 };
+                let t2 = if a != 0.0 { tex2.eval(ctx) } else { 0.0 };
+                (1.0 - a) * t1 + a * t2
+            }
+            FloatTexture::DirectionMix { tex1, tex2, dir } => {
+                let a = ctx.n.dot(*dir).abs();
+                let t1 = if a != 0.0 { tex1.eval(ctx) } else { 0.0 };
+                let t2 = if a != 1.0 { tex2.eval(ctx) } else { 0.0 };
+                a * t1 + (1.0 - a) * t2
+            }
+            FloatTexture::Bilerp { map, v } => {
+                let st = map.map(ctx);
+                let (s, t) = (st.x, st.y);
+                (1.0 - s) * (1.0 - t) * v[0] + (1.0 - s) * t * v[1] + s * (1.0 - t) * v[2] + s * t * v[3]
+            }
             FloatTexture::Checkerboard { map, tex1, tex2 } => {
-                if checker_even(map.map(ctx)) {
+                if map.even(ctx) {
                     tex1.eval(ctx)
                 } else {
                     tex2.eval(ctx)
                 }
             }
-            FloatTexture::Image { map, image, scale, invert } => {
-                let rgb = image.bilerp(map.map(ctx));
-                let v = scale * (rgb[0] + rgb[1] + rgb[2]) / 3.0;
-                if *invert {
-                    (1.0 - v).max(0.0)
+            FloatTexture::Dots { map, dot, background } => {
+                if inside_polka_dot(map.map(ctx)) {
+                    dot.eval(ctx)
                 } else {
-                    v
+                    background.eval(ctx)
                 }
             }
+            FloatTexture::Fbm { map, octaves, omega } => noise::fbm(map.map(ctx), *omega, *octaves),
+            FloatTexture::Wrinkled { map, octaves, omega } => noise::turbulence(map.map(ctx), *omega, *octaves),
+            FloatTexture::Windy { map } => {
+                let p = map.map(ctx);
+                let wind_strength = noise::fbm(0.1 * p, 0.5, 3);
+                let wave_height = noise::fbm(p, 0.5, 6);
+                wind_strength.abs() * wave_height
+            }
+            FloatTexture::Image(img) => img.value(ctx),
+        }
+    }
+
+    /// The value if the texture is the same everywhere.
+    pub fn as_constant(&self) -> Option<f32> {
+        match self {
+            FloatTexture::Constant(v) => Some(*v),
+            _ => None,
         }
     }
 }
 
-fn checker_even(st: Vec2) -> bool {
-    (st.x.floor() as i64 + st.y.floor() as i64) % 2 == 0
+/// True if `st` lies in a polka dot: cells of unit size centred on integer (s, t) hold a dot of radius 0.35 where
+/// the noise at the cell is positive, shifted by up to 0.15 by two more noise values (pbrt-v4 §10.5.2).
+fn inside_polka_dot(st: Vec2) -> bool {
+    let (s_cell, t_cell) = ((st.x + 0.5).floor(), (st.y + 0.5).floor());
+    if noise::noise_2d(s_cell + 0.5, t_cell + 0.5) > 0.0 {
+        const RADIUS: f32 = 0.35;
+        const MAX_SHIFT: f32 = 0.5 - RADIUS;
+        let s_center = s_cell + MAX_SHIFT * noise::noise_2d(s_cell + 1.5, t_cell + 2.8);
+        let t_center = t_cell + MAX_SHIFT * noise::noise_2d(s_cell + 4.5, t_cell + 9.8);
+        return (st - Vec2::new(s_center, t_center)).length_squared() < RADIUS * RADIUS;
+    }
+    false
 }
 
 /// How an image texture's RGB becomes a spectrum.
@@ -139,28 +459,125 @@ pub enum RgbKind {
 pub enum SpectrumTexture {
     /// The same spectrum everywhere.
     Constant(Spectrum),
-    /// Alternating squares of two textures.
-    Checkerboard {
-        /// Mapping.
-        map: UvMapping,
-        /// Texture of the even squares.
+    /// `tex` × `scale` (`tex` is not evaluated where the scale is zero).
+    Scale {
+        /// The texture.
+        tex: Box<SpectrumTexture>,
+        /// Its factor.
+        scale: Box<FloatTexture>,
+    },
+    /// (1 − amount)·tex1 + amount·tex2.
+    Mix {
+        /// Where `amount` is 0.
         tex1: Box<SpectrumTexture>,
-        /// Texture of the odd squares.
+        /// Where `amount` is 1.
         tex2: Box<SpectrumTexture>,
+        /// The blend.
+        amount: Box<FloatTexture>,
+    },
+    /// a·tex1 + (1 − a)·tex2 with a = |n·dir| for the geometric normal n.
+    DirectionMix {
+        /// Facing `dir`.
+        tex1: Box<SpectrumTexture>,
+        /// Perpendicular to `dir`.
+        tex2: Box<SpectrumTexture>,
+        /// Unit render-space direction.
+        dir: Vec3,
+    },
+    /// Bilinear interpolation of four spectra over (s, t).
+    Bilerp {
+        /// Mapping.
+        map: Box<TextureMapping2D>,
+        /// v00, v01, v10, v11.
+        v: Box<[Spectrum; 4]>,
+    },
+    /// Alternating checks of two textures.
+    Checkerboard {
+        /// Squares or cubes.
+        map: Box<CheckerMapping>,
+        /// Texture of the even checks.
+        tex1: Box<SpectrumTexture>,
+        /// Texture of the odd checks.
+        tex2: Box<SpectrumTexture>,
+    },
+    /// Randomly placed polka dots.
+    Dots {
+        /// Mapping.
+        map: Box<TextureMapping2D>,
+        /// Inside the dots.
+        dot: Box<SpectrumTexture>,
+        /// Between the dots.
+        background: Box<SpectrumTexture>,
+    },
+    /// Veined marble: a cubic Bézier colour ramp over sin(y + variation·fBm) (pbrt-v4's `marble`).
+    Marble {
+        /// Mapping.
+        map: Box<PointMapping>,
+        /// Octaves of the fBm.
+        octaves: u32,
+        /// Amplitude ratio between octaves (`roughness`).
+        omega: f32,
+        /// Scale of the texture-space point.
+        scale: f32,
+        /// Strength of the fBm perturbation.
+        variation: f32,
     },
     /// An RGB image uplifted per lookup (Jakob & Hanika 2019).
     Image {
-        /// Mapping.
-        map: UvMapping,
-        /// The image.
-        image: Arc<RgbImage>,
-        /// Multiplier.
-        scale: f32,
-        /// Invert (1 − value).
-        invert: bool,
+        /// The image map.
+        tex: Box<ImageTexture>,
         /// Albedo or unbounded uplifting.
         kind: RgbKind,
     },
+}
+
+/// The marble's colour ramp: control points of three cubic Bézier segments sliding by one point (pbrt-v4's
+/// `MarbleTexture` colours, linear sRGB; the ramp is scaled by 1.5).
+const MARBLE_COLORS: [[f32; 3]; 9] = [
+    [0.58, 0.58, 0.6],
+    [0.58, 0.58, 0.6],
+    [0.58, 0.58, 0.6],
+    [0.5, 0.5, 0.5],
+    [0.6, 0.59, 0.58],
+    [0.58, 0.58, 0.6],
+    [0.58, 0.58, 0.6],
+    [0.2, 0.2, 0.33],
+    [0.58, 0.58, 0.6],
+];
+
+/// The marble's linear sRGB colour at texture-space point `p` (before uplifting).
+pub fn marble_rgb(p: Vec3, octaves: u32, omega: f32, scale: f32, variation: f32) -> [f32; 3] {
+    let p = p * scale;
+    let marble = p.y + variation * noise::fbm(p, omega, octaves);
+    let t = 0.5 + 0.5 * marble.sin();
+    let n_seg = MARBLE_COLORS.len() - 3;
+    let first = ((t * n_seg as f32).floor() as usize).min(n_seg - 1);
+    let t = t * n_seg as f32 - first as f32;
+    let c = &MARBLE_COLORS[first..first + 4];
+    // Cubic Bernstein basis.
+    let s = 1.0 - t;
+    let w = [s * s * s, 3.0 * s * s * t, 3.0 * s * t * t, t * t * t];
+    std::array::from_fn(|i| 1.5 * (w[0] * c[0][i] + w[1] * c[1][i] + w[2] * c[2][i] + w[3] * c[3][i]))
+}
+
+/// An RGB colour as a spectrum at the path's wavelengths (albedo colours are clamped to [0, 1]).
+fn uplift(rgb: [f32; 3], kind: RgbKind, wl: &SampledWavelengths) -> SampledSpectrum {
+    let mut s = SampledSpectrum::zero();
+    match kind {
+        RgbKind::Albedo => {
+            let Ok(sp) = RgbAlbedoSpectrum::new(rgb.map(|c| c.clamp(0.0, 1.0) as f64)) else { return s };
+            for i in 0..N_WAVELENGTHS {
+                s[i] = sp.eval(wl.lambda(i) as f64) as f32;
+            }
+        }
+        RgbKind::Unbounded => {
+            let Ok(sp) = RgbUnboundedSpectrum::new(rgb.map(|c| c.max(0.0) as f64)) else { return s };
+            for i in 0..N_WAVELENGTHS {
+                s[i] = sp.eval(wl.lambda(i) as f64) as f32;
+            }
+        }
+    }
+    s
 }
 
 impl SpectrumTexture {
@@ -168,61 +585,61 @@ impl SpectrumTexture {
     pub fn eval(&self, ctx: &TextureEvalContext, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             SpectrumTexture::Constant(s) => s.sample(wl),
+            SpectrumTexture::Scale { tex, scale } => {
+                let s = scale.eval(ctx);
+                if s == 0.0 {
+                    SampledSpectrum::zero()
+                } else {
+                    tex.eval(ctx, wl) * s
+                }
+            }
+            SpectrumTexture::Mix { tex1, tex2, amount } => {
+                let a = amount.eval(ctx);
+                let t1 = if a != 1.0 { tex1.eval(ctx, wl) } else { SampledSpectrum::zero() };
+                let t2 = if a != 0.0 { tex2.eval(ctx, wl) } else { SampledSpectrum::zero() };
+                t1 * (1.0 - a) + t2 * a
+            }
+            SpectrumTexture::DirectionMix { tex1, tex2, dir } => {
+                let a = ctx.n.dot(*dir).abs();
+                let t1 = if a != 0.0 { tex1.eval(ctx, wl) } else { SampledSpectrum::zero() };
+                let t2 = if a != 1.0 { tex2.eval(ctx, wl) } else { SampledSpectrum::zero() };
+                t1 * a + t2 * (1.0 - a)
+            }
+            SpectrumTexture::Bilerp { map, v } => {
+                let st = map.map(ctx);
+                let (s, t) = (st.x, st.y);
+                v[0].sample(wl) * ((1.0 - s) * (1.0 - t))
+                    + v[1].sample(wl) * ((1.0 - s) * t)
+                    + v[2].sample(wl) * (s * (1.0 - t))
+                    + v[3].sample(wl) * (s * t)
+            }
             SpectrumTexture::Checkerboard { map, tex1, tex2 } => {
-                if checker_even(map.map(ctx)) {
+                if map.even(ctx) {
                     tex1.eval(ctx, wl)
                 } else {
                     tex2.eval(ctx, wl)
                 }
             }
-            SpectrumTexture::Image { map, image, scale, invert, kind } => {
-                let rgb = image.bilerp(map.map(ctx)).map(|c| {
-                    let v = (c * scale).max(0.0);
-                    (if *invert { (1.0 - v).max(0.0) } else { v }) as f64
-                });
-                let mut s = SampledSpectrum::zero();
-                match kind {
-                    RgbKind::Albedo => {
-                        let Ok(sp) = RgbAlbedoSpectrum::new(rgb.map(|c| c.min(1.0))) else { return s };
-                        for i in 0..N_WAVELENGTHS {
-                            s[i] = sp.eval(wl.lambda(i) as f64) as f32;
-                        }
-                    }
-                    RgbKind::Unbounded => {
-                        let Ok(sp) = RgbUnboundedSpectrum::new(rgb) else { return s };
-                        for i in 0..N_WAVELENGTHS {
-                            s[i] = sp.eval(wl.lambda(i) as f64) as f32;
-                        }
-                    }
+            SpectrumTexture::Dots { map, dot, background } => {
+                if inside_polka_dot(map.map(ctx)) {
+                    dot.eval(ctx, wl)
+                } else {
+                    background.eval(ctx, wl)
                 }
-                s
+            }
+            SpectrumTexture::Marble { map, octaves, omega, scale, variation } => {
+                uplift(marble_rgb(map.map(ctx), *octaves, *omega, *scale, *variation), RgbKind::Albedo, wl)
+            }
+            SpectrumTexture::Image { tex, kind } => {
+                let rgb = tex.rgb(ctx).map(|c| {
+                    let v = tex.scale * c;
+                    (if tex.invert { 1.0 - v } else { v }).max(0.0)
+                });
+                uplift(rgb, *kind, wl)
             }
         }
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn checkerboard_alternates() {
-        let t = FloatTexture::Checkerboard {
-            map: UvMapping { su: 4.0, sv: 4.0, du: 0.0, dv: 0.0 },
-            tex1: Box::new(FloatTexture::Constant(1.0)),
-            tex2: Box::new(FloatTexture::Constant(0.0)),
-        };
-        let at = |u: f32, v: f32| t.eval(&TextureEvalContext { uv: Vec2::new(u, v), p: Vec3::ZERO });
-        assert_eq!(at(0.1, 0.1), 1.0);
-        assert_eq!(at(0.3, 0.1), 0.0);
-        assert_eq!(at(0.3, 0.3), 1.0);
-    }
-
-    #[test]
-    fn image_bilinear_lookup_interpolates_and_wraps() {
-        let img = RgbImage { width: 2, height: 1, pixels: vec![[0.0; 3], [1.0; 3]] };
-        assert!((img.bilerp(Vec2::new(0.25, 0.5))[0] - 0.0).abs() < 1e-6);
-        assert!((img.bilerp(Vec2::new(0.5, 0.5))[0] - 0.5).abs() < 1e-6);
-        assert!((img.bilerp(Vec2::new(0.0, 0.5))[0] - 0.5).abs() < 1e-6, "wraps");
-    }
-}
+mod tests;

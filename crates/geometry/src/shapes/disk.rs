@@ -97,12 +97,19 @@ impl Disk {
         let uv =
             Vec2::new((phi / self.phi_max) as f32, ((self.radius - r_hit) / (self.radius - self.inner_radius)) as f32);
         let dpdu = dpdu_or_frame(self.phi_max * DVec3::new(-p.y, p.x, 0.0), DVec3::Z);
+        // pbrt-v4's disk: ∂p/∂v = (x, y, 0)·(r_inner − r)/r_hit, along the radius inwards (v grows inwards).
+        let dpdv = if r_hit > 0.0 {
+            DVec3::new(p.x, p.y, 0.0) * ((self.inner_radius - self.radius) / r_hit)
+        } else {
+            DVec3::Z.cross(dpdu)
+        };
         let p_err_obj = Vec3::new(gamma(3) * p.x.abs() as f32, gamma(3) * p.y.abs() as f32, 0.0);
         let (pr, p_error, mut n, dpdu) = self.place.to_render(p, p_err_obj, DVec3::Z, dpdu);
+        let dpdv = self.place.vector(dpdv);
         if self.reverse_orientation {
             n = -n;
         }
-        SurfaceGeom { p: pr, p_error, n, ns: n, uv, dpdu }
+        SurfaceGeom { p: pr, p_error, n, ns: n, uv, dpdu, shading_dpdu: dpdu, shading_dpdv: dpdv }
     }
 
     /// A uniformly distributed point on the disk (pdf per unit area = 1/area).

@@ -55,6 +55,10 @@ pub(crate) struct SurfaceGeom {
     pub ns: Vec3,
     pub uv: Vec2,
     pub dpdu: Vec3,
+    /// pbrt-v4's shading ∂p/∂u and ∂p/∂v: the surface's own partials, or where vertex normals tilt the shading
+    /// normal, partials turned to it as pbrt-v4's shape does (bump and normal maps start from these).
+    pub shading_dpdu: Vec3,
+    pub shading_dpdv: Vec3,
 }
 
 /// Two unit vectors completing `n` (unit) to an orthonormal basis (Duff et al. 2017).
@@ -412,6 +416,54 @@ mod tests {
         assert!(half.intersect_t(&Ray::new(Vec3::new(0.0, 1.0, 4.0), -Vec3::Z), f32::INFINITY).is_some());
         assert!((d.area() - PI * (4.0 - 0.25)).abs() < 1e-5);
         assert!(Disk::new(0.0, 1.0, 2.0, 360.0, Transform::IDENTITY, false).is_err());
+    }
+
+    #[test]
+    fn shading_partials_are_the_derivatives_of_the_parametrisation() {
+        // Sphere of radius 2 scaled by 1.5, clipped to z in [−1, 1.5] (object space), φmax 270°: p(u, v) with
+        // φ = u·φmax and θ = θ(zmin) + v·(θ(zmax) − θ(zmin)); central differences of p match ∂p/∂u and ∂p/∂v.
+        let t = Transform::scale(DVec3::splat(1.5)).unwrap();
+        let s = Sphere::partial(2.0, -1.0, 1.5, 270.0, t, false).unwrap();
+        let (tmin, tmax, phimax) = ((-0.5f64).acos(), 0.75f64.acos(), 1.5 * std::f64::consts::PI);
+        let p_of = |u: f64, v: f64| {
+            let (phi, th) = (u * phimax, tmin + v * (tmax - tmin));
+            3.0 * DVec3::new(th.sin() * phi.cos(), th.sin() * phi.sin(), th.cos())
+        };
+        let h = 1e-5;
+        for (u, v) in [(0.3, 0.4), (0.8, 0.1), (0.55, 0.9)] {
+            let g = s.geom(p_of(u, v) / 1.5);
+            assert!((g.uv - Vec2::new(u as f32, v as f32)).length() < 1e-5, "{:?}", g.uv);
+            let du = ((p_of(u + h, v) - p_of(u - h, v)) / (2.0 * h)).as_vec3();
+            let dv = ((p_of(u, v + h) - p_of(u, v - h)) / (2.0 * h)).as_vec3();
+            assert!((g.shading_dpdu - du).length() < 1e-4 * du.length(), "{:?} {du:?}", g.shading_dpdu);
+            assert!((g.shading_dpdv - dv).length() < 1e-4 * dv.length(), "{:?} {dv:?}", g.shading_dpdv);
+        }
+        // Disk of radius 2, inner radius 0.5: v = (r − ρ)/(r − ri), so ∂p/∂v = −1.5·(x, y)/ρ.
+        let d = Disk::new(0.0, 2.0, 0.5, 360.0, Transform::IDENTITY, false).unwrap();
+        let g = d.geom(DVec3::new(0.6, 0.8, 0.0));
+        assert!((g.shading_dpdv - Vec3::new(-0.9, -1.2, 0.0)).length() < 1e-6, "{:?}", g.shading_dpdv);
+        assert!((g.shading_dpdu - 2.0 * std::f32::consts::PI * Vec3::new(-0.8, 0.6, 0.0)).length() < 1e-5);
+        // Triangle without normals, default uvs (0,0), (1,0), (1,1): ∂p/∂u = p1 − p0, ∂p/∂v = p2 − p1.
+        let m = tri_mesh();
+        let g = triangle_geom(&m, 0, [0.2, 0.3, 0.5]);
+        let [p0, p1, p2] = m.triangle_positions(0);
+        let [t0, t1, t2] = m.triangle_uvs(0);
+        assert_eq!((t0, t1, t2), (Vec2::ZERO, Vec2::X, Vec2::ONE));
+        assert!((g.shading_dpdu - (p1 - p0)).length() < 1e-6 && (g.shading_dpdv - (p2 - p1)).length() < 1e-6);
+        // With vertex normals (pbrt-v4's Triangle): ns × ∂p/∂u, and ∂p/∂u made perpendicular to ns.
+        let tilted = Vec3::new(0.3, 0.0, 1.0).normalize();
+        let data = MeshData {
+            positions: m.positions().to_vec(),
+            indices: m.indices().to_vec(),
+            normals: Some(vec![tilted; 3]),
+            ..Default::default()
+        };
+        let m2 = TriangleMesh::new(&Transform::IDENTITY, data, false).unwrap();
+        let g = triangle_geom(&m2, 0, [0.2, 0.3, 0.5]);
+        let dpdu = p1 - p0;
+        assert!((g.shading_dpdv - tilted.cross(dpdu)).length() < 1e-6);
+        assert!((g.shading_dpdu - (dpdu - tilted * tilted.dot(dpdu))).length() < 1e-6);
+        assert!(g.shading_dpdu.cross(g.shading_dpdv).normalize().dot(tilted) > 1.0 - 1e-6);
     }
 
     /// A simple deterministic low-discrepancy point set for Monte Carlo checks.

@@ -67,6 +67,11 @@ impl Placement {
         (p, p_error, n, dpdu)
     }
 
+    /// A vector (such as ∂p/∂v) from object to render space.
+    pub(super) fn vector(&self, v_obj: DVec3) -> Vec3 {
+        (self.linear * v_obj).as_vec3()
+    }
+
     pub(super) fn bounds(&self, lo: DVec3, hi: DVec3) -> Bounds3 {
         let mut b = Bounds3::EMPTY;
         for i in 0..8 {

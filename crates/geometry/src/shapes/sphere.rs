@@ -179,12 +179,16 @@ impl Sphere {
             ((theta - self.theta_z_min) / (self.theta_z_max - self.theta_z_min)) as f32,
         );
         let dpdu = dpdu_or_frame(self.phi_max * DVec3::new(-p.y, p.x, 0.0), p);
+        // pbrt-v4's sphere: ∂p/∂v = (θ(zmax) − θ(zmin))·(z cos φ, z sin φ, −r sin θ).
+        let dpdv = (self.theta_z_max - self.theta_z_min)
+            * DVec3::new(p.z * phi.cos(), p.z * phi.sin(), -self.radius * theta.sin());
         let p_err_obj = gamma(5) * p.abs().as_vec3();
         let (pr, p_error, mut n, dpdu) = self.place.to_render(p, p_err_obj, p, dpdu);
+        let dpdv = self.place.vector(dpdv);
         if self.reverse_orientation {
             n = -n;
         }
-        SurfaceGeom { p: pr, p_error, n, ns: n, uv, dpdu }
+        SurfaceGeom { p: pr, p_error, n, ns: n, uv, dpdu, shading_dpdu: dpdu, shading_dpdv: dpdv }
     }
 
     pub(crate) fn geom(&self, p_obj: DVec3) -> SurfaceGeom {

@@ -116,19 +116,20 @@ pub(crate) fn triangle_geom(mesh: &TriangleMesh, tri: usize, b: [f32; 3]) -> Sur
     }
     let (duv02, duv12) = (uv0 - uv2, uv1 - uv2);
     let det = duv02.x * duv12.y - duv02.y * duv12.x;
-    let mut dpdu = Vec3::ZERO;
+    let (mut dpdu, mut dpdv) = (Vec3::ZERO, Vec3::ZERO);
     if det.abs() >= 1e-9 {
         let inv = 1.0 / det;
         dpdu = (duv12.y * dp02 - duv02.y * dp12) * inv;
-        let dpdv = (duv02.x * dp12 - duv12.x * dp02) * inv;
-        if dpdu.cross(dpdv).length_squared() == 0.0 || !dpdu.is_finite() {
+        dpdv = (duv02.x * dp12 - duv12.x * dp02) * inv;
+        if dpdu.cross(dpdv).length_squared() == 0.0 || !dpdu.is_finite() || !dpdv.is_finite() {
             dpdu = Vec3::ZERO;
         }
     }
     if dpdu == Vec3::ZERO {
-        dpdu = coordinate_system(if n == Vec3::ZERO { Vec3::Z } else { n }).0;
+        (dpdu, dpdv) = coordinate_system(if n == Vec3::ZERO { Vec3::Z } else { n });
     }
     let mut ns = n;
+    let (mut shading_dpdu, mut shading_dpdv) = (dpdu, dpdv);
     if let Some([n0, n1, n2]) = mesh.triangle_normals(tri) {
         if let Some(v) = (b[0] * n0 + b[1] * n1 + b[2] * n2).try_normalize() {
             ns = v;
@@ -136,8 +137,12 @@ pub(crate) fn triangle_geom(mesh: &TriangleMesh, tri: usize, b: [f32; 3]) -> Sur
                 n = -n;
             }
         }
+        // pbrt-v4's Triangle: the shading tangents are ns × ∂p/∂u and ∂p/∂u made perpendicular to ns.
+        let ts = ns.cross(dpdu);
+        (shading_dpdu, shading_dpdv) =
+            if ts.length_squared() > 0.0 { (ts.cross(ns), ts) } else { coordinate_system(ns) };
     }
-    SurfaceGeom { p, p_error, n, ns, uv, dpdu }
+    SurfaceGeom { p, p_error, n, ns, uv, dpdu, shading_dpdu, shading_dpdv }
 }
 
 /// Uniform area sample of triangle `tri` (pdf = 1/area).

@@ -10,14 +10,18 @@ use spectral::Spectrum;
 
 use super::textures::Textures;
 use super::{err, finite_positive, unsupported, Result};
+use crate::bump::NormalPerturbation;
 use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
 use crate::scene::NO_MATERIAL;
 use crate::texture::{FloatTexture, SpectrumTexture};
+use film::ColorEncoding;
 
 /// The scene's materials, anonymous first, then named; a name maps to its index.
 pub(super) struct Materials {
     /// In the order of [`crate::scene::RenderScene::materials`].
     pub(super) list: Vec<Material>,
+    /// Each material's bump or normal map, in the same order.
+    pub(super) perturbations: Vec<Option<NormalPerturbation>>,
     names: HashMap<String, u32>,
 }
 
@@ -30,10 +34,15 @@ impl Materials {
             names.insert(name.clone(), (n_anon + i) as u32);
         }
         let mut materials = Vec::with_capacity(n_anon + desc.named_materials.len());
+        let mut perturbations = Vec::with_capacity(materials.capacity());
         for e in desc.materials.iter().chain(desc.named_materials.iter().map(|(_, e)| e)) {
-            materials.push(material(textures, e, &names)?);
+            let m = material(textures, e, &names)?;
+            // A mix has none of its own (the material it picks brings its own), nor has an interface.
+            let own = !matches!(m, Material::Mix { .. } | Material::Interface);
+            perturbations.push(if own { normal_perturbation(textures, e)? } else { None });
+            materials.push(m);
         }
-        Ok(Materials { list: materials, names })
+        Ok(Materials { list: materials, perturbations, names })
     }
 
     /// The index a shape's material reference resolves to; an `interface` material is [`NO_MATERIAL`], a boundary
@@ -47,6 +56,18 @@ impl Materials {
         };
         Ok(if matches!(self.list[i as usize], Material::Interface) { NO_MATERIAL } else { i })
     }
+}
+
+/// pbrt-v4's `"string normalmap"` (an image read linearly) or `"texture displacement"` (a float texture, or a
+/// constant) on any material; the normal map wins when both are given, as in pbrt-v4.
+fn normal_perturbation(t: &Textures, e: &Entity) -> Result<Option<NormalPerturbation>> {
+    let p = &e.params;
+    let displacement = if p.contains("displacement") { Some(t.float_param(p, "displacement", 0.0)?) } else { None };
+    if let Some(path) = p.get_filename("normalmap")? {
+        let loc = p.loc_of("normalmap", &e.loc);
+        return Ok(Some(NormalPerturbation::NormalMap(t.image(&path, ColorEncoding::Linear, "linear", &loc)?)));
+    }
+    Ok(displacement.map(NormalPerturbation::Bump))
 }
 
 fn roughness(t: &Textures, p: &ParamSet) -> Result<Roughness> {

@@ -109,6 +109,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     let mut scene =
         RenderScene::new(Box::new(shapes.geometry), materials.list, lights, media.list, camera_medium, camera);
     scene.light_media = light_media;
+    scene.normal_perturbations = materials.perturbations;
     warnings.extend(desc.warnings.iter().map(|d| d.to_string()));
     warnings.extend(desc.unused_parameters().iter().map(|d| d.to_string()));
     Ok(BuiltScene { scene, film, spp, integrator, triangles: shapes.triangles, warnings })

@@ -636,7 +636,7 @@ impl BdptIntegrator {
                     break;
                 }
             }
-            let Some(hit) = hit else {
+            let Some(mut hit) = hit else {
                 if mode == TransportMode::Radiance && !scene.infinite_lights.is_empty() {
                     let prev = path.last().expect("the subpath has its endpoint");
                     let mut v = Vertex::endpoint(Kind::Escape, prev.p + d, Vec3::ZERO, beta, pdf_fwd, ray.medium);
@@ -647,7 +647,7 @@ impl BdptIntegrator {
                 break;
             };
             ray.attenuate(scene, &hit, wl, &mut beta);
-            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut ray, wl, sampler) {
                 Bounce::PassedThrough => continue,
                 Bounce::Stop => break,
                 Bounce::Absorb => (None, None),

@@ -185,8 +185,8 @@ pub(crate) fn walk_light_path(
                 }
             }
         }
-        let Some(hit) = hit else { break };
-        let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+        let Some(mut hit) = hit else { break };
+        let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut ray, wl, sampler) {
             Bounce::PassedThrough => continue,
             Bounce::Stop | Bounce::Absorb => break,
             Bounce::Scatter(bxdf, u) => (bxdf, u),

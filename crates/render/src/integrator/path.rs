@@ -114,7 +114,7 @@ impl PathIntegrator {
         let mut l = SampledSpectrum::zero();
         loop {
             let d = st.ray.d;
-            let Some(hit) = st.ray.intersect(scene, counts) else {
+            let Some(mut hit) = st.ray.intersect(scene, counts) else {
                 // Escaped: infinite lights, weighted against the BSDF sample that found them.
                 for &li in &scene.infinite_lights {
                     let light = &scene.lights[li as usize];
@@ -145,7 +145,7 @@ impl PathIntegrator {
                     }
                 }
             }
-            let (bxdf, u) = match begin_bounce(scene, &hit, &mut st.ray, wl, sampler) {
+            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut st.ray, wl, sampler) {
                 // A boundary between media does not count as a bounce.
                 Bounce::PassedThrough => continue,
                 Bounce::Stop | Bounce::Absorb => break,

@@ -405,7 +405,7 @@ impl SppmIntegrator {
         let mut depth = 0u32;
         loop {
             let d = ray.d;
-            let Some(hit) = ray.intersect(scene, counts) else {
+            let Some(mut hit) = ray.intersect(scene, counts) else {
                 // Only specular bounces led here: the environment is seen directly.
                 for &li in &scene.infinite_lights {
                     ld += beta * scene.lights[li as usize].le(d, wl);
@@ -416,7 +416,7 @@ impl SppmIntegrator {
             if let Some(li) = hit.area_light {
                 ld += beta * scene.lights[li as usize].l_area(hit.p, hit.uv, hit.n, -d, wl);
             }
-            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut ray, wl, sampler) {
                 Bounce::PassedThrough => continue,
                 Bounce::Stop | Bounce::Absorb => return (None, ld),
                 Bounce::Scatter(bxdf, u) => (bxdf, u),
@@ -515,7 +515,7 @@ impl SppmIntegrator {
             } else if let Some(hit) = &hit {
                 ray.attenuate(scene, hit, wl, &mut beta);
             }
-            let Some(hit) = hit else {
+            let Some(mut hit) = hit else {
                 for &li in &scene.infinite_lights {
                     ld += beta * scene.lights[li as usize].le(d, wl) / mis.average(r_u);
                 }
@@ -525,7 +525,7 @@ impl SppmIntegrator {
                 ld += beta * scene.lights[li as usize].l_area(hit.p, hit.uv, hit.n, -d, wl) / mis.average(r_u);
             }
             let arrived_in = ray.medium;
-            let (bxdf, u) = match begin_bounce(scene, &hit, &mut ray, wl, sampler) {
+            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut ray, wl, sampler) {
                 Bounce::PassedThrough => continue,
                 Bounce::Stop | Bounce::Absorb => return (None, ld),
                 Bounce::Scatter(bxdf, u) => (bxdf, u),

@@ -287,12 +287,12 @@ pub(crate) enum Bounce {
 }
 
 /// The start of every bounce at a surface, for every integrator: draws the bounce's random numbers (always all of
-/// them, see [`BounceSamples`]), resolves the material at `hit` (mixes, wavelength reduction up front), and carries
-/// the ray through material-less boundaries.
+/// them, see [`BounceSamples`]), resolves the material at `hit` (mixes, wavelength reduction up front; its bump or
+/// normal map tilts `hit`'s shading frame), and carries the ray through material-less boundaries.
 #[inline]
 pub(crate) fn begin_bounce(
     scene: &RenderScene,
-    hit: &SurfaceHit,
+    hit: &mut SurfaceHit,
     ray: &mut PathRay,
     wl: &mut SampledWavelengths,
     sampler: &mut Sampler,
@@ -390,12 +390,13 @@ enum Surface {
     Scatter(Bxdf),
 }
 
-/// Resolves the material at `hit` (a mix picks one of its materials with `u_mix`, repeatedly) and builds its BxDF
-/// at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front).
+/// Resolves the material at `hit` (a mix picks one of its materials with `u_mix`, repeatedly), applies the chosen
+/// material's bump or normal map to `hit`'s shading frame (pbrt-v4 does it for the material a mix chose), and builds
+/// its BxDF at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front).
 #[inline]
 fn resolve_surface(
     scene: &RenderScene,
-    hit: &SurfaceHit,
+    hit: &mut SurfaceHit,
     wl: &mut SampledWavelengths,
     mut u_mix: f32,
     u_bxdf: f32,
@@ -403,7 +404,7 @@ fn resolve_surface(
     let mut material_index = hit.material;
     while material_index != NO_MATERIAL {
         if let Material::Mix { materials, amount } = &scene.materials[material_index as usize] {
-            let a = amount.eval(&TextureEvalContext { uv: hit.uv, p: hit.p }).clamp(0.0, 1.0);
+            let a = amount.eval(&TextureEvalContext::new(hit.p, hit.n, hit.uv)).clamp(0.0, 1.0);
             let pick = if u_mix < a { 1 } else { 0 };
             u_mix = if pick == 1 { u_mix / a.max(1e-6) } else { (u_mix - a) / (1.0 - a).max(1e-6) };
             material_index = materials[pick];
@@ -414,7 +415,10 @@ fn resolve_surface(
     if material_index == NO_MATERIAL {
         return Surface::PassThrough;
     }
-    let ctx = TextureEvalContext { uv: hit.uv, p: hit.p };
+    if let Some(Some(perturbation)) = scene.normal_perturbations.get(material_index as usize) {
+        perturbation.apply(hit);
+    }
+    let ctx = TextureEvalContext::new(hit.p, hit.n, hit.uv);
     match scene.materials[material_index as usize].bxdf(&ctx, wl, u_bxdf) {
         Some(b) => Surface::Scatter(b),
         None => Surface::Absorb,

@@ -274,7 +274,7 @@ impl VolPathIntegrator {
                 }
             }
             let d = st.ray.d;
-            let Some(hit) = hit else {
+            let Some(mut hit) = hit else {
                 // Escaped: infinite lights.
                 for &li in &scene.infinite_lights {
                     let light = &scene.lights[li as usize];
@@ -305,7 +305,7 @@ impl VolPathIntegrator {
                 }
             }
             let arrived_in = st.ray.medium;
-            let (bxdf, u) = match begin_bounce(scene, &hit, &mut st.ray, wl, sampler) {
+            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut st.ray, wl, sampler) {
                 Bounce::PassedThrough => continue,
                 Bounce::Stop | Bounce::Absorb => break,
                 Bounce::Scatter(bxdf, u) => (bxdf, u),

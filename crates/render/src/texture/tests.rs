@@ -1,0 +1,248 @@
+use super::*;
+use std::f32::consts::PI;
+
+fn c(v: f32) -> Box<FloatTexture> {
+    Box::new(FloatTexture::Constant(v))
+}
+
+fn at_uv(u: f32, v: f32) -> TextureEvalContext {
+    TextureEvalContext::new(Vec3::ZERO, Vec3::Z, Vec2::new(u, v))
+}
+
+fn at_p(p: Vec3) -> TextureEvalContext {
+    TextureEvalContext::new(p, Vec3::Z, Vec2::ZERO)
+}
+
+#[test]
+fn checkerboard_alternates() {
+    let t = FloatTexture::Checkerboard {
+        map: Box::new(CheckerMapping::Planar(TextureMapping2D::Uv(UvMapping { su: 4.0, sv: 4.0, du: 0.0, dv: 0.0 }))),
+        tex1: c(1.0),
+        tex2: c(0.0),
+    };
+    assert_eq!(t.eval(&at_uv(0.1, 0.1)), 1.0);
+    assert_eq!(t.eval(&at_uv(0.3, 0.1)), 0.0);
+    assert_eq!(t.eval(&at_uv(0.3, 0.3)), 1.0);
+    // Negative coordinates: floor(−0.4) = −1, so (−0.1, 0.1)·4 lies on an odd check.
+    assert_eq!(t.eval(&at_uv(-0.1, 0.1)), 0.0);
+}
+
+#[test]
+fn solid_checkerboard_uses_the_texture_space_point() {
+    // Texture space = render space shifted by −(0.5, 0, 0) and halved: p_tex = (p − (0.5, 0, 0))/2.
+    let m = PointMapping {
+        texture_from_render: Affine3A::from_scale(Vec3::splat(0.5)) * Affine3A::from_translation(-0.5 * Vec3::X),
+    };
+    let t = FloatTexture::Checkerboard { map: Box::new(CheckerMapping::Solid(m)), tex1: c(1.0), tex2: c(7.0) };
+    // p = (0.6, 0.1, 0.1) → (0.05, 0.05, 0.05): cube (0, 0, 0), even.
+    assert_eq!(t.eval(&at_p(Vec3::new(0.6, 0.1, 0.1))), 1.0);
+    // p = (0.4, 0.1, 0.1) → (−0.05, …): cube (−1, 0, 0), odd.
+    assert_eq!(t.eval(&at_p(Vec3::new(0.4, 0.1, 0.1))), 7.0);
+    // p = (2.6, 2.1, 0.1) → (1.05, 1.05, 0.05): cube (1, 1, 0), even.
+    assert_eq!(t.eval(&at_p(Vec3::new(2.6, 2.1, 0.1))), 1.0);
+    // p = (2.6, 2.1, -0.1) → z −0.05: cube (1, 1, −1), odd.
+    assert_eq!(t.eval(&at_p(Vec3::new(2.6, 2.1, -0.1))), 7.0);
+}
+
+#[test]
+fn scale_mix_and_direction_mix_follow_their_formulas() {
+    let ctx = at_uv(0.5, 0.5);
+    assert_eq!(FloatTexture::Scale { tex: c(2.0), scale: c(3.0) }.eval(&ctx), 6.0);
+    // A zero scale never evaluates the texture (pbrt-v4), so even a NaN texture gives 0.
+    assert_eq!(FloatTexture::Scale { tex: c(f32::NAN), scale: c(0.0) }.eval(&ctx), 0.0);
+    let mix = |a: f32| FloatTexture::Mix { tex1: c(2.0), tex2: c(6.0), amount: c(a) }.eval(&ctx);
+    assert_eq!(mix(0.25), 3.0);
+    assert_eq!(mix(0.0), 2.0);
+    assert_eq!(mix(1.0), 6.0);
+    // Direction mix with dir = +y and geometric normal (0, −0.6, 0.8): a = |n·dir| = 0.6.
+    let dm = FloatTexture::DirectionMix { tex1: c(10.0), tex2: c(20.0), dir: Vec3::Y };
+    let ctx = TextureEvalContext::new(Vec3::ZERO, Vec3::new(0.0, -0.6, 0.8), Vec2::ZERO);
+    assert!((dm.eval(&ctx) - (0.6 * 10.0 + 0.4 * 20.0)).abs() < 1e-5);
+    // Facing dir exactly: tex1 alone (tex2 is not evaluated).
+    let dm = FloatTexture::DirectionMix { tex1: c(10.0), tex2: c(f32::NAN), dir: Vec3::Y };
+    assert_eq!(dm.eval(&TextureEvalContext::new(Vec3::ZERO, -Vec3::Y, Vec2::ZERO)), 10.0);
+    // Spectra: the same formulas at every wavelength.
+    let wl = SampledWavelengths::new([450.0, 550.0, 650.0, 700.0], [1.0; 4]);
+    let sc = |v: f64| Box::new(SpectrumTexture::Constant(Spectrum::Constant(v)));
+    let s = SpectrumTexture::Mix { tex1: sc(2.0), tex2: sc(6.0), amount: c(0.25) }.eval(&at_uv(0.0, 0.0), &wl);
+    assert!((0..4).all(|i| (s[i] - 3.0).abs() < 1e-6));
+    let s = SpectrumTexture::Scale { tex: sc(0.5), scale: c(3.0) }.eval(&at_uv(0.0, 0.0), &wl);
+    assert!((0..4).all(|i| (s[i] - 1.5).abs() < 1e-6));
+    let s = SpectrumTexture::DirectionMix { tex1: sc(10.0), tex2: sc(20.0), dir: Vec3::Y }.eval(&ctx, &wl);
+    assert!((0..4).all(|i| (s[i] - 14.0).abs() < 1e-5));
+}
+
+#[test]
+fn bilerp_interpolates_its_corners() {
+    let map = Box::new(TextureMapping2D::Uv(UvMapping::default()));
+    let t = FloatTexture::Bilerp { map: map.clone(), v: [1.0, 2.0, 3.0, 5.0] };
+    // (1−s)(1−t)·1 + (1−s)t·2 + s(1−t)·3 + st·5 at (0.25, 0.5) = 0.375 + 0.75 + 0.375 + 0.625.
+    assert!((t.eval(&at_uv(0.25, 0.5)) - 2.125).abs() < 1e-6);
+    assert_eq!(t.eval(&at_uv(0.0, 0.0)), 1.0);
+    assert_eq!(t.eval(&at_uv(0.0, 1.0)), 2.0);
+    assert_eq!(t.eval(&at_uv(1.0, 0.0)), 3.0);
+    assert_eq!(t.eval(&at_uv(1.0, 1.0)), 5.0);
+    let wl = SampledWavelengths::new([450.0, 550.0, 650.0, 700.0], [1.0; 4]);
+    let v = Box::new([1.0, 2.0, 3.0, 5.0].map(Spectrum::Constant));
+    let s = SpectrumTexture::Bilerp { map, v }.eval(&at_uv(0.25, 0.5), &wl);
+    assert!((0..4).all(|i| (s[i] - 2.125).abs() < 1e-6));
+}
+
+#[test]
+fn mappings_round_trip_known_points() {
+    // The texture's CTM: translate by c, then scale by 2; texture_from_render is its inverse.
+    let centre = Vec3::new(1.0, -2.0, 0.5);
+    let render_from_texture = Affine3A::from_translation(centre) * Affine3A::from_scale(Vec3::splat(2.0));
+    let tfr = render_from_texture.inverse();
+    let ctx = |p_tex: Vec3| at_p(render_from_texture.transform_point3(p_tex));
+    // Spherical: s = θ/π from +z, t = φ/2π.
+    let sph = TextureMapping2D::Spherical(tfr);
+    for (theta, phi) in [(0.3f32, 0.4f32), (2.0, 5.5), (1.2, 3.5)] {
+        let d = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+        let st = sph.map(&ctx(3.0 * d));
+        assert!((st - Vec2::new(theta / PI, phi / (2.0 * PI))).length() < 1e-5, "{st}");
+    }
+    // Cylindrical: s = (π + atan2(y, x))/2π, t = z.
+    let cyl = TextureMapping2D::Cylindrical(tfr);
+    for (a, z) in [(0.5f32, 0.25f32), (-2.0, 3.0), (3.0, -1.5)] {
+        let st = cyl.map(&ctx(Vec3::new(1.7 * a.cos(), 1.7 * a.sin(), z)));
+        assert!((st - Vec2::new((PI + a) / (2.0 * PI), z)).length() < 1e-5, "{st}");
+    }
+    // Planar: s = ds + p·v1, t = dt + p·v2.
+    let (vs, vt) = (Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 2.0, 0.0));
+    let pl = TextureMapping2D::Planar { texture_from_render: tfr, vs, vt, ds: 0.25, dt: -1.0 };
+    let p = Vec3::new(0.3, -0.7, 1.1);
+    let st = pl.map(&ctx(p));
+    assert!((st - Vec2::new(0.25 + 0.3 + 1.1, -1.0 - 1.4)).length() < 1e-5, "{st}");
+    // uv: scale and offset of (u, v).
+    let uv = TextureMapping2D::Uv(UvMapping { su: 2.0, sv: 3.0, du: 0.5, dv: -1.0 });
+    assert_eq!(uv.map(&at_uv(0.25, 0.5)), Vec2::new(1.0, 0.5));
+    // 3-D: the point in texture space.
+    let m = PointMapping { texture_from_render: tfr };
+    assert!((m.map(&ctx(p)) - p).length() < 1e-5);
+}
+
+fn two_by_two() -> RgbImage {
+    // Row 0 (top): 1, 2; row 1 (bottom): 3, 4 (all channels equal).
+    RgbImage { width: 2, height: 2, pixels: [1.0, 2.0, 3.0, 4.0].map(|v| [v; 3]).to_vec() }
+}
+
+#[test]
+fn wrap_modes_decide_the_texels_beyond_the_edges() {
+    let img = two_by_two();
+    // Texel centres: s = 0.25, 0.75 for columns 0, 1; t = 0.75 for row 0 (top), 0.25 for row 1.
+    assert_eq!(img.bilerp_wrapped(Vec2::new(0.25, 0.75), WrapMode::Clamp)[0], 1.0);
+    assert_eq!(img.bilerp_wrapped(Vec2::new(0.75, 0.25), WrapMode::Clamp)[0], 4.0);
+    // At s = 0 (halfway between column 0 and the texel left of it), row 0:
+    let at = |wrap| img.bilerp_wrapped(Vec2::new(0.0, 0.75), wrap)[0];
+    assert_eq!(at(WrapMode::Repeat), 1.5, "repeat: column −1 is column 1 (2)");
+    assert_eq!(at(WrapMode::Clamp), 1.0, "clamp: column −1 is column 0 (1)");
+    assert_eq!(at(WrapMode::Black), 0.5, "black: column −1 is 0");
+    assert_eq!(at(WrapMode::OctahedralSphere), 2.0, "octahedral: (−1, 0) continues at (0, 1) (3)");
+    // Past the top edge at column 1: row −1.
+    let at = |wrap| img.bilerp_wrapped(Vec2::new(0.75, 1.0), wrap)[0];
+    assert_eq!(at(WrapMode::Repeat), 3.0, "repeat: row −1 is row 1 (4)");
+    assert_eq!(at(WrapMode::Clamp), 2.0);
+    assert_eq!(at(WrapMode::Black), 1.0);
+    assert_eq!(at(WrapMode::OctahedralSphere), 1.5, "octahedral: (1, −1) continues at (0, 0) (1)");
+    // Far outside: repeat tiles, clamp holds the corner, black is zero.
+    assert_eq!(img.bilerp_wrapped(Vec2::new(3.25, -4.25), WrapMode::Repeat)[0], 1.0);
+    assert_eq!(img.bilerp_wrapped(Vec2::new(3.25, -4.25), WrapMode::Clamp)[0], 4.0);
+    assert_eq!(img.bilerp_wrapped(Vec2::new(3.25, -4.25), WrapMode::Black)[0], 0.0);
+    // Point lookups take the nearest texel.
+    assert_eq!(img.nearest(Vec2::new(0.49, 0.51), WrapMode::Clamp)[0], 1.0);
+    assert_eq!(img.nearest(Vec2::new(0.51, 0.49), WrapMode::Clamp)[0], 4.0);
+    assert_eq!(img.nearest(Vec2::new(1.1, 0.9), WrapMode::Black)[0], 0.0);
+}
+
+#[test]
+fn image_textures_scale_invert_and_read_channels_as_pbrt_does() {
+    let img = Arc::new(RgbImage { width: 1, height: 1, pixels: vec![[0.2, 0.4, 0.9]] });
+    let tex = |filter, scale, invert| ImageTexture {
+        map: TextureMapping2D::default(),
+        image: img.clone(),
+        wrap: WrapMode::Repeat,
+        filter,
+        scale,
+        invert,
+    };
+    let ctx = at_uv(0.3, 0.6);
+    let f = |filter, scale, invert| FloatTexture::Image(Box::new(tex(filter, scale, invert))).eval(&ctx);
+    assert!((f(ImageFilter::Bilinear, 1.0, false) - 0.5).abs() < 1e-6, "mean of the channels");
+    assert!((f(ImageFilter::Point, 1.0, false) - 0.2).abs() < 1e-6, "first channel");
+    assert!((f(ImageFilter::Bilinear, 2.0, false) - 1.0).abs() < 1e-6);
+    assert!((f(ImageFilter::Bilinear, 1.0, true) - 0.5).abs() < 1e-6);
+    assert_eq!(f(ImageFilter::Bilinear, 3.0, true), 0.0, "1 − 1.5 clamped at zero");
+    // Spectrum: a grey image is a constant spectrum; scale then invert.
+    let grey = Arc::new(RgbImage { width: 1, height: 1, pixels: vec![[0.25; 3]] });
+    let wl = SampledWavelengths::new([400.0, 500.0, 600.0, 700.0], [1.0; 4]);
+    let s = |kind, invert| {
+        let tex = ImageTexture { image: grey.clone(), ..tex(ImageFilter::Bilinear, 2.0, invert) };
+        SpectrumTexture::Image { tex: Box::new(tex), kind }.eval(&ctx, &wl)
+    };
+    for (kind, invert, expect) in
+        [(RgbKind::Albedo, false, 0.5), (RgbKind::Unbounded, false, 0.5), (RgbKind::Albedo, true, 0.5)]
+    {
+        let v = s(kind, invert);
+        assert!((0..4).all(|i| (v[i] - expect).abs() < 2e-3), "{kind:?} {invert}: {v:?}");
+    }
+}
+
+#[test]
+fn noise_textures_are_their_sums_in_texture_space() {
+    let render_from_texture = Affine3A::from_scale(Vec3::splat(4.0));
+    let map = Box::new(PointMapping { texture_from_render: render_from_texture.inverse() });
+    let p_tex = Vec3::new(0.37, -1.21, 2.9);
+    let ctx = at_p(render_from_texture.transform_point3(p_tex));
+    let fbm = FloatTexture::Fbm { map: map.clone(), octaves: 8, omega: 0.5 }.eval(&ctx);
+    assert!((fbm - noise::fbm(p_tex, 0.5, 8)).abs() < 1e-6);
+    let wr = FloatTexture::Wrinkled { map: map.clone(), octaves: 4, omega: 0.7 }.eval(&ctx);
+    assert!((wr - noise::turbulence(p_tex, 0.7, 4)).abs() < 1e-6);
+    let windy = FloatTexture::Windy { map }.eval(&ctx);
+    let expect = noise::fbm(0.1 * p_tex, 0.5, 3).abs() * noise::fbm(p_tex, 0.5, 6);
+    assert!((windy - expect).abs() < 1e-6);
+    assert!(fbm != 0.0 && wr > 0.0, "a generic point gives non-zero noise");
+}
+
+#[test]
+fn marble_ramp_has_its_closed_form_values() {
+    // Without variation, t = ½ + ½·sin(scale·y). sin = 0 gives t = ½: segment 3 at its start, colour 3 (0.5 grey);
+    // sin = ±1 gives t = 1 or 0: the ramp's ends, colours 8 and 0 ((0.58, 0.58, 0.6)); all times 1.5.
+    let grey = marble_rgb(Vec3::new(0.3, 0.0, -2.0), 8, 0.5, 1.0, 0.0);
+    assert!(grey.iter().all(|&v| (v - 0.75).abs() < 1e-6), "{grey:?}");
+    for y in [PI / 2.0, -PI / 2.0] {
+        let end = marble_rgb(Vec3::new(0.0, y / 2.0, 0.0), 8, 0.5, 2.0, 0.0);
+        assert!((end[0] - 0.87).abs() < 1e-5 && (end[2] - 0.9).abs() < 1e-5, "{end:?}");
+    }
+    // Between: t = ½ + ½ sin(y) = 7/12 is segment 3 at t = 0.5: Bernstein weights 1/8, 3/8, 3/8, 1/8 of
+    // colours 3–6.
+    let y = (2.0f32 * 7.0 / 12.0 - 1.0).asin();
+    let mid = marble_rgb(Vec3::new(0.0, y, 0.0), 8, 0.5, 1.0, 0.0);
+    let expect_r = 1.5 * (0.5 / 8.0 + 3.0 * 0.6 / 8.0 + 3.0 * 0.58 / 8.0 + 0.58 / 8.0);
+    assert!((mid[0] - expect_r).abs() < 1e-5, "{mid:?} vs {expect_r}");
+    // With variation the fBm shifts the phase: y + variation·fBm.
+    let p = Vec3::new(0.4, 0.2, 0.9);
+    let with = marble_rgb(p, 8, 0.5, 1.0, 0.2);
+    let y_eff = 0.2 + 0.2 * noise::fbm(p, 0.5, 8);
+    let without = marble_rgb(Vec3::new(p.x, y_eff, p.z), 0, 0.5, 1.0, 0.0);
+    assert!((0..3).all(|i| (with[i] - without[i]).abs() < 1e-5));
+}
+
+#[test]
+fn polka_dots_sit_in_cells_with_positive_noise() {
+    let t = FloatTexture::Dots { map: Box::default(), dot: c(1.0), background: c(0.0) };
+    let (mut with_dot, mut cells) = (0, 0);
+    for i in -10..10 {
+        for j in -10..10 {
+            let (s, tt) = (i as f32, j as f32);
+            let has_dot = noise::noise_2d(s + 0.5, tt + 0.5) > 0.0;
+            // The dot's centre is within 0.15·1.04 of the cell's centre and its radius is 0.35: the centre is
+            // always inside, the cell's corners (0.49·√2 − 0.16 > 0.35 away) never.
+            assert_eq!(t.eval(&at_uv(s, tt)), if has_dot { 1.0 } else { 0.0 }, "cell ({i}, {j})");
+            assert_eq!(t.eval(&at_uv(s + 0.49, tt - 0.49)), 0.0);
+            with_dot += has_dot as u32;
+            cells += 1;
+        }
+    }
+    assert!(with_dot > cells / 5 && with_dot < cells * 4 / 5, "{with_dot} of {cells} cells hold a dot");
+}
