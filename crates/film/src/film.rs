@@ -192,8 +192,9 @@ pub struct FilmSpec {
     pub aovs: bool,
     /// The pixel sensor: imaging ratio and white balance (pbrt-v4 default: ratio 1, no white balance).
     pub sensor: PixelSensor,
-    /// `maxcomponentvalue`: a sample whose largest XYZ component (after the imaging ratio) exceeds it is scaled
-    /// down to it, colour and spectral buckets alike (pbrt-v4 default: infinity, no clamp).
+    /// `maxcomponentvalue`: a sample whose largest sensor component (XYZ for the cie1931 sensor, after the imaging
+    /// ratio, before white balance) exceeds it is scaled down to it, colour and spectral buckets alike (pbrt-v4
+    /// `RGBFilm::AddSample`; default infinity, no clamp).
     pub max_component_value: f64,
     /// How paths draw their wavelengths and how their radiance becomes colour (`rgb`, `cmf` or `hero`, the
     /// default): the film samples the wavelengths ([`Film::sample_wavelengths`]) and converts with the same
