@@ -23,6 +23,7 @@
 use crate::{FilmError, Filter};
 use rayon::prelude::*;
 use spectral::color::{mul_mat_vec, white_balance_matrix, Mat3};
+use spectral::sensor::CameraSensor;
 use spectral::{
     Observer, RgbColorSpace, SampledSpectrum, SampledWavelengths, Spectrum, WavelengthSampler, WavelengthStrategy, Xyz,
     N_WAVELENGTHS,
@@ -134,8 +135,12 @@ impl FilmKind {
     }
 }
 
-/// pbrt-v4's `cie1931` pixel sensor: it records CIE 1931 XYZ scaled by the imaging ratio, and optionally
-/// white-balances the image from the chromaticity of a scene illuminant to the output colour space's white.
+/// pbrt-v4's pixel sensor: what a sample's radiance is recorded as, its imaging ratio, and how the recorded values
+/// become XYZ.
+///
+/// The default `cie1931` sensor records CIE 1931 XYZ and optionally white-balances the image from the chromaticity
+/// of a scene illuminant to the output colour space's white. A measured camera sensor ([`CameraResponse`]) records
+/// the camera's raw r, g, b and maps them to XYZ with a fitted matrix, which white-balances too.
 ///
 /// pbrt-v4 (`PixelSensor::Create`) sets the imaging ratio to exposure time × ISO / 100, the exposure time being
 /// the camera's `shutterclose` − `shutteropen` (defaults 1 and 0) and `iso` defaulting to 100, so that by default
@@ -143,17 +148,30 @@ impl FilmKind {
 /// not the spectral buckets, as in pbrt-v4's spectral film.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PixelSensor {
-    /// Factor applied to every sample's XYZ (pbrt-v4's `imagingRatio`; 1 by default).
+    /// Factor applied to every sample's sensor value (pbrt-v4's `imagingRatio`; 1 by default).
     pub imaging_ratio: f64,
     /// Chromaticity of the illuminant to white-balance from (pbrt-v4's `whitebalance` temperature, converted by
     /// [`spectral::daylight::white_balance_chromaticity`]); `None` for no white balance, the `cie1931` default.
+    /// Only for the cie1931 sensor: a camera's matrix white-balances by itself.
     pub white_balance_from: Option<[f64; 2]>,
+    /// A measured camera sensor instead of cie1931 (pbrt-v4's `"string sensor"`), or `None`.
+    pub camera: Option<CameraResponse>,
+}
+
+/// A measured camera sensor as a film uses it: its r̄, ḡ, b̄, and the matrix from its raw RGB to XYZ, fitted for
+/// the white-balance illuminant ([`spectral::sensor::CameraSensor::xyz_from_sensor_rgb`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraResponse {
+    /// The camera.
+    pub sensor: &'static CameraSensor,
+    /// XYZ = M · (camera r, g, b) (pbrt-v4's `XYZFromSensorRGB`).
+    pub xyz_from_sensor_rgb: Mat3,
 }
 
 impl Default for PixelSensor {
-    /// Imaging ratio 1, no white balance: pbrt-v4's default sensor.
+    /// Imaging ratio 1, no white balance, cie1931: pbrt-v4's default sensor.
     fn default() -> Self {
-        Self { imaging_ratio: 1.0, white_balance_from: None }
+        Self { imaging_ratio: 1.0, white_balance_from: None, camera: None }
     }
 }
 
@@ -163,9 +181,13 @@ impl PixelSensor {
         exposure_time * iso / 100.0 // pbrt-v4 PixelSensor::Create: imagingRatio = exposureTime · ISO / 100
     }
 
-    /// The XYZ → XYZ matrix applied to the accumulated pixels on output: the Bradford von Kries adaptation from
-    /// the white-balance illuminant to `color_space`'s white, or the identity without white balance.
+    /// The sensor-value → XYZ matrix applied to the accumulated pixels on output: a camera's fitted matrix, or for
+    /// cie1931 the Bradford von Kries adaptation from the white-balance illuminant to `color_space`'s white, or the
+    /// identity without white balance.
     pub fn output_matrix(&self, color_space: &RgbColorSpace) -> Mat3 {
+        if let Some(camera) = &self.camera {
+            return camera.xyz_from_sensor_rgb;
+        }
         match self.white_balance_from {
             Some(from) => white_balance_matrix(from, color_space.white),
             None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
@@ -778,6 +800,8 @@ pub struct SampleConversion {
     max_component: f64,
     /// The colour space's white as a spectrum (D65), under which AOV albedos are seen; `None` without AOVs.
     white: Option<Spectrum>,
+    /// A measured camera sensor (its raw r, g, b are recorded instead of XYZ), and 1/∫ȳ for its scale.
+    camera: Option<(&'static CameraSensor, f64)>,
 }
 
 impl SampleConversion {
@@ -788,7 +812,9 @@ impl SampleConversion {
             FilmKind::Spectral { nbuckets, lambda_min, lambda_max } => nbuckets as f64 / (lambda_max - lambda_min),
         };
         let white = spec.aovs.then(|| spectral::named::illuminant("stdillum-D65").expect("D65 is built in"));
+        let camera = spec.sensor.camera.as_ref().map(|c| (c.sensor, 1.0 / spec.observer.y_integral()));
         Self {
+            camera,
             wavelengths: WavelengthSampler::new(spec.wavelengths, spec.observer),
             kind: spec.kind.clone(),
             nbuckets: spec.kind.nbuckets(),
@@ -804,11 +830,25 @@ impl SampleConversion {
         &self.wavelengths
     }
 
-    /// The colour of a path sample: `L(λᵢ)/pdfᵢ` weighted by the strategy's colour matching functions (before the
-    /// sensor's response).
+    /// The sensor value of a path sample, before the imaging ratio: for the cie1931 sensor its XYZ, `L(λᵢ)/pdfᵢ`
+    /// weighted by the strategy's colour matching functions; for a camera sensor its raw r, g, b,
+    /// `Σᵢ (r̄, ḡ, b̄)(λᵢ)·L(λᵢ)/pdfᵢ / ∫ȳ` (pbrt-v4 `PixelSensor::ToSensorRGB`, on the scale where a light of
+    /// luminance 1 has ∫ȳL = 1), carried in an [`Xyz`] whose x, y, z are r, g, b.
     #[inline]
     pub fn xyz(&self, l: &SampledSpectrum, wl: &SampledWavelengths) -> Xyz {
-        self.wavelengths.to_xyz(l, wl)
+        let Some((camera, inv_y)) = self.camera else { return self.wavelengths.to_xyz(l, wl) };
+        let pdf = wl.pdf();
+        let mut rgb = [0.0f64; 3];
+        for i in 0..N_WAVELENGTHS {
+            if wl.is_active(i) && pdf.0[i] > 0.0 {
+                let w = (l.0[i] / pdf.0[i]) as f64;
+                let s = camera.response(wl.lambda(i) as f64);
+                for c in 0..3 {
+                    rgb[c] += w * s[c];
+                }
+            }
+        }
+        Xyz::from_array(rgb.map(|v| v * inv_y))
     }
 
     /// A path sample reduced to what the film accumulates: its colour ([`SampleConversion::xyz`]) and its

@@ -38,7 +38,10 @@ pub mod filter;
 pub mod image_io;
 
 pub use error::{FilmError, ImageError};
-pub use film::{AovImages, Film, FilmKind, FilmRow, FilmSpec, PixelSensor, SampleConversion, SpectralEstimates, Splat};
+pub use film::{
+    AovImages, CameraResponse, Film, FilmKind, FilmRow, FilmSpec, PixelSensor, SampleConversion, SpectralEstimates,
+    Splat,
+};
 pub use filter::{Filter, FilterSample, FilterSampler};
 pub use image_io::{
     parse_spectral_channel_name, read_exr_aovs, read_exr_rgb, read_exr_spectral, read_pfm, read_png_linear, read_rgb,

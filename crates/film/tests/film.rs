@@ -281,7 +281,7 @@ fn splats_are_scaled_by_pixels_per_light_path_and_spread_by_the_filter() {
     // The sensor's imaging ratio (ISO 200: ×2) scales splats as it scales camera samples.
     let mut iso = spectral_spec(4, 3, 2, 400.0, 600.0);
     iso.filter = Filter::new_box([0.5, 0.5]).unwrap();
-    iso.sensor = film::PixelSensor { imaging_ratio: 2.0, white_balance_from: None };
+    iso.sensor = film::PixelSensor { imaging_ratio: 2.0, ..Default::default() };
     let mut c = Film::new(iso).unwrap();
     c.add_xyz_splat([0.5, 0.5], Xyz::new(0.0, 6.0, 0.0), &[]);
     c.add_light_paths(12);

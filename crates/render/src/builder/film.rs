@@ -4,8 +4,9 @@
 
 use std::path::PathBuf;
 
-use film::{FilmKind, FilmSpec, Filter, PixelSensor};
+use film::{CameraResponse, FilmKind, FilmSpec, Filter, PixelSensor};
 use scene::{Entity, SceneDescription, SceneError};
+use spectral::sensor::CameraSensor;
 
 use super::{err, unsupported, BuildOptions, Result};
 
@@ -43,18 +44,25 @@ pub(super) fn make_film(desc: &SceneDescription, options: &BuildOptions) -> Resu
 /// pbrt-v4's pixel sensor from the film's `sensor`, `iso` and `whitebalance` and the camera's shutter interval.
 ///
 /// pbrt-v4 takes the exposure time as the camera's `shutterclose` − `shutteropen` (defaults 1 and 0, so 1 s) and
-/// `iso` defaults to 100, making the imaging ratio t · ISO / 100 exactly 1 by default; `whitebalance` (K) defaults
-/// to 0, no white balance, for the `cie1931` sensor. The measured camera sensors pbrt-v4 ships ("canon_eos_100d",
-/// …) need response curves we do not have, so any other `sensor` is an error.
+/// `iso` defaults to 100, making the imaging ratio t · ISO / 100 exactly 1 by default. `whitebalance` (K) defaults
+/// to 0, no white balance, for the `cie1931` sensor; a measured camera sensor ("canon_eos_5d_mkiv", …) is always
+/// white-balanced, for daylight at 6500 K unless `whitebalance` says otherwise (pbrt-v4 `PixelSensor::Create`).
 fn make_sensor(desc: &SceneDescription) -> Result<PixelSensor> {
     let (fp, floc) = (&desc.film.params, &desc.film.loc);
-    let sensor = fp.get_string("sensor", "cie1931")?;
-    if sensor != "cie1931" {
-        return err(
-            &fp.loc_of("sensor", floc),
-            format!("'sensor' \"{sensor}\" is not supported: only \"cie1931\" (measured camera sensors need response data we do not have)"),
-        );
-    }
+    let name = fp.get_string("sensor", "cie1931")?;
+    let camera_sensor = if name == "cie1931" {
+        None
+    } else {
+        let Some(s) = CameraSensor::by_name(&name) else {
+            let known: Vec<&str> =
+                std::iter::once("cie1931").chain(CameraSensor::names().iter().map(String::as_str)).collect();
+            return err(
+                &fp.loc_of("sensor", floc),
+                format!("unknown 'sensor' \"{name}\"; known sensors: {}", known.join(", ")),
+            );
+        };
+        Some(s)
+    };
     let cp = &desc.camera.entity.params;
     let (open, close) = (cp.get_float("shutteropen", 0.0)?, cp.get_float("shutterclose", 1.0)?);
     let exposure = close - open;
@@ -69,14 +77,24 @@ fn make_sensor(desc: &SceneDescription) -> Result<PixelSensor> {
         return err(&fp.loc_of("iso", floc), format!("'iso' must be a positive number, got {iso}"));
     }
     let temperature = fp.get_float("whitebalance", 0.0)?;
+    let wb_err = |e: spectral::SpectrumError| SceneError::at(fp.loc_of("whitebalance", floc), e.to_string());
+    let imaging_ratio = PixelSensor::imaging_ratio(exposure, iso);
+    if let Some(sensor) = camera_sensor {
+        let kelvin = if temperature == 0.0 { 6500.0 } else { temperature };
+        let illuminant = spectral::daylight::white_balance_illuminant(kelvin).map_err(wb_err)?;
+        let output_white = spectral::named::illuminant("stdillum-D65").expect("D65 is built in");
+        let Some(fit) = sensor.xyz_from_sensor_rgb(&illuminant, &output_white) else {
+            return err(&fp.loc_of("sensor", floc), format!("sensor \"{name}\": its XYZ matrix cannot be fitted"));
+        };
+        let camera = CameraResponse { sensor, xyz_from_sensor_rgb: fit.matrix };
+        return Ok(PixelSensor { imaging_ratio, white_balance_from: None, camera: Some(camera) });
+    }
     let white_balance_from = if temperature == 0.0 {
         None
     } else {
-        let xy = spectral::daylight::white_balance_chromaticity(temperature)
-            .map_err(|e| SceneError::at(fp.loc_of("whitebalance", floc), e.to_string()))?;
-        Some(xy)
+        Some(spectral::daylight::white_balance_chromaticity(temperature).map_err(wb_err)?)
     };
-    Ok(PixelSensor { imaging_ratio: PixelSensor::imaging_ratio(exposure, iso), white_balance_from })
+    Ok(PixelSensor { imaging_ratio, white_balance_from, camera: None })
 }
 
 /// The `PixelFilter` directive: pbrt-v4's filters with their radii and shape parameters.
