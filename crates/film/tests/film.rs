@@ -448,3 +448,32 @@ fn max_component_value_clamps_as_pbrt_v4_with_its_wavelength_pdf() {
         assert!((got[c] - want[c]).abs() < 2e-3 * want[c], "{got:?} vs pbrt-v4 {want:?}");
     }
 }
+
+#[test]
+fn a_cropped_film_keeps_full_image_coordinates_and_splat_scale() {
+    // A 4×2 crop of an 8×6 image: samples and splats use full-image pixel coordinates; pixels outside the crop are
+    // not stored. Each light path estimates the whole 8×6 image, so splat sums are scaled by 48 pixels per light
+    // path even though only 8 are stored. Box filter of radius 0.5: a splat at a pixel centre lands in that pixel
+    // alone with weight 1.
+    let mut spec = FilmSpec::new(8, 6, "crop.exr");
+    spec.filter = Filter::new_box([0.5, 0.5]).unwrap();
+    spec.pixel_bounds = Some(film::PixelBounds { x0: 3, x1: 7, y0: 2, y1: 4 });
+    let mut film = Film::new(spec).unwrap();
+    assert_eq!((film.width(), film.height(), film.bounds().width(), film.bounds().height()), (8, 6, 4, 2));
+    assert!(film.add_xyz_sample(3, 2, Xyz::new(1.0, 2.0, 3.0), 1.0, &[]));
+    assert!(!film.add_xyz_sample(2, 2, Xyz::new(1.0, 2.0, 3.0), 1.0, &[]), "outside the crop");
+    let rows: Vec<(u32, std::ops::Range<u32>)> = film.rows_mut().map(|r| (r.y(), r.xs())).collect();
+    assert_eq!(rows, vec![(2, 3..7), (3, 3..7)]);
+    let mut row = film.row_mut(3).unwrap();
+    assert!(row.add_xyz_sample(6, Xyz::new(0.0, 4.0, 0.0), 2.0, &[]));
+    assert!(!row.add_xyz_sample(7, Xyz::new(0.0, 4.0, 0.0), 2.0, &[]));
+    assert!(film.add_xyz_splat([4.5, 3.5], Xyz::new(0.0, 6.0, 0.0), &[]));
+    assert!(film.add_xyz_splat([0.5, 0.5], Xyz::new(0.0, 6.0, 0.0), &[])); // lands outside: nothing stored
+    film.add_light_paths(96);
+    assert_eq!(film.pixel_xyz(3, 2), Xyz::new(1.0, 2.0, 3.0));
+    assert_eq!(film.pixel_xyz(6, 3), Xyz::new(0.0, 4.0, 0.0));
+    assert_eq!(film.pixel_xyz(4, 3), Xyz::new(0.0, 6.0 * 48.0 / 96.0, 0.0));
+    let image = film.to_rgb_image();
+    assert_eq!(image.len(), 8);
+    assert_eq!(image[0], film.spec().color_space.to_rgb(Xyz::new(1.0, 2.0, 3.0)).map(|c| c as f32));
+}

@@ -28,6 +28,10 @@ pub struct BuildOptions {
     pub spp: Option<u32>,
     /// Output file instead of the film's `filename`.
     pub output: Option<PathBuf>,
+    /// pbrt-v4's `--cropwindow x0 x1 y0 y1` (fractions of the image in [0, 1]): overrides the film's.
+    pub crop_window: Option<[f64; 4]>,
+    /// pbrt-v4's `--pixelbounds x0 x1 y0 y1` (pixels, half-open): overrides the film's.
+    pub pixel_bounds: Option<[u32; 4]>,
 }
 
 /// A scene ready to render, with the settings the scene file chose.
@@ -73,7 +77,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
         return err(&desc.film.loc, format!("colour space '{}' is not supported (only srgb)", desc.color_space));
     }
     let mut warnings = vec![];
-    let film = film::make_film(desc, options)?;
+    let film = film::make_film(desc, options, &mut warnings)?;
 
     // Sampler and integrator.
     let scene_spp = desc.sampler.params.get_count("pixelsamples", 16, &desc.sampler.loc)? as u32;
