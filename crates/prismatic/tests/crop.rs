@@ -235,3 +235,30 @@ fn the_command_line_crops_as_pbrt_v4() {
         assert!(!out.status.success() && !e.contains("panicked") && e.contains("cropwindow"), "{bad:?}: {e}");
     }
 }
+
+#[test]
+fn every_pbrt_v4_sampler_name_is_accepted_with_its_sample_count() {
+    let with = |sampler: &str| {
+        let text = scene(RGB_FILM, VOLPATH).replace("Sampler \"zsobol\" \"integer pixelsamples\" 4", sampler);
+        build(&text)
+    };
+    for name in ["zsobol", "halton", "sobol", "paddedsobol", "pmj02bn", "independent"] {
+        let built = with(&format!("Sampler \"{name}\" \"integer pixelsamples\" 8")).unwrap();
+        assert_eq!(built.spp, 8, "{name}");
+        assert!(built.warnings.is_empty(), "{name}: {:?}", built.warnings);
+        assert_eq!(with(&format!("Sampler \"{name}\"")).unwrap().spp, 16, "{name}: pbrt-v4's default");
+    }
+    // stratified: xsamples × ysamples (default 4 × 4), jitter read.
+    let built =
+        with("Sampler \"stratified\" \"integer xsamples\" 3 \"integer ysamples\" 5 \"bool jitter\" false").unwrap();
+    assert_eq!(built.spp, 15);
+    assert!(built.warnings.is_empty(), "{:?}", built.warnings);
+    assert_eq!(with("Sampler \"stratified\"").unwrap().spp, 16);
+    // Unknown names and bad counts are errors naming them.
+    let e = with("Sampler \"metropolis\"").err().unwrap();
+    assert!(e.contains("metropolis") && e.contains("zsobol") && e.contains("stratified"), "{e}");
+    let e = with("Sampler \"stratified\" \"integer xsamples\" 0").err().unwrap();
+    assert!(e.contains("xsamples"), "{e}");
+    let e = with("Sampler \"halton\" \"integer pixelsamples\" -4").err().unwrap();
+    assert!(e.contains("pixelsamples"), "{e}");
+}

@@ -71,6 +71,30 @@ fn unsupported(what: &str, name: &str, supported: &[&str]) -> String {
     format!("{what} '{name}' is not supported; supported: {}", supported.join(", "))
 }
 
+/// pbrt-v4's sampler names. Each one maps to Prismatic's own sampler (Owen-scrambled Sobol points per pixel);
+/// only the sample count is taken from the directive.
+pub const SAMPLER_NAMES: [&str; 7] =
+    ["zsobol", "halton", "sobol", "paddedsobol", "pmj02bn", "independent", "stratified"];
+
+/// Samples per pixel of the `Sampler` directive: `pixelsamples` (default 16), or for `stratified` `xsamples` ×
+/// `ysamples` (default 4 × 4; its `jitter` is read, since Prismatic's samples are always stratified and jittered).
+/// An unknown sampler name is an error listing pbrt-v4's.
+fn sampler_spp(desc: &SceneDescription) -> Result<u32> {
+    let (p, loc) = (&desc.sampler.params, &desc.sampler.loc);
+    if !SAMPLER_NAMES.contains(&desc.sampler.name.as_str()) {
+        return err(loc, unsupported("sampler", &desc.sampler.name, &SAMPLER_NAMES));
+    }
+    if desc.sampler.name == "stratified" {
+        let (x, y) = (p.get_count("xsamples", 4, loc)?, p.get_count("ysamples", 4, loc)?);
+        p.get_bool("jitter", true)?;
+        return match u32::try_from(x * y) {
+            Ok(n) if n <= 1 << 24 => Ok(n),
+            _ => err(loc, format!("'xsamples' × 'ysamples' = {} samples per pixel is too many", x * y)),
+        };
+    }
+    Ok(p.get_count("pixelsamples", 16, loc)? as u32)
+}
+
 /// Builds the render-ready scene from a parsed description.
 pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<BuiltScene> {
     if desc.color_space != "srgb" {
@@ -80,7 +104,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     let film = film::make_film(desc, options, &mut warnings)?;
 
     // Sampler and integrator.
-    let scene_spp = desc.sampler.params.get_count("pixelsamples", 16, &desc.sampler.loc)? as u32;
+    let scene_spp = sampler_spp(desc)?;
     let media = media::Media::build(desc)?;
     let integrator = Integrator::read(&mut IntegratorParams {
         entity: &desc.integrator,
