@@ -23,6 +23,7 @@
 use crate::{FilmError, Filter};
 use rayon::prelude::*;
 use spectral::color::{mul_mat_vec, white_balance_matrix, Mat3};
+use spectral::sensor::CameraSensor;
 use spectral::{
     Observer, RgbColorSpace, SampledSpectrum, SampledWavelengths, Spectrum, WavelengthSampler, WavelengthStrategy, Xyz,
     N_WAVELENGTHS,
@@ -134,8 +135,12 @@ impl FilmKind {
     }
 }
 
-/// pbrt-v4's `cie1931` pixel sensor: it records CIE 1931 XYZ scaled by the imaging ratio, and optionally
-/// white-balances the image from the chromaticity of a scene illuminant to the output colour space's white.
+/// pbrt-v4's pixel sensor: what a sample's radiance is recorded as, its imaging ratio, and how the recorded values
+/// become XYZ.
+///
+/// The default `cie1931` sensor records CIE 1931 XYZ and optionally white-balances the image from the chromaticity
+/// of a scene illuminant to the output colour space's white. A measured camera sensor ([`CameraResponse`]) records
+/// the camera's raw r, g, b and maps them to XYZ with a fitted matrix, which white-balances too.
 ///
 /// pbrt-v4 (`PixelSensor::Create`) sets the imaging ratio to exposure time × ISO / 100, the exposure time being
 /// the camera's `shutterclose` − `shutteropen` (defaults 1 and 0) and `iso` defaulting to 100, so that by default
@@ -143,17 +148,30 @@ impl FilmKind {
 /// not the spectral buckets, as in pbrt-v4's spectral film.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PixelSensor {
-    /// Factor applied to every sample's XYZ (pbrt-v4's `imagingRatio`; 1 by default).
+    /// Factor applied to every sample's sensor value (pbrt-v4's `imagingRatio`; 1 by default).
     pub imaging_ratio: f64,
     /// Chromaticity of the illuminant to white-balance from (pbrt-v4's `whitebalance` temperature, converted by
     /// [`spectral::daylight::white_balance_chromaticity`]); `None` for no white balance, the `cie1931` default.
+    /// Only for the cie1931 sensor: a camera's matrix white-balances by itself.
     pub white_balance_from: Option<[f64; 2]>,
+    /// A measured camera sensor instead of cie1931 (pbrt-v4's `"string sensor"`), or `None`.
+    pub camera: Option<CameraResponse>,
+}
+
+/// A measured camera sensor as a film uses it: its r̄, ḡ, b̄, and the matrix from its raw RGB to XYZ, fitted for
+/// the white-balance illuminant ([`spectral::sensor::CameraSensor::xyz_from_sensor_rgb`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraResponse {
+    /// The camera.
+    pub sensor: &'static CameraSensor,
+    /// XYZ = M · (camera r, g, b) (pbrt-v4's `XYZFromSensorRGB`).
+    pub xyz_from_sensor_rgb: Mat3,
 }
 
 impl Default for PixelSensor {
-    /// Imaging ratio 1, no white balance: pbrt-v4's default sensor.
+    /// Imaging ratio 1, no white balance, cie1931: pbrt-v4's default sensor.
     fn default() -> Self {
-        Self { imaging_ratio: 1.0, white_balance_from: None }
+        Self { imaging_ratio: 1.0, white_balance_from: None, camera: None }
     }
 }
 
@@ -163,13 +181,53 @@ impl PixelSensor {
         exposure_time * iso / 100.0 // pbrt-v4 PixelSensor::Create: imagingRatio = exposureTime · ISO / 100
     }
 
-    /// The XYZ → XYZ matrix applied to the accumulated pixels on output: the Bradford von Kries adaptation from
-    /// the white-balance illuminant to `color_space`'s white, or the identity without white balance.
+    /// The sensor-value → XYZ matrix applied to the accumulated pixels on output: a camera's fitted matrix, or for
+    /// cie1931 the Bradford von Kries adaptation from the white-balance illuminant to `color_space`'s white, or the
+    /// identity without white balance.
     pub fn output_matrix(&self, color_space: &RgbColorSpace) -> Mat3 {
+        if let Some(camera) = &self.camera {
+            return camera.xyz_from_sensor_rgb;
+        }
         match self.white_balance_from {
             Some(from) => white_balance_matrix(from, color_space.white),
             None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         }
+    }
+}
+
+/// A rectangle of pixels of the full image, half-open: `x0 ≤ x < x1`, `y0 ≤ y < y1` (pbrt-v4's pixel bounds; rows
+/// from the top).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelBounds {
+    /// First column.
+    pub x0: u32,
+    /// One past the last column.
+    pub x1: u32,
+    /// First row.
+    pub y0: u32,
+    /// One past the last row.
+    pub y1: u32,
+}
+
+impl PixelBounds {
+    /// The whole `width`×`height` image.
+    pub fn full(width: u32, height: u32) -> Self {
+        Self { x0: 0, x1: width, y0: 0, y1: height }
+    }
+
+    /// Width in pixels (0 if empty).
+    pub fn width(&self) -> u32 {
+        self.x1.saturating_sub(self.x0)
+    }
+
+    /// Height in pixels (0 if empty).
+    pub fn height(&self) -> u32 {
+        self.y1.saturating_sub(self.y0)
+    }
+
+    /// Whether (x, y) lies inside.
+    pub fn contains(&self, x: u32, y: u32) -> bool {
+        (self.x0..self.x1).contains(&x) && (self.y0..self.y1).contains(&y)
     }
 }
 
@@ -192,8 +250,9 @@ pub struct FilmSpec {
     pub aovs: bool,
     /// The pixel sensor: imaging ratio and white balance (pbrt-v4 default: ratio 1, no white balance).
     pub sensor: PixelSensor,
-    /// `maxcomponentvalue`: a sample whose largest XYZ component (after the imaging ratio) exceeds it is scaled
-    /// down to it, colour and spectral buckets alike (pbrt-v4 default: infinity, no clamp).
+    /// `maxcomponentvalue`: a sample whose largest sensor component (XYZ for the cie1931 sensor, after the imaging
+    /// ratio, before white balance) exceeds it is scaled down to it, colour and spectral buckets alike (pbrt-v4
+    /// `RGBFilm::AddSample`; default infinity, no clamp).
     pub max_component_value: f64,
     /// How paths draw their wavelengths and how their radiance becomes colour (`rgb`, `cmf` or `hero`, the
     /// default): the film samples the wavelengths ([`Film::sample_wavelengths`]) and converts with the same
@@ -201,6 +260,23 @@ pub struct FilmSpec {
     pub wavelengths: WavelengthStrategy,
     /// The observer colours are measured with (CIE 1931 2°, as pbrt-v4's `cie1931` sensor).
     pub observer: Observer,
+    /// The pixels rendered and written (pbrt-v4's `pixelbounds`, or its `cropwindow` turned into pixels); `None`
+    /// for the whole image. The camera still frames the whole `width`×`height` image, and every pixel keeps its
+    /// coordinates (and so its random numbers), so a crop holds exactly the full render's pixels.
+    pub pixel_bounds: Option<PixelBounds>,
+    /// Write EXR channels as 16-bit half floats (pbrt-v4's `savefp16`; values above 65504 are clamped to it).
+    pub write_fp16: bool,
+    /// pbrt-v4's `gbuffer` film: the AOVs are written under its channel names (`Albedo.R`, `Ns.X`, …), normals in
+    /// its output coordinate system. `None` for the `rgb` and `spectral` films.
+    pub gbuffer: Option<GBuffer>,
+}
+
+/// What pbrt-v4's `gbuffer` film changes in the output.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GBuffer {
+    /// Rotation applied to world-space shading normals before they are written (`coordinatesystem "camera"`, the
+    /// default: world to camera space), or `None` for world space.
+    pub normal_from_world: Option<Mat3>,
 }
 
 impl Default for FilmSpec {
@@ -225,7 +301,15 @@ impl FilmSpec {
             max_component_value: f64::INFINITY,
             wavelengths: WavelengthStrategy::default(),
             observer: Observer::Cie1931,
+            pixel_bounds: None,
+            write_fp16: false,
+            gbuffer: None,
         }
+    }
+
+    /// The pixels rendered: [`FilmSpec::pixel_bounds`] or the whole image.
+    pub fn bounds(&self) -> PixelBounds {
+        self.pixel_bounds.unwrap_or(PixelBounds::full(self.width, self.height))
     }
 
     /// Checks the resolution (`xresolution`, `yresolution` ≥ 1), `maxcomponentvalue` (> 0), the imaging ratio
@@ -251,6 +335,14 @@ impl FilmSpec {
                 expected: "a finite number above 0",
             });
         }
+        let b = self.bounds();
+        if b.width() == 0 || b.height() == 0 || b.x1 > self.width || b.y1 > self.height {
+            return Err(FilmError::InvalidParameter {
+                name: "pixelbounds",
+                value: f64::NAN,
+                expected: "a non-empty rectangle of pixels inside the image",
+            });
+        }
         self.kind.validate()?;
         self.filter.validate()
     }
@@ -260,6 +352,8 @@ impl FilmSpec {
 #[derive(Clone, Debug)]
 pub struct Film {
     spec: FilmSpec,
+    /// The pixels stored (the spec's pixel bounds or the whole image).
+    bounds: PixelBounds,
     nbuckets: usize,
     /// Wavelength sampling, colour conversion, sensor response and bucket assignment.
     conversion: SampleConversion,
@@ -302,12 +396,13 @@ impl Film {
     pub fn new(spec: FilmSpec) -> Result<Self, FilmError> {
         spec.validate()?;
         let nbuckets = spec.kind.nbuckets();
+        let bounds = spec.bounds();
         let too_large = || FilmError::TooLarge {
-            width: spec.width,
-            height: spec.height,
+            width: bounds.width(),
+            height: bounds.height(),
             channels: 4 + nbuckets + if spec.aovs { 7 } else { 0 },
         };
-        let npix = (spec.width as usize).checked_mul(spec.height as usize).ok_or_else(too_large)?;
+        let npix = (bounds.width() as usize).checked_mul(bounds.height() as usize).ok_or_else(too_large)?;
         let nb = npix.checked_mul(nbuckets).ok_or_else(too_large)?;
         let naov = if spec.aovs { npix } else { 0 };
         Ok(Self {
@@ -320,11 +415,12 @@ impl Film {
             albedo: zeroed(naov, [0.0; 3]).ok_or_else(too_large)?,
             normal: zeroed(naov, [0.0; 3]).ok_or_else(too_large)?,
             aov_count: zeroed(naov, 0.0).ok_or_else(too_large)?,
-            rejected: zeroed(spec.height as usize, 0).ok_or_else(too_large)?,
+            rejected: zeroed(bounds.height() as usize, 0).ok_or_else(too_large)?,
             splat_xyz: Vec::new(),
             splat_buckets: Vec::new(),
             light_paths: 0.0,
             rejected_splats: 0,
+            bounds,
             spec,
         })
     }
@@ -349,14 +445,20 @@ impl Film {
         self.conversion.wavelengths.sample(u)
     }
 
-    /// Width in pixels.
+    /// Width of the full image in pixels (the camera's; see [`Film::bounds`] for the pixels stored).
     pub fn width(&self) -> u32 {
         self.spec.width
     }
 
-    /// Height in pixels.
+    /// Height of the full image in pixels.
     pub fn height(&self) -> u32 {
         self.spec.height
+    }
+
+    /// The pixels the film stores and writes, in full-image coordinates; every method taking pixel coordinates
+    /// takes them in full-image coordinates too.
+    pub fn bounds(&self) -> PixelBounds {
+        self.bounds
     }
 
     /// Number of spectral buckets per pixel (0 for an RGB film).
@@ -419,11 +521,13 @@ impl Film {
         let filter = &self.spec.filter;
         let [rx, ry] = filter.radius();
         let norm = 1.0 / filter.integral();
-        let (w, h) = (self.spec.width as i64, self.spec.height as i64);
+        let b = self.bounds;
+        let (bx0, bx1, by0, by1) = (b.x0 as i64, b.x1 as i64, b.y0 as i64, b.y1 as i64);
+        let w = (bx1 - bx0) as usize;
         // Validate and scale (the sensor's imaging ratio and the maxcomponentvalue clamp apply to splats as to
         // camera samples), and list each splat under the rows its filter footprint covers.
         let mut prepared = Vec::with_capacity(splats.len());
-        let mut rows: Vec<Vec<u32>> = vec![Vec::new(); h as usize];
+        let mut rows: Vec<Vec<u32>> = vec![Vec::new(); (by1 - by0) as usize];
         for sp in splats {
             let finite = sp.xyz.x.is_finite()
                 && sp.xyz.y.is_finite()
@@ -435,38 +539,40 @@ impl Film {
                 continue;
             }
             let (xyz, clamp) = conv.respond(sp.xyz);
-            let y0 = ((sp.raster[1] - 0.5 - ry).ceil() as i64).max(0);
-            let y1 = ((sp.raster[1] - 0.5 + ry).floor() as i64).min(h - 1);
+            let y0 = ((sp.raster[1] - 0.5 - ry).ceil() as i64).max(by0);
+            let y1 = ((sp.raster[1] - 0.5 + ry).floor() as i64).min(by1 - 1);
             let k = prepared.len() as u32;
             prepared.push((sp, xyz.scaled(clamp), clamp));
             for y in y0..=y1 {
-                rows[y as usize].push(k);
+                rows[(y - by0) as usize].push(k);
             }
         }
         let nb = self.nbuckets;
-        let xyz_rows: Vec<&mut [[f64; 3]]> = self.splat_xyz.chunks_mut(w as usize).collect();
+        let xyz_rows: Vec<&mut [[f64; 3]]> = self.splat_xyz.chunks_mut(w).collect();
         let bucket_rows: Vec<&mut [f64]> = if nb > 0 {
-            self.splat_buckets.chunks_mut(w as usize * nb).collect()
+            self.splat_buckets.chunks_mut(w * nb).collect()
         } else {
-            (0..h).map(|_| <&mut [f64]>::default()).collect()
+            (by0..by1).map(|_| <&mut [f64]>::default()).collect()
         };
         xyz_rows.into_par_iter().zip(bucket_rows).zip(rows.par_iter()).enumerate().for_each(
-            |(y, ((xyz_row, bucket_row), list))| {
+            |(row, ((xyz_row, bucket_row), list))| {
+                let y = by0 + row as i64;
                 for &k in list {
                     let (sp, xyz, clamp) = &prepared[k as usize];
-                    let x0 = ((sp.raster[0] - 0.5 - rx).ceil() as i64).max(0);
-                    let x1 = ((sp.raster[0] - 0.5 + rx).floor() as i64).min(w - 1);
+                    let x0 = ((sp.raster[0] - 0.5 - rx).ceil() as i64).max(bx0);
+                    let x1 = ((sp.raster[0] - 0.5 + rx).floor() as i64).min(bx1 - 1);
                     for x in x0..=x1 {
                         let f = filter.evaluate([x as f64 + 0.5 - sp.raster[0], y as f64 + 0.5 - sp.raster[1]]) * norm;
                         if f == 0.0 {
                             continue;
                         }
-                        let s = &mut xyz_row[x as usize];
+                        let i = (x - bx0) as usize;
+                        let s = &mut xyz_row[i];
                         s[0] += f * xyz.x;
                         s[1] += f * xyz.y;
                         s[2] += f * xyz.z;
                         if nb > 0 {
-                            let b = &mut bucket_row[x as usize * nb..(x as usize + 1) * nb];
+                            let b = &mut bucket_row[i * nb..(i + 1) * nb];
                             conv.add_estimates_to_buckets(b, sp.spectral.as_slice(), f * clamp);
                         }
                     }
@@ -490,7 +596,7 @@ impl Film {
             && (nb == 0 || buckets.len() == nb)
             && buckets.iter().all(|v| v.is_finite());
         if !ok {
-            self.rejected[y as usize] += 1;
+            self.rejected[(y - self.bounds.y0) as usize] += 1;
             return false;
         }
         // The sensor's imaging ratio applies as to camera samples (the estimate is final: no clamp).
@@ -516,28 +622,31 @@ impl Film {
         self.light_paths
     }
 
-    /// The factor that turns splat sums into radiance: pixels per light path (0 before any light path).
+    /// The factor that turns splat sums into radiance: pixels of the full image per light path (each light path
+    /// estimates the whole image, even when only a crop is stored; 0 before any light path).
     fn splat_scale(&self) -> f64 {
         if self.light_paths > 0.0 && !self.splat_xyz.is_empty() {
-            self.weight.len() as f64 / self.light_paths
+            self.spec.width as f64 * self.spec.height as f64 / self.light_paths
         } else {
             0.0
         }
     }
 
     fn index(&self, x: u32, y: u32) -> Option<usize> {
-        (x < self.spec.width && y < self.spec.height).then(|| y as usize * self.spec.width as usize + x as usize)
+        let b = &self.bounds;
+        b.contains(x, y).then(|| (y - b.y0) as usize * b.width() as usize + (x - b.x0) as usize)
     }
 
     fn rows(&mut self) -> Vec<FilmRow<'_>> {
-        let w = self.spec.width as usize;
+        let w = self.bounds.width() as usize;
+        let (x0, y0) = (self.bounds.x0, self.bounds.y0);
         let nb = self.nbuckets;
         let aov = self.spec.aovs;
         let (conv, color_space) = (&self.conversion, &self.spec.color_space);
         let (mut xyz, mut weight, mut buckets) = (&mut self.xyz[..], &mut self.weight[..], &mut self.buckets[..]);
         let (mut albedo, mut normal, mut count) = (&mut self.albedo[..], &mut self.normal[..], &mut self.aov_count[..]);
-        let mut rows = Vec::with_capacity(self.spec.height as usize);
-        for (y, rejected) in self.rejected.iter_mut().enumerate() {
+        let mut rows = Vec::with_capacity(self.bounds.height() as usize);
+        for (row, rejected) in self.rejected.iter_mut().enumerate() {
             let (x_row, x_rest) = std::mem::take(&mut xyz).split_at_mut(w);
             let (w_row, w_rest) = std::mem::take(&mut weight).split_at_mut(w);
             let (b_row, b_rest) = std::mem::take(&mut buckets).split_at_mut(w * nb);
@@ -547,7 +656,8 @@ impl Film {
             let (c_row, c_rest) = std::mem::take(&mut count).split_at_mut(a);
             (xyz, weight, buckets, albedo, normal, count) = (x_rest, w_rest, b_rest, a_rest, n_rest, c_rest);
             rows.push(FilmRow {
-                y: y as u32,
+                y: y0 + row as u32,
+                x0,
                 conv,
                 color_space,
                 xyz: x_row,
@@ -572,12 +682,13 @@ impl Film {
         self.rows().into_par_iter()
     }
 
-    /// Row `y` alone (`None` outside the film).
+    /// Row `y` alone (`None` outside the film's bounds).
     pub fn row_mut(&mut self, y: u32) -> Option<FilmRow<'_>> {
-        if y >= self.spec.height {
+        if !(self.bounds.y0..self.bounds.y1).contains(&y) {
             return None;
         }
-        self.rows().into_iter().nth(y as usize)
+        let k = (y - self.bounds.y0) as usize;
+        self.rows().into_iter().nth(k)
     }
 
     /// Adds one camera sample to pixel (x, y): see [`FilmRow::add_sample`]. Returns whether it was accumulated.
@@ -596,7 +707,7 @@ impl Film {
             &mut self.xyz[i],
             &mut self.weight[i],
             &mut self.buckets[i * nb..(i + 1) * nb],
-            &mut self.rejected[y as usize],
+            &mut self.rejected[(y - self.bounds.y0) as usize],
             xyz,
             weight,
             spectral,
@@ -616,10 +727,10 @@ impl Film {
     /// Adds `other`'s accumulators to this film's (for renders split across processes or sample ranges). The films
     /// must have the same size, kind and AOV setting.
     pub fn merge(&mut self, other: &Film) -> Result<(), FilmError> {
-        if (self.spec.width, self.spec.height) != (other.spec.width, other.spec.height) {
+        if (self.spec.width, self.spec.height, self.bounds) != (other.spec.width, other.spec.height, other.bounds) {
             return Err(FilmError::Mismatch(format!(
-                "sizes differ: {}×{} and {}×{}",
-                self.spec.width, self.spec.height, other.spec.width, other.spec.height
+                "sizes or pixel bounds differ: {}×{} {:?} and {}×{} {:?}",
+                self.spec.width, self.spec.height, self.bounds, other.spec.width, other.spec.height, other.bounds
             )));
         }
         if self.spec.kind != other.spec.kind {
@@ -704,7 +815,7 @@ impl Film {
         }
     }
 
-    /// The image in the film's colour space, linear, row-major from the top row.
+    /// The image in the film's colour space, linear, row-major from the top row: the pixels of [`Film::bounds`].
     pub fn to_rgb_image(&self) -> Vec<[f32; 3]> {
         (0..self.weight.len())
             .into_par_iter()
@@ -738,10 +849,15 @@ impl Film {
             .zip(&self.aov_count)
             .map(|(a, &n)| if n > 0.0 { a.map(|c| (c / n) as f32) } else { [0.0; 3] })
             .collect();
+        let frame = self.spec.gbuffer.as_ref().and_then(|g| g.normal_from_world);
         let normal = self
             .normal
             .iter()
             .map(|v| {
+                let v = match &frame {
+                    Some(m) => mul_mat_vec(m, *v),
+                    None => *v,
+                };
                 let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
                 if len > 0.0 {
                     v.map(|c| (c / len) as f32)
@@ -777,6 +893,8 @@ pub struct SampleConversion {
     max_component: f64,
     /// The colour space's white as a spectrum (D65), under which AOV albedos are seen; `None` without AOVs.
     white: Option<Spectrum>,
+    /// A measured camera sensor (its raw r, g, b are recorded instead of XYZ), and 1/∫ȳ for its scale.
+    camera: Option<(&'static CameraSensor, f64)>,
 }
 
 impl SampleConversion {
@@ -787,7 +905,9 @@ impl SampleConversion {
             FilmKind::Spectral { nbuckets, lambda_min, lambda_max } => nbuckets as f64 / (lambda_max - lambda_min),
         };
         let white = spec.aovs.then(|| spectral::named::illuminant("stdillum-D65").expect("D65 is built in"));
+        let camera = spec.sensor.camera.as_ref().map(|c| (c.sensor, 1.0 / spec.observer.y_integral()));
         Self {
+            camera,
             wavelengths: WavelengthSampler::new(spec.wavelengths, spec.observer),
             kind: spec.kind.clone(),
             nbuckets: spec.kind.nbuckets(),
@@ -803,11 +923,25 @@ impl SampleConversion {
         &self.wavelengths
     }
 
-    /// The colour of a path sample: `L(λᵢ)/pdfᵢ` weighted by the strategy's colour matching functions (before the
-    /// sensor's response).
+    /// The sensor value of a path sample, before the imaging ratio: for the cie1931 sensor its XYZ, `L(λᵢ)/pdfᵢ`
+    /// weighted by the strategy's colour matching functions; for a camera sensor its raw r, g, b,
+    /// `Σᵢ (r̄, ḡ, b̄)(λᵢ)·L(λᵢ)/pdfᵢ / ∫ȳ` (pbrt-v4 `PixelSensor::ToSensorRGB`, on the scale where a light of
+    /// luminance 1 has ∫ȳL = 1), carried in an [`Xyz`] whose x, y, z are r, g, b.
     #[inline]
     pub fn xyz(&self, l: &SampledSpectrum, wl: &SampledWavelengths) -> Xyz {
-        self.wavelengths.to_xyz(l, wl)
+        let Some((camera, inv_y)) = self.camera else { return self.wavelengths.to_xyz(l, wl) };
+        let pdf = wl.pdf();
+        let mut rgb = [0.0f64; 3];
+        for i in 0..N_WAVELENGTHS {
+            if wl.is_active(i) && pdf.0[i] > 0.0 {
+                let w = (l.0[i] / pdf.0[i]) as f64;
+                let s = camera.response(wl.lambda(i) as f64);
+                for c in 0..3 {
+                    rgb[c] += w * s[c];
+                }
+            }
+        }
+        Xyz::from_array(rgb.map(|v| v * inv_y))
     }
 
     /// A path sample reduced to what the film accumulates: its colour ([`SampleConversion::xyz`]) and its
@@ -909,6 +1043,8 @@ fn accumulate_aov(
 #[derive(Debug)]
 pub struct FilmRow<'a> {
     y: u32,
+    /// Full-image column of the row's first pixel.
+    x0: u32,
     conv: &'a SampleConversion,
     color_space: &'a RgbColorSpace,
     xyz: &'a mut [[f64; 3]],
@@ -921,14 +1057,19 @@ pub struct FilmRow<'a> {
 }
 
 impl FilmRow<'_> {
-    /// The row's index, from the top.
+    /// The row's index in the full image, from the top.
     pub fn y(&self) -> u32 {
         self.y
     }
 
-    /// The row's width in pixels.
+    /// The number of pixels in the row (the film's bounds' width).
     pub fn width(&self) -> u32 {
         self.weight.len() as u32
+    }
+
+    /// The full-image columns of the row's pixels: what `x` of [`FilmRow::add_sample`] ranges over.
+    pub fn xs(&self) -> std::ops::Range<u32> {
+        self.x0..self.x0 + self.width()
     }
 
     /// Draws the wavelengths of one path from one uniform number (see [`Film::sample_wavelengths`]).
@@ -959,7 +1100,7 @@ impl FilmRow<'_> {
     /// A sample with any NaN or infinite value, or with `x` outside the row, is dropped and counted
     /// ([`Film::rejected_samples`]); the return value says whether the sample was accumulated.
     pub fn add_xyz_sample(&mut self, x: u32, xyz: Xyz, weight: f64, spectral: &[(f32, f32)]) -> bool {
-        let x = x as usize;
+        let x = x.wrapping_sub(self.x0) as usize;
         if x >= self.weight.len() {
             *self.rejected += 1;
             return false;
@@ -990,7 +1131,7 @@ impl FilmRow<'_> {
     /// Adds one albedo (linear RGB) and shading-normal record to pixel `x`; ignored (returns `false`) when the
     /// film has no AOVs, outside the row, or for non-finite values.
     pub fn add_aov(&mut self, x: u32, albedo: [f64; 3], normal: [f64; 3]) -> bool {
-        let x = x as usize;
+        let x = x.wrapping_sub(self.x0) as usize;
         if x >= self.aov_count.len() {
             return false;
         }

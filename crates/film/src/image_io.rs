@@ -230,7 +230,8 @@ fn check_size(width: u32, height: u32, len: usize) -> Result<(), ImageError> {
 /// PNG and PFM hold the RGB image only.
 pub fn write_image(film: &Film, path: &Path) -> Result<(), ImageError> {
     let format = ImageFormat::from_path(path)?;
-    let (w, h) = (film.width(), film.height());
+    let bounds = film.bounds();
+    let (w, h) = (bounds.width(), bounds.height());
     let rgb = film.to_rgb_image();
     match format {
         ImageFormat::Png => write_atomic(path, |out| encode_png(out, path, w, h, &rgb)),
@@ -255,10 +256,16 @@ pub fn write_image(film: &Film, path: &Path) -> Result<(), ImageError> {
                 attributes.push(("emissiveUnits".to_string(), EMISSIVE_UNITS.to_string()));
             }
             if let Some(AovImages { albedo, normal }) = film.to_aov_images() {
-                for (c, name) in ["albedo.R", "albedo.G", "albedo.B"].iter().enumerate() {
+                // pbrt-v4's gbuffer film names them Albedo.* and Ns.* (shading normal); --aovs uses albedo.*, N.*.
+                let (albedo_names, normal_names) = if film.spec().gbuffer.is_some() {
+                    (["Albedo.R", "Albedo.G", "Albedo.B"], ["Ns.X", "Ns.Y", "Ns.Z"])
+                } else {
+                    (["albedo.R", "albedo.G", "albedo.B"], ["N.X", "N.Y", "N.Z"])
+                };
+                for (c, name) in albedo_names.iter().enumerate() {
                     channels.push((name.to_string(), albedo.iter().map(|p| p[c]).collect()));
                 }
-                for (c, name) in ["N.X", "N.Y", "N.Z"].iter().enumerate() {
+                for (c, name) in normal_names.iter().enumerate() {
                     channels.push((name.to_string(), normal.iter().map(|p| p[c]).collect()));
                 }
             }
@@ -269,8 +276,30 @@ pub fn write_image(film: &Film, path: &Path) -> Result<(), ImageError> {
                 blue: Vec2(cs.primaries[2][0] as f32, cs.primaries[2][1] as f32),
                 white: Vec2(cs.white[0] as f32, cs.white[1] as f32),
             };
-            write_atomic(path, |out| encode_exr(out, path, w, h, channels, &attributes, Some(chroma)))
+            // pbrt-v4 writes a crop as the data window inside a display window of the full image.
+            let windows = ExrWindows {
+                position: (bounds.x0, bounds.y0),
+                display: (film.width(), film.height()),
+                half: film.spec().write_fp16,
+            };
+            write_atomic(path, |out| encode_exr(out, path, w, h, channels, &attributes, Some(chroma), windows))
         }
+    }
+}
+
+/// Where an EXR's pixels lie and how they are stored: the data window's top-left corner in the display window,
+/// the display window's size, and whether channels are 16-bit half floats.
+#[derive(Clone, Copy, Debug)]
+struct ExrWindows {
+    position: (u32, u32),
+    display: (u32, u32),
+    half: bool,
+}
+
+impl ExrWindows {
+    /// A whole image of `width`×`height` 32-bit float pixels.
+    fn whole(width: u32, height: u32) -> Self {
+        Self { position: (0, 0), display: (width, height), half: false }
     }
 }
 
@@ -288,7 +317,8 @@ pub fn write_rgb(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> R
                 .enumerate()
                 .map(|(c, n)| (n.to_string(), pixels.iter().map(|p| p[c]).collect()))
                 .collect();
-            write_atomic(path, |out| encode_exr(out, path, width, height, channels, &[], None))
+            let windows = ExrWindows::whole(width, height);
+            write_atomic(path, |out| encode_exr(out, path, width, height, channels, &[], None, windows))
         }
     }
 }
@@ -300,6 +330,7 @@ fn text(path: &Path, s: &str) -> Result<Text, ImageError> {
     })
 }
 
+#[allow(clippy::too_many_arguments)]
 fn encode_exr(
     out: &mut BufWriter<File>,
     path: &Path,
@@ -308,18 +339,29 @@ fn encode_exr(
     channels: Vec<(String, Vec<f32>)>,
     attributes: &[(String, String)],
     chromaticities: Option<ex::attribute::Chromaticities>,
+    windows: ExrWindows,
 ) -> Result<(), ImageError> {
+    let samples = |values: Vec<f32>| {
+        if windows.half {
+            // Half floats top out at 65504; larger values are clamped to it, as pbrt-v4 does.
+            FlatSamples::F16(values.into_iter().map(|v| ex::f16::from_f32(v.clamp(-65504.0, 65504.0))).collect())
+        } else {
+            FlatSamples::F32(values)
+        }
+    };
     let list = channels
         .into_iter()
-        .map(|(name, values)| Ok(AnyChannel::new(text(path, &name)?, FlatSamples::F32(values))))
+        .map(|(name, values)| Ok(AnyChannel::new(text(path, &name)?, samples(values))))
         .collect::<Result<Vec<_>, ImageError>>()?;
     let mut layer_attributes = LayerAttributes::default();
     for (name, value) in attributes {
         layer_attributes.other.insert(text(path, name)?, AttributeValue::Text(text(path, value)?));
     }
+    layer_attributes.layer_position = Vec2(windows.position.0 as i32, windows.position.1 as i32);
     let size = (width as usize, height as usize);
     let layer = Layer::new(size, layer_attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(list.into()));
-    let mut image_attributes = ImageAttributes::new(ex::IntegerBounds::from_dimensions(size));
+    let display = (windows.display.0 as usize, windows.display.1 as usize);
+    let mut image_attributes = ImageAttributes::new(ex::IntegerBounds::from_dimensions(display));
     image_attributes.chromaticities = chromaticities;
     let image = Image::new(image_attributes, layer);
     use exr::prelude::WritableImage;
@@ -423,6 +465,36 @@ fn exr_channel(image: &ExrImage, name: &str) -> Option<Vec<f32>> {
         .map(|c| c.sample_data.values_as_f32().collect())
 }
 
+/// How an EXR's pixels are laid out: its data window (origin and size) inside its display window, and whether
+/// its channels are half floats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ExrLayout {
+    /// Top-left corner of the data window.
+    pub data_origin: (i32, i32),
+    /// Size of the data window (the pixels stored).
+    pub data_size: (usize, usize),
+    /// Top-left corner of the display window.
+    pub display_origin: (i32, i32),
+    /// Size of the display window.
+    pub display_size: (usize, usize),
+    /// Whether every channel is stored as 16-bit half floats.
+    pub half: bool,
+}
+
+/// The layout of the EXR at `path` (see [`ExrLayout`]).
+pub fn read_exr_layout(path: &Path) -> Result<ExrLayout, ImageError> {
+    let image = read_exr(path)?;
+    let layer = &image.layer_data;
+    let d = image.attributes.display_window;
+    Ok(ExrLayout {
+        data_origin: (layer.attributes.layer_position.0, layer.attributes.layer_position.1),
+        data_size: (layer.size.0, layer.size.1),
+        display_origin: (d.position.0, d.position.1),
+        display_size: (d.size.0, d.size.1),
+        half: layer.channel_data.list.iter().all(|c| matches!(c.sample_data, FlatSamples::F16(_))),
+    })
+}
+
 /// Reads the `R`, `G`, `B` channels of an EXR (a lone `Y` channel is read as grey): (width, height, linear pixels
 /// row-major from the top).
 pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
@@ -447,7 +519,8 @@ pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError
     Ok((w, h, (0..n).map(|i| [channels[0][i], channels[1][i], channels[2][i]]).collect()))
 }
 
-/// Reads the `albedo.R/G/B` and `N.X/Y/Z` layers of an EXR written with AOVs, row-major from the top.
+/// Reads the `albedo.R/G/B` and `N.X/Y/Z` layers of an EXR written with AOVs (or a gbuffer film's `Albedo.R/G/B`
+/// and `Ns.X/Y/Z`), row-major from the top.
 pub fn read_exr_aovs(path: &Path) -> Result<AovImages, ImageError> {
     let image = read_exr(path)?;
     let get = |names: [&str; 3]| -> Result<Vec<[f32; 3]>, ImageError> {
@@ -460,7 +533,13 @@ pub fn read_exr_aovs(path: &Path) -> Result<AovImages, ImageError> {
         }
         Ok((0..c[0].len()).map(|i| [c[0][i], c[1][i], c[2][i]]).collect())
     };
-    Ok(AovImages { albedo: get(["albedo.R", "albedo.G", "albedo.B"])?, normal: get(["N.X", "N.Y", "N.Z"])? })
+    // `--aovs` names (albedo.*, N.*) or pbrt-v4's gbuffer names (Albedo.*, Ns.*).
+    let gbuffer = exr_channel(&image, "albedo.R").is_none() && exr_channel(&image, "Albedo.R").is_some();
+    Ok(if gbuffer {
+        AovImages { albedo: get(["Albedo.R", "Albedo.G", "Albedo.B"])?, normal: get(["Ns.X", "Ns.Y", "Ns.Z"])? }
+    } else {
+        AovImages { albedo: get(["albedo.R", "albedo.G", "albedo.B"])?, normal: get(["N.X", "N.Y", "N.Z"])? }
+    })
 }
 
 /// Reads an EXR in the Fichet et al. spectral layout: its `S0` channels sorted by wavelength, and its string

@@ -40,10 +40,13 @@ pub mod image_io;
 pub mod tga;
 
 pub use error::{FilmError, ImageError};
-pub use film::{AovImages, Film, FilmKind, FilmRow, FilmSpec, PixelSensor, SampleConversion, SpectralEstimates, Splat};
+pub use film::{
+    AovImages, CameraResponse, Film, FilmKind, FilmRow, FilmSpec, GBuffer, PixelBounds, PixelSensor, SampleConversion,
+    SpectralEstimates, Splat,
+};
 pub use filter::{Filter, FilterSample, FilterSampler};
 pub use image_io::{
-    parse_spectral_channel_name, read_exr_aovs, read_exr_rgb, read_exr_spectral, read_pfm, read_png_linear, read_rgb,
-    spectral_channel_name, write_image, write_rgb, ImageFormat, SpectralImage,
+    parse_spectral_channel_name, read_exr_aovs, read_exr_layout, read_exr_rgb, read_exr_spectral, read_pfm,
+    read_png_linear, read_rgb, spectral_channel_name, write_image, write_rgb, ExrLayout, ImageFormat, SpectralImage,
 };
 pub use image_io::{read_rgb_encoded, ColorEncoding};

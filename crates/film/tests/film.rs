@@ -281,7 +281,7 @@ fn splats_are_scaled_by_pixels_per_light_path_and_spread_by_the_filter() {
     // The sensor's imaging ratio (ISO 200: ×2) scales splats as it scales camera samples.
     let mut iso = spectral_spec(4, 3, 2, 400.0, 600.0);
     iso.filter = Filter::new_box([0.5, 0.5]).unwrap();
-    iso.sensor = film::PixelSensor { imaging_ratio: 2.0, white_balance_from: None };
+    iso.sensor = film::PixelSensor { imaging_ratio: 2.0, ..Default::default() };
     let mut c = Film::new(iso).unwrap();
     c.add_xyz_splat([0.5, 0.5], Xyz::new(0.0, 6.0, 0.0), &[]);
     c.add_light_paths(12);
@@ -379,4 +379,101 @@ fn white_balance_maps_the_illuminant_to_the_output_white() {
     plain.add_xyz_sample(0, 0, d50, 1.0, &[]);
     let rgb = plain.to_rgb_image()[0];
     assert!(rgb[0] - rgb[2] > 0.2, "{rgb:?}");
+}
+
+#[test]
+fn max_component_value_clamps_a_path_sample_in_sensor_space() {
+    // One wavelength, 450 nm, with effective density 0.01/nm and radiance 10: the sample's sensor value (for the
+    // cie1931 sensor, XYZ with Y = 1 for a white light of luminance 1) is 10/0.01 · (x̄, ȳ, z̄)(450)/∫ȳ =
+    // 1000 · (0.33620, 0.03800, 1.77211)/106.857 = (3.146, 0.3556, 16.584). Its largest component, Z, exceeds
+    // maxcomponentvalue 2, so all three are scaled by 2/16.584: (0.3794, 0.04289, 2).
+    let wl = spectral::SampledWavelengths::new([450.0; 4], [0.01, 0.0, 0.0, 0.0]);
+    let l = SampledSpectrum([10.0, 0.0, 0.0, 0.0]);
+    let y_int = Observer::Cie1931.y_integral();
+    assert!((y_int - 106.857).abs() < 1e-3, "{y_int}");
+    let raw = [0.33620, 0.03800, 1.77211].map(|c| 1000.0 * c / y_int);
+    for kind in [FilmKind::Rgb, FilmKind::spectral_default()] {
+        let mut spec = FilmSpec::new(1, 1, "clamp.exr");
+        (spec.kind, spec.max_component_value) = (kind, 2.0);
+        let mut film = Film::new(spec).unwrap();
+        assert!(film.add_sample(0, 0, &l, &wl, 1.0));
+        let got = film.pixel_xyz(0, 0).to_array();
+        for c in 0..3 {
+            let want = raw[c] * 2.0 / raw[2];
+            assert!((got[c] - want).abs() < 2e-5 * want.max(0.05), "{got:?} vs {want}");
+        }
+        assert!((got[2] - 2.0).abs() < 1e-6 && (got[0] - 0.3794).abs() < 2e-4 && (got[1] - 0.04289).abs() < 2e-5);
+    }
+}
+
+#[test]
+fn max_component_value_clamps_as_pbrt_v4_with_its_wavelength_pdf() {
+    // A clamp is nonlinear, so its bias depends on how each sample's value is distributed, i.e. on the pdf the
+    // film draws wavelengths from. Single-wavelength paths of constant radiance 3 (a dispersive surface kept one
+    // wavelength) with maxcomponentvalue 10: pbrt-v4 draws λ from 0.0039398042/cosh²(0.0072(λ − 538)) and a sample
+    // is 3·(x̄, ȳ, z̄)(λ)/(p(λ)·∫ȳ); the clamped mean is ∫ min(1, 10/max component) · 3·(x̄, ȳ, z̄)/∫ȳ dλ. Blue
+    // wavelengths have a small pdf there, so their large Z gets clamped: the image is (2.836, 2.981, 2.139), much
+    // less blue than the unclamped (3, 3, 3). A film drawing from x̄ + ȳ + z̄ (Prismatic's pdf before) clamps almost
+    // nothing and comes out 40% bluer.
+    let obs = Observer::Cie1931;
+    let y_int = obs.y_integral();
+    let pbrt_pdf = |l: f64| 0.003_939_804_2 / (0.0072 * (l - 538.0)).cosh().powi(2);
+    let mut want = [0.0; 3];
+    let n = 470_000;
+    for i in 0..n {
+        let l = 360.0 + 470.0 * (i as f64 + 0.5) / n as f64;
+        let cmf = obs.xyz_bar(l);
+        let sample = cmf.map(|c| 3.0 * c / (pbrt_pdf(l) * y_int));
+        let k = (10.0 / sample[0].max(sample[1]).max(sample[2])).min(1.0);
+        for c in 0..3 {
+            want[c] += k * 3.0 * cmf[c] / y_int * (470.0 / n as f64);
+        }
+    }
+    for (w, hand) in want.iter().zip([2.836, 2.981, 2.139]) {
+        assert!((w - hand).abs() < 2e-3, "{want:?}");
+    }
+    let mut spec = FilmSpec::new(1, 1, "clamp.exr");
+    spec.max_component_value = 10.0;
+    let mut film = Film::new(spec).unwrap();
+    let m = 100_000;
+    for i in 0..m {
+        for slot in 0..4 {
+            let mut wl = film.sample_wavelengths((i as f64 + 0.5) / m as f64);
+            wl.terminate_secondary((slot as f32 + 0.5) / 4.0);
+            film.add_sample(0, 0, &SampledSpectrum::splat(3.0), &wl, 1.0);
+        }
+    }
+    let got = film.pixel_xyz(0, 0).to_array();
+    for c in 0..3 {
+        assert!((got[c] - want[c]).abs() < 2e-3 * want[c], "{got:?} vs pbrt-v4 {want:?}");
+    }
+}
+
+#[test]
+fn a_cropped_film_keeps_full_image_coordinates_and_splat_scale() {
+    // A 4×2 crop of an 8×6 image: samples and splats use full-image pixel coordinates; pixels outside the crop are
+    // not stored. Each light path estimates the whole 8×6 image, so splat sums are scaled by 48 pixels per light
+    // path even though only 8 are stored. Box filter of radius 0.5: a splat at a pixel centre lands in that pixel
+    // alone with weight 1.
+    let mut spec = FilmSpec::new(8, 6, "crop.exr");
+    spec.filter = Filter::new_box([0.5, 0.5]).unwrap();
+    spec.pixel_bounds = Some(film::PixelBounds { x0: 3, x1: 7, y0: 2, y1: 4 });
+    let mut film = Film::new(spec).unwrap();
+    assert_eq!((film.width(), film.height(), film.bounds().width(), film.bounds().height()), (8, 6, 4, 2));
+    assert!(film.add_xyz_sample(3, 2, Xyz::new(1.0, 2.0, 3.0), 1.0, &[]));
+    assert!(!film.add_xyz_sample(2, 2, Xyz::new(1.0, 2.0, 3.0), 1.0, &[]), "outside the crop");
+    let rows: Vec<(u32, std::ops::Range<u32>)> = film.rows_mut().map(|r| (r.y(), r.xs())).collect();
+    assert_eq!(rows, vec![(2, 3..7), (3, 3..7)]);
+    let mut row = film.row_mut(3).unwrap();
+    assert!(row.add_xyz_sample(6, Xyz::new(0.0, 4.0, 0.0), 2.0, &[]));
+    assert!(!row.add_xyz_sample(7, Xyz::new(0.0, 4.0, 0.0), 2.0, &[]));
+    assert!(film.add_xyz_splat([4.5, 3.5], Xyz::new(0.0, 6.0, 0.0), &[]));
+    assert!(film.add_xyz_splat([0.5, 0.5], Xyz::new(0.0, 6.0, 0.0), &[])); // lands outside: nothing stored
+    film.add_light_paths(96);
+    assert_eq!(film.pixel_xyz(3, 2), Xyz::new(1.0, 2.0, 3.0));
+    assert_eq!(film.pixel_xyz(6, 3), Xyz::new(0.0, 4.0, 0.0));
+    assert_eq!(film.pixel_xyz(4, 3), Xyz::new(0.0, 6.0 * 48.0 / 96.0, 0.0));
+    let image = film.to_rgb_image();
+    assert_eq!(image.len(), 8);
+    assert_eq!(image[0], film.spec().color_space.to_rgb(Xyz::new(1.0, 2.0, 3.0)).map(|c| c as f32));
 }

@@ -113,7 +113,8 @@ fn spectral_exr_round_trip_through_the_cli() {
 
     // The same render in process.
     let desc = pbrt::parse_file(&scene).unwrap();
-    let options = BuildOptions { resolution: Some((20, 12)), spp: Some(4), output: Some(out.clone()) };
+    let options =
+        BuildOptions { resolution: Some((20, 12)), spp: Some(4), output: Some(out.clone()), ..Default::default() };
     let built = build_scene(&desc, &options).unwrap();
     assert!(built.warnings.is_empty(), "{:?}", built.warnings);
     let mut spec = built.film.clone();

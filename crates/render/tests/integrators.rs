@@ -462,10 +462,12 @@ fn sppm_agrees_with_path_on_a_diffuse_room() {
 /// surfaces (4.5σ + 2%). The bias is larger in fog: a gather sphere that reaches out of the ball finds no photons
 /// in its outer part (a third of the ball lies within the initial radius 0.15 of its surface), which darkens the
 /// image by about 1% at 512 iterations (1.8σ); a smaller radius shrinks it (0.08: within 1.5σ everywhere, but noisier).
+/// The whole image's allowance is 5.3% (at most 5.5%): hero wavelengths drawn from pbrt-v4's visible pdf sample the
+/// fog's blue end less often than x̄ + ȳ + z̄ did, and one wavelength set per iteration makes that sppm's noise.
 #[test]
 fn sppm_agrees_with_volpath_in_fog() {
     let fog = room(Extras { fog: true, ..Extras::default() });
-    agrees_with(&fog, &volpath(4), &sppm(4), 512, 512, 0.02, 0.05);
+    agrees_with(&fog, &volpath(4), &sppm(4), 512, 512, 0.02, 0.055);
 }
 
 // ------------------------------------------------------------------------------------------------------------------

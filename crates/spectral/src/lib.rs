@@ -27,6 +27,7 @@ pub mod lab;
 pub mod named;
 pub mod rgb_uplift;
 pub mod sampled;
+pub mod sensor;
 pub mod spectrum;
 mod tables;
 pub mod wavelengths;

@@ -63,6 +63,8 @@ embedded_table!(stiles_burch, "stiles_burch_1959_10deg_rgb.csv");
 embedded_table!(illuminants, "cie_illuminants.csv");
 embedded_table!(fluorescent, "cie_fluorescent_illuminants.csv");
 embedded_table!(daylight_basis, "cie_daylight_basis.csv");
+embedded_table!(camera_sensors, "camera_sensors.csv");
+embedded_table!(colorchecker, "colorchecker_babelcolor_average.csv");
 
 #[cfg(test)]
 mod tests {

@@ -23,8 +23,10 @@ pub enum WavelengthStrategy {
     /// Seed 000's better solution: one wavelength per path from the discrete pdf made of the element-wise mean of
     /// the normalised Stiles & Burch r̄, ḡ, b̄; radiance weighted by (r̄, ḡ, b̄)(λ)/pdf(λ), then converted to XYZ.
     Cmf,
-    /// Hero wavelength sampling (Wilkie et al. 2014): four wavelengths from a visible-importance pdf, rotated in
-    /// primary sample space, carried together until a dispersive event keeps one (seed 001's proposal).
+    /// Hero wavelength sampling (Wilkie et al. 2014): four wavelengths from pbrt-v4's visible-wavelength pdf
+    /// ([`visible_pdf`]), rotated in primary sample space, carried together until a dispersive event keeps one
+    /// (seed 001's proposal). Drawing from pbrt-v4's own pdf makes each sample's colour distributed as in pbrt-v4,
+    /// which matters where a nonlinear step sees single samples (the film's `maxcomponentvalue` clamp).
     #[default]
     Hero,
 }
@@ -69,7 +71,7 @@ pub struct WavelengthSampler {
     strategy: WavelengthStrategy,
     observer: Observer,
     /// Density ∝ x̄ + ȳ + z̄ over 360–830 nm in 1 nm bins: positive everywhere the observer sees, so XYZ weights
-    /// divided by it stay bounded (`hero` and, band by band, `rgb`).
+    /// divided by it stay bounded (`rgb`, band by band).
     visible: Distribution1D,
     /// The visible cdf at [`RGB_BAND_EDGES`].
     band_cdf: [f64; 4],
@@ -111,7 +113,7 @@ impl WavelengthSampler {
         self.observer
     }
 
-    /// The visible-importance density (∝ x̄ + ȳ + z̄) that `hero` and `rgb` draw from.
+    /// The visible-importance density (∝ x̄ + ȳ + z̄) that `rgb` draws from, band by band.
     pub fn visible_distribution(&self) -> &Distribution1D {
         &self.visible
     }
@@ -126,9 +128,9 @@ impl WavelengthSampler {
                 // the estimate averages the N of them, hence the effective density N·p(λᵢ).
                 for i in 0..N_WAVELENGTHS {
                     let ui = (u + i as f64 / N_WAVELENGTHS as f64).fract();
-                    let s = self.visible.sample(ui);
-                    lambda[i] = s.x as f32;
-                    pdf[i] = (N_WAVELENGTHS as f64 * s.pdf) as f32;
+                    let l = sample_visible(ui);
+                    lambda[i] = l as f32;
+                    pdf[i] = (N_WAVELENGTHS as f64 * visible_pdf(l)) as f32;
                 }
             }
             WavelengthStrategy::Rgb => {
@@ -207,6 +209,34 @@ impl WavelengthSampler {
     }
 }
 
+/// pbrt-v4's visible-wavelength importance function p(λ) ∝ 1/cosh²(A(λ − B)), A = 0.0072 nm⁻¹, B = 538 nm
+/// (Pharr, Jakob & Humphreys, *PBR* 4th ed., eq. 5.9).
+const VISIBLE_A: f64 = 0.0072;
+const VISIBLE_B: f64 = 538.0;
+
+/// tanh(A(λ − B)) at the ends of [`LAMBDA_MIN`, `LAMBDA_MAX`]: the antiderivative of cosh⁻² is tanh / A.
+fn visible_tanh_range() -> (f64, f64) {
+    ((VISIBLE_A * (LAMBDA_MIN - VISIBLE_B)).tanh(), (VISIBLE_A * (LAMBDA_MAX - VISIBLE_B)).tanh())
+}
+
+/// pbrt-v4's visible-wavelength density on 360–830 nm (per nm; 0 outside), which `hero` draws from:
+/// p(λ) = A / (cosh²(A(λ − B)) · (tanh(A(830 − B)) − tanh(A(360 − B)))).
+pub fn visible_pdf(lambda: f64) -> f64 {
+    if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&lambda) {
+        return 0.0;
+    }
+    let (t0, t1) = visible_tanh_range();
+    let c = (VISIBLE_A * (lambda - VISIBLE_B)).cosh();
+    VISIBLE_A / (c * c * (t1 - t0))
+}
+
+/// Draws a wavelength (nm) from [`visible_pdf`] by inverting its cdf: λ = B + atanh(t₀ + u·(t₁ − t₀)) / A.
+pub fn sample_visible(u: f64) -> f64 {
+    let (t0, t1) = visible_tanh_range();
+    let t = (t0 + u.clamp(0.0, 1.0) * (t1 - t0)).clamp(t0, t1);
+    (VISIBLE_B + t.atanh() / VISIBLE_A).clamp(LAMBDA_MIN, LAMBDA_MAX)
+}
+
 /// Seed 000's discrete pdf for `cmf`: the element-wise mean of r̄, ḡ, b̄, each normalised to unit area.
 ///
 /// Negative lobes: a pdf cannot be negative, so each function enters by its absolute value, |c̄|/∫|c̄|. The pdf is
@@ -250,6 +280,29 @@ mod tests {
         }
         // Clamping the lobe to zero instead would lose the r̄ < 0 part: the signed estimate of ∫ r̄ needs it.
         assert!(sb.values.iter().any(|v| v[0] < 0.0 && v[1].abs() + v[2].abs() > 0.0));
+    }
+
+    #[test]
+    fn hero_draws_from_pbrt_v4_visible_pdf() {
+        // pbrt-v4 writes its normalised density as 0.0039398042 / cosh²(0.0072 (λ − 538)) and its inverse cdf as
+        // 538 − 138.888889 · atanh(0.85691062 − 1.82750197 u) (sampling.h); ours must be the same function.
+        assert!((visible_pdf(538.0) - 0.003_939_804_2).abs() < 1e-9);
+        assert!((visible_pdf(450.0) - 0.003_939_804_2 / (0.0072f64 * -88.0).cosh().powi(2)).abs() < 1e-9);
+        assert_eq!((visible_pdf(359.0), visible_pdf(831.0)), (0.0, 0.0));
+        for u in [0.0f64, 0.1, 0.37, 0.5, 0.9, 0.999] {
+            let pbrt = 538.0 - 138.888_889 * (0.856_910_62 - 1.827_501_97 * u).atanh();
+            assert!((sample_visible(u) - pbrt).abs() < 1e-3, "u {u}: {} vs {pbrt}", sample_visible(u));
+        }
+        // ∫ p = 1 over 360–830 nm (midpoint rule, 0.01 nm).
+        let integral: f64 = (0..47_000).map(|i| visible_pdf(360.0 + 0.01 * (i as f64 + 0.5)) * 0.01).sum();
+        assert!((integral - 1.0).abs() < 1e-9, "{integral}");
+        // The four hero slots are rotated by 1/4 in primary sample space, each with effective density 4·p(λ).
+        let wl = WavelengthSampler::new(WavelengthStrategy::Hero, Observer::Cie1931).sample(0.3);
+        for (i, u) in [0.3, 0.55, 0.8, 0.05].into_iter().enumerate() {
+            assert!((wl.lambda(i) as f64 - sample_visible(u)).abs() < 1e-3);
+            let p = 4.0 * visible_pdf(wl.lambda(i) as f64);
+            assert!((wl.pdf().0[i] as f64 - p).abs() < 1e-6 * p);
+        }
     }
 
     #[test]

@@ -6,7 +6,7 @@ use geometry::{Shape, Transform};
 use glam::DVec3;
 use scene::{Entity, Loc, SceneDescription, SceneError, SpectrumKind};
 use spectral::rgb_uplift::RgbIlluminantSpectrum;
-use spectral::{Distribution2D, Observer, RgbColorSpace, Spectrum};
+use spectral::{Observer, Spectrum};
 
 use std::sync::Arc;
 
@@ -185,32 +185,8 @@ fn environment_map(path: &std::path::Path, loc: &Loc, t: &Transform) -> Result<E
     if !equal_area && w != 2 * h {
         return err(loc, format!("environment map {}×{} is neither square (equal-area) nor 2:1 (lat-long)", w, h));
     }
-    let cs = RgbColorSpace::srgb();
-    let mut texels = Vec::with_capacity(w * h);
-    let mut weights = Vec::with_capacity(w * h);
-    let mut lum_sum = 0.0f64;
-    for (i, px) in pixels.iter().enumerate() {
-        let rgb = px.map(|c| (c.max(0.0)) as f64);
-        texels.push(RgbIlluminantSpectrum::new(rgb).map_err(|e| SceneError::at(loc.clone(), e.to_string()))?);
-        let y = cs.to_xyz(rgb).y.max(0.0);
-        lum_sum += y;
-        // Lat-long rows cover less solid angle near the poles: weight by sin θ.
-        let row = i / w;
-        let sin_theta = if equal_area { 1.0 } else { ((row as f64 + 0.5) / h as f64 * std::f64::consts::PI).sin() };
-        weights.push(y * sin_theta + 1e-6);
-    }
-    let distribution = Distribution2D::new(&weights, w, h, (0.0, 1.0), (0.0, 1.0))
-        .map_err(|e| SceneError::at(loc.clone(), e.to_string()))?;
     let x = t.vector(DVec3::X).as_vec3().normalize();
     let y = t.vector(DVec3::Y).as_vec3().normalize();
     let z = t.vector(DVec3::Z).as_vec3().normalize();
-    Ok(EnvironmentMap {
-        width: w,
-        height: h,
-        texels,
-        equal_area,
-        mean_luminance: (lum_sum / (w * h) as f64) as f32,
-        distribution,
-        frame: Frame { x, y, z },
-    })
+    EnvironmentMap::from_rgb(w, h, &pixels, Frame { x, y, z }).map_err(|e| SceneError::at(loc.clone(), e))
 }

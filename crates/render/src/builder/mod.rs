@@ -28,6 +28,10 @@ pub struct BuildOptions {
     pub spp: Option<u32>,
     /// Output file instead of the film's `filename`.
     pub output: Option<PathBuf>,
+    /// pbrt-v4's `--cropwindow x0 x1 y0 y1` (fractions of the image in [0, 1]): overrides the film's.
+    pub crop_window: Option<[f64; 4]>,
+    /// pbrt-v4's `--pixelbounds x0 x1 y0 y1` (pixels, half-open): overrides the film's.
+    pub pixel_bounds: Option<[u32; 4]>,
 }
 
 /// A scene ready to render, with the settings the scene file chose.
@@ -67,16 +71,40 @@ fn unsupported(what: &str, name: &str, supported: &[&str]) -> String {
     format!("{what} '{name}' is not supported; supported: {}", supported.join(", "))
 }
 
+/// pbrt-v4's sampler names. Each one maps to Prismatic's own sampler (Owen-scrambled Sobol points per pixel);
+/// only the sample count is taken from the directive.
+pub const SAMPLER_NAMES: [&str; 7] =
+    ["zsobol", "halton", "sobol", "paddedsobol", "pmj02bn", "independent", "stratified"];
+
+/// Samples per pixel of the `Sampler` directive: `pixelsamples` (default 16), or for `stratified` `xsamples` ×
+/// `ysamples` (default 4 × 4; its `jitter` is read, since Prismatic's samples are always stratified and jittered).
+/// An unknown sampler name is an error listing pbrt-v4's.
+fn sampler_spp(desc: &SceneDescription) -> Result<u32> {
+    let (p, loc) = (&desc.sampler.params, &desc.sampler.loc);
+    if !SAMPLER_NAMES.contains(&desc.sampler.name.as_str()) {
+        return err(loc, unsupported("sampler", &desc.sampler.name, &SAMPLER_NAMES));
+    }
+    if desc.sampler.name == "stratified" {
+        let (x, y) = (p.get_count("xsamples", 4, loc)?, p.get_count("ysamples", 4, loc)?);
+        p.get_bool("jitter", true)?;
+        return match u32::try_from(x * y) {
+            Ok(n) if n <= 1 << 24 => Ok(n),
+            _ => err(loc, format!("'xsamples' × 'ysamples' = {} samples per pixel is too many", x * y)),
+        };
+    }
+    Ok(p.get_count("pixelsamples", 16, loc)? as u32)
+}
+
 /// Builds the render-ready scene from a parsed description.
 pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<BuiltScene> {
     if desc.color_space != "srgb" {
         return err(&desc.film.loc, format!("colour space '{}' is not supported (only srgb)", desc.color_space));
     }
     let mut warnings = vec![];
-    let film = film::make_film(desc, options)?;
+    let film = film::make_film(desc, options, &mut warnings)?;
 
     // Sampler and integrator.
-    let scene_spp = desc.sampler.params.get_count("pixelsamples", 16, &desc.sampler.loc)? as u32;
+    let scene_spp = sampler_spp(desc)?;
     let media = media::Media::build(desc)?;
     let integrator = Integrator::read(&mut IntegratorParams {
         entity: &desc.integrator,

@@ -97,7 +97,7 @@ pub(crate) fn render_rows(
     film.par_rows_mut()
         .map(|mut row| {
             let mut counts = RayCounts::default();
-            for x in 0..row.width() {
+            for x in row.xs() {
                 per_pixel(&mut row, x, samples.clone(), &mut counts);
             }
             let taken = per_pixel_samples * row.width() as u64;
@@ -148,7 +148,10 @@ pub(crate) fn render_splatting(
     progress: &(dyn Fn(u64) + Sync),
     per_sample: &PixelSample,
 ) -> RenderStats {
-    let (w, h) = (film.width(), film.height());
+    // The film's pixel bounds (a crop renders only its own pixels' samples and light paths; coordinates stay
+    // those of the full image, so each pixel draws the same random numbers as in a full render).
+    let b = film.bounds();
+    let (x0, y_start, w, h) = (b.x0, b.y0, b.width(), b.height());
     let spp = (samples.end - samples.start) as u64;
     // A batch holds at most ~32k pixel samples' records: a band of rows of one sample pass for large films, or
     // several whole passes for small ones (work for every thread either way). In dense fog a light path leaves ~8
@@ -163,9 +166,9 @@ pub(crate) fn render_splatting(
     let mut s0 = samples.start;
     while s0 < samples.end {
         let s1 = (s0 + passes_per_batch).min(samples.end);
-        let mut y0 = 0;
-        while y0 < h {
-            let y1 = (y0 + rows_per_batch).min(h);
+        let mut y0 = y_start;
+        while y0 < y_start + h {
+            let y1 = (y0 + rows_per_batch).min(y_start + h);
             // Per row: one record set per pass s0..s1.
             let rows: Vec<(Vec<SampleRecords>, RayCounts)> = (y0..y1)
                 .into_par_iter()
@@ -174,7 +177,7 @@ pub(crate) fn render_splatting(
                     let records = (s0..s1)
                         .map(|s| {
                             let mut records = SampleRecords::default();
-                            for x in 0..w {
+                            for x in x0..x0 + w {
                                 per_sample(x, y, s, &mut counts, &mut records);
                             }
                             records

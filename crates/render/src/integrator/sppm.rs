@@ -95,6 +95,8 @@ struct PixelState {
 
 /// The progressive state of an SPPM render: iterations can be added until the image is written.
 pub struct SppmState {
+    /// Full-image coordinates of the first pixel rendered (the film's pixel bounds).
+    origin: (u32, u32),
     width: u32,
     height: u32,
     nbuckets: usize,
@@ -114,10 +116,13 @@ pub struct SppmState {
 impl SppmState {
     /// A fresh state for `film` with the integrator's initial radius.
     pub fn new(film: &Film, integrator: &SppmIntegrator) -> Result<Self, FilmError> {
-        let (w, h) = (film.width(), film.height());
+        // Only the film's pixel bounds are rendered (a crop), with full-image pixel coordinates.
+        let b = film.bounds();
+        let (w, h) = (b.width(), b.height());
         let npix = w as usize * h as usize;
         let nb = film.nbuckets();
         Ok(Self {
+            origin: (b.x0, b.y0),
             width: w,
             height: h,
             nbuckets: nb,
@@ -165,7 +170,8 @@ impl SppmState {
                 for (b, v) in buckets.iter_mut().enumerate() {
                     *v = self.ld_buckets[i * nb + b] * per_weight + self.tau_buckets[i * nb + b] * k;
                 }
-                film.add_pixel_estimate(x, y, Xyz::new(c(0), c(1), c(2)), &buckets, 1.0);
+                let (x0, y0) = self.origin;
+                film.add_pixel_estimate(x0 + x, y0 + y, Xyz::new(c(0), c(1), c(2)), &buckets, 1.0);
             }
         }
     }
@@ -275,7 +281,7 @@ impl SppmIntegrator {
             let camera: Vec<CameraPass> = (0..npix)
                 .into_par_iter()
                 .map(|i| {
-                    let (x, y) = ((i % w as u64) as u32, (i / w as u64) as u32);
+                    let (x, y) = (state.origin.0 + (i % w as u64) as u32, state.origin.1 + (i / w as u64) as u32);
                     let mut counts = RayCounts::default();
                     let mut sampler = Sampler::new(x, y, it, seed);
                     // The camera sample's own wavelengths are replaced by the iteration's.
