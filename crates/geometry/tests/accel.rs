@@ -375,12 +375,12 @@ fn check_derivatives_fd(scene: &GeometryScene, o: Vec3, target: Vec3, curved: bo
         let dp_pred = der.dpdu * du + der.dpdv * dv;
         let dp = h1.p - h0.p;
         assert!(dp.length() > 1e-4, "the step moved the hit ({dp})");
-        assert!((dp - dp_pred).length() < 0.02 * dp.length(), "dp {dp} predicted {dp_pred}");
+        assert!((dp - dp_pred).length() < 0.01 * dp.length(), "dp {dp} predicted {dp_pred}");
         let dn_pred = der.dndu * du + der.dndv * dv;
         let dn = h1.ns - h0.ns;
         if curved {
             assert!(dn.length() > 1e-4, "the normal turned ({dn})");
-            assert!((dn - dn_pred).length() < 0.02 * dn.length(), "dn {dn} predicted {dn_pred}");
+            assert!((dn - dn_pred).length() < 0.01 * dn.length(), "dn {dn} predicted {dn_pred}");
         } else {
             assert!(dn.length() < 1e-6 && dn_pred.length() < 1e-6, "flat: {dn} {dn_pred}");
         }

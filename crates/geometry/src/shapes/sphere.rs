@@ -106,6 +106,11 @@ impl Sphere {
         &self.place.render_from_object
     }
 
+    /// True if the normal points inwards (`ReverseOrientation`).
+    pub fn reverse_orientation(&self) -> bool {
+        self.reverse_orientation
+    }
+
     /// Render-space bounds.
     pub fn bounds(&self) -> Bounds3 {
         let r = self.radius;
