@@ -81,7 +81,12 @@ fn scene(material: Material) -> RenderScene {
 
 /// Mean Y over the central 4×4 pixels (all on the sphere) and its standard error across pixels.
 fn mean_y(scene: &RenderScene, strategy: WavelengthStrategy, spp: u32, max_depth: u32) -> (f64, f64) {
-    mean_y_with(scene, &Integrator::Path(PathIntegrator { max_depth, split_dispersion: true }), strategy, spp)
+    mean_y_with(
+        scene,
+        &Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: false }),
+        strategy,
+        spp,
+    )
 }
 
 /// [`mean_y`] with any integrator (`passes` samples per pixel, or photon-mapping iterations).
