@@ -35,7 +35,9 @@ use crate::bounds::Bounds3;
 use crate::mesh::TriangleMesh;
 use crate::ray::{gamma, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
 pub use crate::shapes::Shape;
-use crate::shapes::{coordinate_system, intersect_inline_triangle, ElementHit, ShapeRay, SurfaceGeom};
+use crate::shapes::{
+    coordinate_system, d_normalize, intersect_inline_triangle, ElementHit, ShapeRay, SurfaceDerivatives, SurfaceGeom,
+};
 use crate::transform::Transform;
 use crate::GeometryError;
 
@@ -408,6 +410,27 @@ impl InstanceData {
         (oi, di)
     }
 
+    /// Render-space derivatives at an instance-space surface point `g`: tangents by the linear part; the shading
+    /// normal's by the normal matrix followed by normalization (and the flip [`InstanceData::geom_to_render`]
+    /// applies to keep the shading normal on the geometric normal's side).
+    fn derivatives_to_render(&self, g: &SurfaceGeom, d: SurfaceDerivatives) -> SurfaceDerivatives {
+        if self.identity {
+            return d;
+        }
+        let m = self.normal_matrix;
+        let nm = m * g.ns;
+        let mut sign = 1.0;
+        if (m * g.n).dot(nm) < 0.0 {
+            sign = -1.0;
+        }
+        SurfaceDerivatives {
+            dpdu: self.linear * d.dpdu,
+            dpdv: self.linear * d.dpdv,
+            dndu: sign * d_normalize(nm, m * d.dndu),
+            dndv: sign * d_normalize(nm, m * d.dndv),
+        }
+    }
+
     fn geom_to_render(&self, g: SurfaceGeom) -> SurfaceGeom {
         if self.identity {
             return g;
@@ -583,8 +606,11 @@ impl GeometryScene {
     }
 }
 
-impl Accel for GeometryScene {
-    fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+impl GeometryScene {
+    /// The closest primitive hit, before its surface geometry is computed (shared by [`Accel::intersect`] and
+    /// [`GeometryScene::intersect_with_derivatives`]).
+    #[inline]
+    fn closest_hit(&self, ray: &Ray, t_max: f32) -> Option<Closest> {
         if !Self::valid_ray(ray, t_max) {
             return None;
         }
@@ -606,7 +632,30 @@ impl Accel for GeometryScene {
                 self.objects[inst.object as usize].closest(o, d, i, &mut best);
             });
         }
-        (best.instance != u32::MAX).then(|| self.finish(ray, &best))
+        (best.instance != u32::MAX).then_some(best)
+    }
+
+    /// The closest hit with `0 < t < t_max`, as [`Accel::intersect`] finds it, with the surface's first derivatives
+    /// there in render space (`None` for hits on shapes that do not provide them). For specular-chain solvers;
+    /// [`Accel::intersect`] itself never computes derivatives.
+    pub fn intersect_with_derivatives(&self, ray: &Ray, t_max: f32) -> Option<(Hit, Option<SurfaceDerivatives>)> {
+        let c = self.closest_hit(ray, t_max)?;
+        let inst = &self.instances[c.instance as usize];
+        let blas = &self.objects[inst.object as usize];
+        let (shape, element) = blas.locate(c.prim);
+        let shape = &blas.shapes[shape as usize];
+        let d = shape.derivatives(element as usize, &c.hit).map(|d| {
+            let g = shape.surface_geom(element as usize, &c.hit);
+            inst.derivatives_to_render(&g, d)
+        });
+        Some((self.finish(ray, &c), d))
+    }
+}
+
+impl Accel for GeometryScene {
+    fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        let c = self.closest_hit(ray, t_max)?;
+        Some(self.finish(ray, &c))
     }
 
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {

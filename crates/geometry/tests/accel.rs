@@ -400,3 +400,67 @@ fn a_mesh_under_a_singular_transform_is_flattened_and_uses_geometric_normals() {
     assert!(scene.intersect(&Ray::new(Vec3::new(3.5, 10.0, 0.2), Vec3::NEG_Y), f32::INFINITY).is_none());
     assert!(scene.intersect(&Ray::new(Vec3::new(2.5, 0.5, 10.0), Vec3::NEG_Z), f32::INFINITY).is_none());
 }
+
+/// Checks the surface derivatives at the hit of `o + t·d` against finite differences: a second ray aimed a small
+/// step away hits at (u + Δu, v + Δv), and its point and shading normal must differ from the first by
+/// ∂p/∂u·Δu + ∂p/∂v·Δv and ∂n/∂u·Δu + ∂n/∂v·Δv up to second-order terms (relative 2%, where the first-order
+/// change is ~1e-3 and an error in a derivative would show at its own size).
+fn check_derivatives_fd(scene: &GeometryScene, o: Vec3, target: Vec3, curved: bool) {
+    let d = (target - o).normalize();
+    let (h0, der) = scene.intersect_with_derivatives(&Ray::new(o, d), f32::INFINITY).expect("the ray hits");
+    let der = der.expect("the shape provides derivatives");
+    let (tx, ty) = geometry::shapes::coordinate_system(d);
+    for step in [tx, ty, tx + ty] {
+        let d2 = (target + 2e-3 * step - o).normalize();
+        let h1 = scene.intersect(&Ray::new(o, d2), f32::INFINITY).expect("the nearby ray hits");
+        assert_eq!((h1.instance, h1.shape), (h0.instance, h0.shape));
+        let (du, dv) = (h1.uv.x - h0.uv.x, h1.uv.y - h0.uv.y);
+        let dp_pred = der.dpdu * du + der.dpdv * dv;
+        let dp = h1.p - h0.p;
+        assert!(dp.length() > 1e-4, "the step moved the hit ({dp})");
+        assert!((dp - dp_pred).length() < 0.01 * dp.length(), "dp {dp} predicted {dp_pred}");
+        let dn_pred = der.dndu * du + der.dndv * dv;
+        let dn = h1.ns - h0.ns;
+        if curved {
+            assert!(dn.length() > 1e-4, "the normal turned ({dn})");
+            assert!((dn - dn_pred).length() < 0.01 * dn.length(), "dn {dn} predicted {dn_pred}");
+        } else {
+            assert!(dn.length() < 1e-6 && dn_pred.length() < 1e-6, "flat: {dn} {dn_pred}");
+        }
+        // The normal's derivative is tangent to the unit sphere of normals.
+        assert!(der.dndu.dot(h0.ns).abs() < 1e-5 && der.dndv.dot(h0.ns).abs() < 1e-5);
+    }
+}
+
+#[test]
+fn surface_derivatives_match_finite_differences() {
+    // A sphere (also reversed and under a non-trivial instance transform) and a triangle with vertex normals and
+    // uvs, placed by a rotation and a uniform scale.
+    let sphere = |rev| Shape::Sphere(Sphere::new(1.3, Transform::translate(DVec3::new(0.2, -0.1, 0.3)), rev).unwrap());
+    let tri = mesh(MeshData {
+        positions: vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(2.0, -1.0, 0.2), Vec3::new(0.0, 1.5, -0.1)],
+        normals: Some(vec![Vec3::new(0.3, 0.0, 1.0), Vec3::new(-0.2, 0.1, 1.0), Vec3::new(0.0, -0.4, 1.0)]),
+        uvs: Some(vec![Vec2::new(0.0, 0.0), Vec2::new(0.7, 0.1), Vec2::new(0.2, 0.9)]),
+        indices: vec![0, 1, 2],
+    });
+    let flat = mesh(MeshData {
+        positions: vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(2.0, -1.0, 0.0), Vec3::new(0.0, 1.5, 0.0)],
+        indices: vec![0, 1, 2],
+        ..Default::default()
+    });
+    let placed = Transform::translate(DVec3::new(0.5, 0.0, -0.5))
+        * Transform::rotate(30.0, DVec3::new(1.0, 1.0, 0.0)).unwrap()
+        * Transform::scale(DVec3::splat(1.5)).unwrap();
+    for (shape, curved) in [(sphere(false), true), (sphere(true), true), (tri, true), (flat, false)] {
+        for t in [Transform::IDENTITY, placed] {
+            let scene = GeometryScene::build(
+                vec![Object::new(vec![shape.clone()])],
+                vec![Instance { object: 0, render_from_instance: t }],
+            )
+            .unwrap();
+            let target = t.point(DVec3::new(0.25, 0.1, 0.0)).as_vec3();
+            let o = target + Vec3::new(0.3, 0.4, 6.0);
+            check_derivatives_fd(&scene, o, target, curved);
+        }
+    }
+}

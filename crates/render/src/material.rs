@@ -189,6 +189,15 @@ pub enum Material {
 }
 
 impl Material {
+    /// The index of a smooth dielectric (`dielectric` with zero roughness at `ctx`), whose refraction is a delta
+    /// distribution a specular-chain solver can follow; `None` for every other material.
+    pub(crate) fn smooth_dielectric_ior(&self, ctx: &TextureEvalContext) -> Option<&DielectricIor> {
+        match self {
+            Material::Dielectric { ior, roughness } if roughness.distribution(ctx).effectively_smooth() => Some(ior),
+            _ => None,
+        }
+    }
+
     /// The BxDF at a shading point. Dispersive dielectrics first reduce the path to one wavelength with `u`
     /// (seed 001: a refractive surface forces a choice); `None` for interfaces.
     pub fn bxdf(&self, ctx: &TextureEvalContext, wl: &mut SampledWavelengths, u: f32) -> Option<Bxdf> {

@@ -1,7 +1,7 @@
 //! The render-ready scene: geometry behind a small trait (with [`SceneGeometry`], the BVH-backed implementation
 //! every ray goes through), materials, lights with a power-based light sampler, media and the camera.
 
-use geometry::GeometryScene;
+use geometry::{GeometryScene, SurfaceDerivatives};
 use glam::{Vec2, Vec3};
 use spectral::Distribution1D;
 
@@ -83,10 +83,27 @@ impl SurfaceHit {
     }
 }
 
+/// A hit with what a specular-chain solver needs besides: which surface it lies on and the surface's derivatives.
+#[derive(Clone, Copy, Debug)]
+pub struct DifferentialHit {
+    /// The hit.
+    pub hit: SurfaceHit,
+    /// The surface hit: (instance, shape) of the geometry (a mesh is one surface).
+    pub surface: [u32; 2],
+    /// First derivatives of the point and of the shading normal there, if the shape provides them.
+    pub derivatives: Option<SurfaceDerivatives>,
+}
+
 /// Ray queries against the scene's geometry.
 pub trait Geometry: Send + Sync {
     /// Closest hit along `o + t·d` with `0 < t < t_max`.
     fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit>;
+    /// The closest hit as [`Geometry::intersect`] finds it, with its surface and derivatives (a geometry that
+    /// cannot tell surfaces apart or give derivatives answers with the hit alone).
+    fn intersect_differential(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<DifferentialHit> {
+        let hit = self.intersect(o, d, t_max)?;
+        Some(DifferentialHit { hit, surface: [u32::MAX; 2], derivatives: None })
+    }
     /// True if anything lies along `o + t·d` with `0 < t < t_max`.
     fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool;
     /// A sphere (centre, radius) enclosing all geometry.
@@ -138,6 +155,8 @@ impl SceneGeometry {
         Self { accel, info, alphas, alpha_of }
     }
 
+    /// What a hit of the BVH means for rendering.
+    #[inline]
     fn surface_hit(&self, hit: &geometry::Hit) -> SurfaceHit {
         let info = self.info[hit.object as usize][hit.shape as usize];
         SurfaceHit {
@@ -213,6 +232,11 @@ impl Geometry for SceneGeometry {
             }
         }
         None
+    }
+
+    fn intersect_differential(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<DifferentialHit> {
+        let (hit, derivatives) = self.accel.intersect_with_derivatives(&geometry::Ray::new(o, d), t_max)?;
+        Some(DifferentialHit { hit: self.surface_hit(&hit), surface: [hit.instance, hit.shape], derivatives })
     }
 
     fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {

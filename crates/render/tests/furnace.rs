@@ -86,7 +86,12 @@ fn scene(material: Material) -> RenderScene {
 
 /// Mean Y over the central 4×4 pixels (all on the sphere) and its standard error across pixels.
 fn mean_y(scene: &RenderScene, strategy: WavelengthStrategy, spp: u32, max_depth: u32) -> (f64, f64) {
-    mean_y_with(scene, &Integrator::Path(PathIntegrator { max_depth, split_dispersion: true }), strategy, spp)
+    mean_y_with(
+        scene,
+        &Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: false }),
+        strategy,
+        spp,
+    )
 }
 
 /// [`mean_y`] with any integrator (`passes` samples per pixel, or photon-mapping iterations).
@@ -192,7 +197,7 @@ fn diffuse_transmission_sphere_in_a_furnace_looks_r_plus_t_squared_over_one_minu
     // 16384 photons per iteration bring it within the 2% allowed for photon mapping above.
     let sppm = SppmIntegrator { max_depth, photons_per_iteration: Some(16384), initial_radius: 0.05, iterations: 64 };
     for (integrator, passes, bias) in [
-        (Integrator::Path(PathIntegrator { max_depth, split_dispersion: true }), 256, 0.0),
+        (Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: false }), 256, 0.0),
         (Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true }), 256, 0.0),
         (Integrator::LightPath(LightPathIntegrator { max_depth }), 4096, 0.0),
         (Integrator::Bdpt(BdptIntegrator { max_depth }), 256, 0.0),

@@ -53,6 +53,10 @@ struct Extras {
     /// camera: light tracing connects fog vertices to the lens, and a vertex at distance d from the lens weighs
     /// 1/d², which only has finite variance if the fog keeps its distance.
     fog: bool,
+    /// A small spherical lamp (radius 0.2, 2.4 above the floor, right above the glass sphere) in place of the
+    /// ceiling quad: the glass focuses it into a caustic on the floor that the path tracer finds only by hitting
+    /// the lamp through the glass.
+    small_light: bool,
     /// The same fog, in a ball of radius 1 around the ceiling light instead (it reaches through the ceiling), so
     /// that the light emits into fog while the camera sits in clear air: light paths must start in the light's
     /// medium, not the camera's.
@@ -106,8 +110,12 @@ fn room(extras: Extras) -> RenderScene {
         shapes.push(shape);
         info.push(ShapeInfo { material, area_light_base, media: None });
     };
-    let light = quad([[-0.6, 3.0, -0.6], [0.6, 3.0, -0.6], [0.6, 3.0, 0.6], [-0.6, 3.0, 0.6]]);
-    add(light, 0, Some(Spectrum::blackbody(5000.0).unwrap().scaled(4.0)), &mut lights);
+    if extras.small_light {
+        add(sphere([0.6, 2.4, 0.0], 0.2), 0, Some(Spectrum::blackbody(5000.0).unwrap().scaled(60.0)), &mut lights);
+    } else {
+        let light = quad([[-0.6, 3.0, -0.6], [0.6, 3.0, -0.6], [0.6, 3.0, 0.6], [-0.6, 3.0, 0.6]]);
+        add(light, 0, Some(Spectrum::blackbody(5000.0).unwrap().scaled(4.0)), &mut lights);
+    }
     // The closed box x ∈ [−3, 3], y ∈ [0, 3.2], z ∈ [−4.5, 2]: floor, ceiling, back, front (behind the camera),
     // a red left wall and a grey right wall.
     let (x0, x1, y1, z0, z1) = (-3.0, 3.0, 3.2, -4.5, 2.0);
@@ -180,7 +188,7 @@ fn room(extras: Extras) -> RenderScene {
 }
 
 fn path(max_depth: u32) -> Integrator {
-    Integrator::Path(PathIntegrator { max_depth, split_dispersion: true })
+    Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: false })
 }
 
 fn volpath(max_depth: u32) -> Integrator {
@@ -365,9 +373,38 @@ fn volpath_agrees_with_path_without_media() {
 #[test]
 fn path_splitting_at_dispersive_refraction_agrees_with_keeping_one_wavelength() {
     let scene = room(Extras { glass: true, ..Extras::default() });
-    let keep_one = Integrator::Path(PathIntegrator { max_depth: 4, split_dispersion: false });
+    let keep_one = Integrator::Path(PathIntegrator { max_depth: 4, split_dispersion: false, manifold_nee: false });
     agrees_with_in(&[0, 1, 2], &scene, &keep_one, &path(4), 512, 128, 0.0, 0.03);
     agrees_with_in(&[0, 1, 2], &scene, &keep_one, &volpath(4), 512, 128, 0.0, 0.03);
+}
+
+/// The path tracer with manifold next-event estimation.
+fn path_mnee(max_depth: u32) -> Integrator {
+    Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: true })
+}
+
+/// Manifold NEE through the dispersive glass sphere estimates the path tracer's image of a small lamp focused on
+/// the floor, in X, Y and Z, with no allowance for bias: it counts the chains it solves (per wavelength) and the
+/// path tracer drops exactly those, so the two are the same estimator in expectation. Power: at equal samples,
+/// the block of the image with the caustic has a clearly smaller standard error (1.9x measured) with it (the chains the
+/// path tracer found only by hitting the lamp through the glass come from light sampling now).
+#[test]
+fn manifold_nee_agrees_with_path_on_a_caustic_and_reduces_its_noise() {
+    let scene = room(Extras { glass: true, small_light: true, ..Extras::default() });
+    agrees_with_in(&[0, 1, 2], &scene, &path(4), &path_mnee(4), 1024, 256, 0.0, 0.03);
+    let (pa, pb) = (render(&scene, &path(4), 0..256, 5), render(&scene, &path(4), 0..256, 6));
+    let (ma, mb) = (render(&scene, &path_mnee(4), 0..256, 5), render(&scene, &path_mnee(4), 0..256, 6));
+    let mut best = 0.0f64;
+    for by in 0..HEIGHT / BLOCK {
+        for bx in 0..WIDTH / BLOCK {
+            let (xs, ys) = (bx * BLOCK..(bx + 1) * BLOCK, by * BLOCK..(by + 1) * BLOCK);
+            let (_, sp) = block_y(&pa, &pb, xs.clone(), ys.clone());
+            let (_, sm) = block_y(&ma, &mb, xs, ys);
+            best = best.max(sp / sm);
+        }
+    }
+    eprintln!("largest reduction of a block's standard error: {best:.1}x");
+    assert!(best > 1.5, "manifold NEE reduces no block's noise by 1.5x (best {best:.2}x)");
 }
 
 /// The largest relative difference in mean Y between the same block of two images.
@@ -489,6 +526,7 @@ fn determinism_room() -> RenderScene {
         glass: true,
         fog: true,
         fog_around_light: false,
+        small_light: false,
     })
 }
 
@@ -551,6 +589,23 @@ fn images_do_not_depend_on_the_thread_count() {
             .count() as u32;
         assert!(changed > WIDTH * HEIGHT / 2, "{name}: only {changed} pixels change with the seed");
     }
+}
+
+/// Manifold NEE's solves take their numbers from the sampler only: pools of one and two threads give bit-identical
+/// films on the room with the dispersive glass sphere and point and spot lights (whose caustics only manifold NEE
+/// renders), and the image is not the plain path tracer's.
+#[test]
+fn manifold_nee_images_do_not_depend_on_the_thread_count() {
+    let scene = room(Extras { glass: true, delta_lights: true, ..Extras::default() });
+    let one = render_with_threads(&scene, &path_mnee(5), 8, 9, 1);
+    let two = render_with_threads(&scene, &path_mnee(5), 8, 9, 2);
+    assert_same(&one, &two, 0.0, "path with manifold NEE");
+    let plain = render_with_threads(&scene, &path(5), 8, 9, 2);
+    let changed = (0..HEIGHT)
+        .flat_map(|y| (0..WIDTH).map(move |x| (x, y)))
+        .filter(|&(x, y)| one.pixel_xyz(x, y).to_array() != plain.pixel_xyz(x, y).to_array())
+        .count();
+    assert!(changed > 10, "manifold NEE changed only {changed} pixels");
 }
 
 /// A render job continues where it stopped: passes `0..4` then `4..8` in one job give bit-identical films to

@@ -61,6 +61,36 @@ pub(crate) struct SurfaceGeom {
     pub shading_dpdv: Vec3,
 }
 
+/// First derivatives of a surface at a point with respect to a local parametrization (u, v): of the point and of
+/// the unit shading normal. What specular-chain solvers (manifold next-event estimation) need to move a vertex
+/// along its surface; computed only when asked ([`crate::GeometryScene::intersect_with_derivatives`]), never on
+/// the closest-hit path.
+///
+/// (u, v) is the shape's own parametrization where it has one: pbrt-v4's (φ/φmax, θ) for spheres, the texture
+/// (u, v) for triangles (the barycentrics (b0, b1) when the texture coordinates are degenerate). Disks and
+/// bilinear patches do not provide them yet.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceDerivatives {
+    /// ∂p/∂u.
+    pub dpdu: Vec3,
+    /// ∂p/∂v.
+    pub dpdv: Vec3,
+    /// ∂ns/∂u of the unit shading normal (interpolated vertex normals of meshes; the geometric normal otherwise).
+    pub dndu: Vec3,
+    /// ∂ns/∂v.
+    pub dndv: Vec3,
+}
+
+/// Derivative of `x / |x|` along `dx`: (I − x̂x̂ᵀ)·dx / |x| (how a normalized normal moves).
+pub(crate) fn d_normalize(x: Vec3, dx: Vec3) -> Vec3 {
+    let len = x.length();
+    if len == 0.0 {
+        return Vec3::ZERO;
+    }
+    let xh = x / len;
+    (dx - xh * xh.dot(dx)) / len
+}
+
 /// Two unit vectors completing `n` (unit) to an orthonormal basis (Duff et al. 2017).
 pub fn coordinate_system(n: Vec3) -> (Vec3, Vec3) {
     let sign = 1f32.copysign(n.z);
@@ -175,6 +205,13 @@ pub(crate) trait ShapeKind {
 
     /// Surface geometry of element `e` at a hit it returned.
     fn surface_geom(&self, e: usize, hit: &ElementHit) -> SurfaceGeom;
+
+    /// First derivatives of the surface of element `e` at a hit it returned (in the same space as
+    /// [`ShapeKind::surface_geom`]); `None` for shapes that do not provide them.
+    fn derivatives(&self, e: usize, hit: &ElementHit) -> Option<SurfaceDerivatives> {
+        let _ = (e, hit);
+        None
+    }
 
     /// A point on element `e` with its density per unit area; `None` at a degenerate point.
     fn sample_area(&self, e: usize, u: Vec2) -> Option<ShapeSample>;
@@ -328,6 +365,11 @@ impl Shape {
     /// Surface geometry of primitive `element` at a hit [`Shape::intersect_element`] returned.
     pub(crate) fn surface_geom(&self, element: usize, hit: &ElementHit) -> SurfaceGeom {
         dispatch!(self, k => ShapeKind::surface_geom(k, element, hit))
+    }
+
+    /// Surface derivatives of primitive `element` at a hit [`Shape::intersect_element`] returned.
+    pub(crate) fn derivatives(&self, element: usize, hit: &ElementHit) -> Option<SurfaceDerivatives> {
+        dispatch!(self, k => ShapeKind::derivatives(k, element, hit))
     }
 }
 

@@ -72,6 +72,36 @@ impl Placement {
         (self.linear * v_obj).as_vec3()
     }
 
+    /// Render-space derivatives from object-space ones at a point whose object-space unit normal is `n_obj`:
+    /// tangents by the linear part, the normal's by the normal matrix followed by normalization.
+    pub(super) fn derivatives_to_render(
+        &self,
+        n_obj: DVec3,
+        dpdu: DVec3,
+        dpdv: DVec3,
+        dndu: DVec3,
+        dndv: DVec3,
+    ) -> super::SurfaceDerivatives {
+        let m = self.normal_matrix;
+        let nm = m * n_obj;
+        let len = nm.length();
+        let nh = if len > 0.0 { nm / len } else { DVec3::ZERO };
+        let dn = |d: DVec3| {
+            let x = m * d;
+            if len > 0.0 {
+                ((x - nh * nh.dot(x)) / len).as_vec3()
+            } else {
+                Vec3::ZERO
+            }
+        };
+        super::SurfaceDerivatives {
+            dpdu: (self.linear * dpdu).as_vec3(),
+            dpdv: (self.linear * dpdv).as_vec3(),
+            dndu: dn(dndu),
+            dndv: dn(dndv),
+        }
+    }
+
     pub(super) fn bounds(&self, lo: DVec3, hi: DVec3) -> Bounds3 {
         let mut b = Bounds3::EMPTY;
         for i in 0..8 {

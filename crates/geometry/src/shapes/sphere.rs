@@ -8,7 +8,7 @@ use glam::{DVec3, Vec2, Vec3};
 use super::placement::{dpdu_or_frame, phi_of, Placement};
 use super::{
     area_pdf_to_solid_angle, area_to_solid_angle, coordinate_system, safe_sqrt, sample_uniform_sphere, ElementHit,
-    ShapeKind, ShapeRay, ShapeSample, SurfaceGeom,
+    ShapeKind, ShapeRay, ShapeSample, SurfaceDerivatives, SurfaceGeom,
 };
 use crate::bounds::Bounds3;
 use crate::ray::{gamma, Ray};
@@ -106,6 +106,11 @@ impl Sphere {
         &self.place.render_from_object
     }
 
+    /// True if the normal points inwards (`ReverseOrientation`).
+    pub fn reverse_orientation(&self) -> bool {
+        self.reverse_orientation
+    }
+
     /// Render-space bounds.
     pub fn bounds(&self) -> Bounds3 {
         let r = self.radius;
@@ -189,6 +194,20 @@ impl Sphere {
             n = -n;
         }
         SurfaceGeom { p: pr, p_error, n, ns: n, uv, dpdu, shading_dpdu: dpdu, shading_dpdv: dpdv }
+    }
+
+    /// Derivatives in pbrt-v4's parametrization u = φ/φmax, v = (θ − θ(zmin))/(θ(zmax) − θ(zmin)) at the
+    /// object-space point `p` (pbrt-v4 §6.2.2): ∂p/∂u = φmax·(−y, x, 0), ∂p/∂v = Δθ·(z cos φ, z sin φ, −r sin θ),
+    /// and, the normal being p/r, ∂n/∂u = (∂p/∂u)/r, ∂n/∂v = (∂p/∂v)/r (negated with the normal when reversed).
+    /// Degenerate (∂p/∂u = 0) at the poles.
+    pub(crate) fn derivatives_at(&self, p: DVec3) -> SurfaceDerivatives {
+        let r = self.radius;
+        let phi = phi_of(p);
+        let rho = (p.x * p.x + p.y * p.y).sqrt();
+        let dpdu = self.phi_max * DVec3::new(-p.y, p.x, 0.0);
+        let dpdv = (self.theta_z_max - self.theta_z_min) * DVec3::new(p.z * phi.cos(), p.z * phi.sin(), -rho);
+        let sign = if self.reverse_orientation { -1.0 } else { 1.0 };
+        self.place.derivatives_to_render(p / r, dpdu, dpdv, sign * dpdu / r, sign * dpdv / r)
     }
 
     pub(crate) fn geom(&self, p_obj: DVec3) -> SurfaceGeom {
@@ -285,6 +304,10 @@ impl ShapeKind for Sphere {
 
     fn surface_geom(&self, _: usize, hit: &ElementHit) -> SurfaceGeom {
         self.geom(hit.p_obj)
+    }
+
+    fn derivatives(&self, _: usize, hit: &ElementHit) -> Option<SurfaceDerivatives> {
+        Some(self.derivatives_at(hit.p_obj))
     }
 
     fn sample_area(&self, _: usize, u: Vec2) -> Option<ShapeSample> {

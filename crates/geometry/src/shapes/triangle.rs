@@ -3,7 +3,10 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{coordinate_system, sample_uniform_triangle, ElementHit, ShapeKind, ShapeRay, ShapeSample, SurfaceGeom};
+use super::{
+    coordinate_system, d_normalize, sample_uniform_triangle, ElementHit, ShapeKind, ShapeRay, ShapeSample,
+    SurfaceDerivatives, SurfaceGeom,
+};
 use crate::bounds::Bounds3;
 use crate::mesh::TriangleMesh;
 use crate::ray::gamma;
@@ -145,6 +148,43 @@ pub(crate) fn triangle_geom(mesh: &TriangleMesh, tri: usize, b: [f32; 3]) -> Sur
     SurfaceGeom { p, p_error, n, ns, uv, dpdu, shading_dpdu, shading_dpdv }
 }
 
+/// Derivatives of triangle `tri` of `mesh` at barycentrics `b`, with respect to the texture (u, v) as pbrt-v4 takes
+/// them (§6.5.3), or to the barycentrics (b0, b1) when the texture coordinates are degenerate. The shading normal
+/// is the normalized interpolation of the vertex normals, so its derivative is that of the interpolation projected
+/// off the normal and divided by its length; without vertex normals the triangle is flat (zero).
+pub(crate) fn triangle_derivatives(mesh: &TriangleMesh, tri: usize, b: [f32; 3]) -> SurfaceDerivatives {
+    let [p0, p1, p2] = mesh.triangle_positions(tri);
+    let [uv0, uv1, uv2] = mesh.triangle_uvs(tri);
+    let (dp02, dp12) = (p0 - p2, p1 - p2);
+    let (duv02, duv12) = (uv0 - uv2, uv1 - uv2);
+    let det = duv02.x * duv12.y - duv02.y * duv12.x;
+    // d/du X = a_u·(X0 − X2) + c_u·(X1 − X2) for anything X that varies linearly over the triangle (pbrt-v4's
+    // inversion of the uv differences), likewise d/dv; the barycentric parametrization if the uvs are degenerate.
+    let mut coef = [1.0, 0.0, 0.0, 1.0];
+    if det.abs() >= 1e-9 {
+        let inv = 1.0 / det;
+        let c = [duv12.y * inv, -duv02.y * inv, -duv12.x * inv, duv02.x * inv];
+        let du = c[0] * dp02 + c[1] * dp12;
+        let dv = c[2] * dp02 + c[3] * dp12;
+        if du.is_finite() && dv.is_finite() && du.cross(dv).length_squared() > 0.0 {
+            coef = c;
+        }
+    }
+    let to_u = |x02: Vec3, x12: Vec3| coef[0] * x02 + coef[1] * x12;
+    let to_v = |x02: Vec3, x12: Vec3| coef[2] * x02 + coef[3] * x12;
+    let (dpdu, dpdv) = (to_u(dp02, dp12), to_v(dp02, dp12));
+    let (mut dndu, mut dndv) = (Vec3::ZERO, Vec3::ZERO);
+    if let Some([n0, n1, n2]) = mesh.triangle_normals(tri) {
+        let nsum = b[0] * n0 + b[1] * n1 + b[2] * n2;
+        if nsum.length_squared() > 0.0 {
+            let (dn02, dn12) = (n0 - n2, n1 - n2);
+            dndu = d_normalize(nsum, to_u(dn02, dn12));
+            dndv = d_normalize(nsum, to_v(dn02, dn12));
+        }
+    }
+    SurfaceDerivatives { dpdu, dpdv, dndu, dndv }
+}
+
 /// Uniform area sample of triangle `tri` (pdf = 1/area).
 pub fn sample_triangle_area(mesh: &TriangleMesh, tri: usize, u: Vec2) -> Option<ShapeSample> {
     let area = mesh.triangle_area(tri);
@@ -193,6 +233,10 @@ impl ShapeKind for TriangleMesh {
 
     fn surface_geom(&self, e: usize, hit: &ElementHit) -> SurfaceGeom {
         triangle_geom(self, e, hit.b)
+    }
+
+    fn derivatives(&self, e: usize, hit: &ElementHit) -> Option<SurfaceDerivatives> {
+        Some(triangle_derivatives(self, e, hit.b))
     }
 
     fn sample_area(&self, e: usize, u: Vec2) -> Option<ShapeSample> {

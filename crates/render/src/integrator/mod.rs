@@ -24,6 +24,7 @@ pub mod volpath;
 
 // What they share.
 pub mod drive;
+pub(crate) mod manifold;
 pub mod transport;
 
 pub use drive::RenderStats;

@@ -10,6 +10,7 @@ use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{finite_or_zero, render_rows, CameraSampler, RenderStats};
+use super::manifold::{self, ChainTrack};
 use super::transport::{
     begin_bounce, russian_roulette, sample_direct_light, scatter, Bounce, BounceSamples, DirectLight, PathRay,
     RayCounts,
@@ -39,6 +40,10 @@ pub struct PathIntegrator {
     /// random. Both are unbiased; splitting has no colour noise from the choice, at the cost of tracing the
     /// branches.
     pub split_dispersion: bool,
+    /// Manifold next-event estimation through chains of smooth dielectric refractions, per wavelength
+    /// (Prismatic's `"bool manifoldnee"`, default false; see [`super::manifold`]). Unbiased: the BSDF-sampled
+    /// paths it accounts for are left out of the path tracer's sum.
+    pub manifold_nee: bool,
 }
 
 /// A camera-side estimator of radiance: what [`CameraPaths`] traces into each pixel.
@@ -69,6 +74,8 @@ struct PathState {
     prev_p: Vec3,
     /// Density of the BSDF sample that chose `ray` (for MIS against light sampling where it lands).
     p_b: f32,
+    /// The refractions since the last non-specular vertex (manifold NEE only).
+    chain: ChainTrack,
 }
 
 impl PathState {
@@ -85,6 +92,9 @@ impl PathState {
     ) -> bool {
         let mode = TransportMode::Radiance;
         self.p_b = if bs.pdf_is_proportional { bxdf.pdf(wo, bs.wi, mode) } else { bs.pdf };
+        if bs.specular {
+            self.chain.specular(hit, bs.transmission);
+        }
         self.specular_bounce = bs.specular;
         if bs.transmission {
             self.eta_scale *= bs.eta * bs.eta;
@@ -112,6 +122,7 @@ impl PathIntegrator {
         mut first_hit: Option<&mut Option<FirstHit>>,
     ) -> SampledSpectrum {
         let mut l = SampledSpectrum::zero();
+        let mnee = self.manifold_nee && scene.media.is_empty();
         loop {
             let d = st.ray.d;
             let Some(mut hit) = st.ray.intersect(scene, counts) else {
@@ -135,9 +146,18 @@ impl PathIntegrator {
             // Emission from an area light that was hit.
             if let Some(li) = hit.area_light {
                 let light = &scene.lights[li as usize];
-                let le = light.l_area(hit.p, hit.uv, hit.n, -d, wl);
+                let mut le = light.l_area(hit.p, hit.uv, hit.n, -d, wl);
                 if !le.is_black() {
                     if st.depth == 0 || st.specular_bounce {
+                        if mnee {
+                            // Leave out the wavelengths whose path manifold NEE counted at the chain's start.
+                            let covered = manifold::covers(scene, &st.chain, li, hit.p, hit.n, wl, counts);
+                            for (j, c) in covered.into_iter().enumerate() {
+                                if c {
+                                    le[j] = 0.0;
+                                }
+                            }
+                        }
                         l += st.beta * le;
                     } else {
                         let p_l = scene.light_probability(li) * light.pdf_li_area(st.prev_p, d);
@@ -147,7 +167,10 @@ impl PathIntegrator {
             }
             let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut st.ray, wl, sampler) {
                 // A boundary between media does not count as a bounce.
-                Bounce::PassedThrough => continue,
+                Bounce::PassedThrough => {
+                    st.chain.end();
+                    continue;
+                }
                 Bounce::Stop | Bounce::Absorb => break,
                 Bounce::Scatter(bxdf, u) => (bxdf, u),
             };
@@ -166,6 +189,12 @@ impl PathIntegrator {
             if !bxdf.is_specular() {
                 let (mis, medium) = (DirectLight::Mis, st.ray.medium);
                 l += st.beta * sample_direct_light(scene, &hit, medium, &frame, &bxdf, wo, wl, &u, mis, counts);
+                if mnee {
+                    // Through refracting chains, at most as long as the path could still be.
+                    let max_len = (self.max_depth - st.depth) as usize;
+                    l += st.beta * manifold::estimate(scene, &hit, &frame, &bxdf, wo, wl, &u, max_len, counts);
+                    st.chain = ChainTrack::start(&hit, max_len);
+                }
             }
             let mode = TransportMode::Radiance;
             // A dispersive refraction splits the path into one branch per carried wavelength (each at its full
@@ -226,6 +255,7 @@ impl Radiance for PathIntegrator {
             depth: 0,
             prev_p: o,
             p_b: 1.0,
+            chain: ChainTrack::NONE,
         };
         self.trace(scene, &mut st, wl, sampler, counts, first_hit)
     }
@@ -235,6 +265,7 @@ impl Integrate for PathIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
         let max_depth = params.max_depth()?;
         let split_dispersion = params.entity.params.get_bool("splitdispersion", true)?;
+        let manifold_nee = params.entity.params.get_bool("manifoldnee", false)?;
         if params.media_scatter {
             params.warnings.push(format!(
                 "{}: warning: integrator \"path\" ignores media that scatter or glow (as pbrt-v4's does); \
@@ -242,7 +273,7 @@ impl Integrate for PathIntegrator {
                 params.entity.loc
             ));
         }
-        Ok(PathIntegrator { max_depth, split_dispersion })
+        Ok(PathIntegrator { max_depth, split_dispersion, manifold_nee })
     }
 
     fn begin<'a>(
