@@ -908,7 +908,9 @@ impl SampleConversion {
         let camera = spec.sensor.camera.as_ref().map(|c| (c.sensor, 1.0 / spec.observer.y_integral()));
         Self {
             camera,
-            wavelengths: WavelengthSampler::new(spec.wavelengths, spec.observer),
+            // A clamp is biased by an amount that depends on the wavelength pdf: clamp as pbrt-v4 does with its pdf.
+            wavelengths: WavelengthSampler::new(spec.wavelengths, spec.observer)
+                .with_pbrt_hero_pdf(max_component.is_finite()),
             kind: spec.kind.clone(),
             nbuckets: spec.kind.nbuckets(),
             inv_width,
