@@ -330,7 +330,8 @@ mod tests {
         let integral: f64 = (0..47_000).map(|i| visible_pdf(360.0 + 0.01 * (i as f64 + 0.5)) * 0.01).sum();
         assert!((integral - 1.0).abs() < 1e-9, "{integral}");
         // The four hero slots are rotated by 1/4 in primary sample space, each with effective density 4·p(λ).
-        let wl = WavelengthSampler::new(WavelengthStrategy::Hero, Observer::Cie1931).with_pbrt_hero_pdf(true).sample(0.3);
+        let wl =
+            WavelengthSampler::new(WavelengthStrategy::Hero, Observer::Cie1931).with_pbrt_hero_pdf(true).sample(0.3);
         for (i, u) in [0.3, 0.55, 0.8, 0.05].into_iter().enumerate() {
             assert!((wl.lambda(i) as f64 - sample_visible(u)).abs() < 1e-3);
             let p = 4.0 * visible_pdf(wl.lambda(i) as f64);
