@@ -229,6 +229,12 @@ fn check_size(width: u32, height: u32, len: usize) -> Result<(), ImageError> {
 /// and attributes of the Fichet et al. layout for a spectral film, plus `albedo.R/G/B` and `N.X/Y/Z` with AOVs.
 /// PNG and PFM hold the RGB image only.
 pub fn write_image(film: &Film, path: &Path) -> Result<(), ImageError> {
+    write_image_with(film, path, &[])
+}
+
+/// [`write_image`] with extra text attributes in an EXR's header (name, value), such as the samples per pixel a
+/// render achieved; other formats have no header and ignore them.
+pub fn write_image_with(film: &Film, path: &Path, extra_attributes: &[(String, String)]) -> Result<(), ImageError> {
     let format = ImageFormat::from_path(path)?;
     let bounds = film.bounds();
     let (w, h) = (bounds.width(), bounds.height());
@@ -244,7 +250,7 @@ pub fn write_image(film: &Film, path: &Path) -> Result<(), ImageError> {
             }
             // The interleaved copy is not needed once the channels exist: at 1080×1080 it is 14 MB of peak memory.
             drop(rgb);
-            let mut attributes = Vec::new();
+            let mut attributes = extra_attributes.to_vec();
             let nb = film.nbuckets();
             if nb > 0 {
                 let spectral = film.to_spectral_image();
@@ -445,6 +451,19 @@ fn read_exr(path: &Path) -> Result<ExrImage, ImageError> {
             exr::error::Error::Io(source) => ImageError::Io { path: path.to_path_buf(), source },
             e => ImageError::Exr { path: path.to_path_buf(), message: e.to_string() },
         })
+}
+
+/// The text attributes of an EXR file's header and first layer (name → value), such as those written by
+/// [`write_image_with`].
+pub fn read_exr_text_attributes(path: &Path) -> Result<BTreeMap<String, String>, ImageError> {
+    let image = read_exr(path)?;
+    let mut attributes = BTreeMap::new();
+    for (name, value) in image.attributes.other.iter().chain(image.layer_data.attributes.other.iter()) {
+        if let AttributeValue::Text(t) = value {
+            attributes.insert(name.to_string(), t.to_string());
+        }
+    }
+    Ok(attributes)
 }
 
 fn exr_size(path: &Path, image: &ExrImage) -> Result<(u32, u32), ImageError> {

@@ -46,6 +46,10 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Err(e) => {
+            if let Some(stopped) = e.downcast_ref::<render_cmd::Interrupted>() {
+                eprintln!("prismatic: {stopped}");
+                return ExitCode::from(stopped.exit_code);
+            }
             // Scene errors already read "file:line:column: error: …".
             let msg = format!("{e:#}");
             if msg.contains(": error: ") {

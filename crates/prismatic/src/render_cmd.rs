@@ -2,7 +2,8 @@
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
@@ -17,7 +18,11 @@ use spectral::WavelengthStrategy;
                         prismatic render scene.pbrt --spp 64 --wavelengths cmf -o out.exr\n  \
                         prismatic render scene.pbrt --time 30 --resolution 640x480\n\n\
                         The output format follows the file extension: .exr (linear RGB; spectral films add S0.<λ>nm \
-                        channels), .png (sRGB, dithered 8-bit), .pfm.")]
+                        channels), .png (sRGB, dithered 8-bit), .pfm.\n\n\
+                        Ctrl-C (SIGINT) or SIGTERM stops at the end of the current sample pass (passes last at most \
+                        about a second), writes the image of the samples done (the EXR header's samplesPerPixel \
+                        says how many) and exits with status 130 (SIGINT) or 143 (SIGTERM); a second signal exits \
+                        at once, leaving any earlier output file as it was.")]
 pub struct RenderArgs {
     /// The pbrt-v4 scene file.
     pub scene: PathBuf,
@@ -89,6 +94,52 @@ pub fn peak_rss_bytes() -> Option<u64> {
 }
 
 /// Runs the subcommand; returns the summary to print.
+/// A render stopped by a signal: its image was written (if any sample pass had finished) and the process should
+/// exit with `exit_code` (128 + the signal's number, as shells report a death by that signal).
+#[derive(Debug)]
+pub struct Interrupted {
+    /// What happened, for stderr.
+    pub message: String,
+    /// The exit status.
+    pub exit_code: u8,
+}
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for Interrupted {}
+
+/// SIGINT and SIGTERM: the first sets the returned number (the signal's), which the render loop checks between
+/// sample passes; the second ends the process at once with status 128 + its number. Files are only ever replaced
+/// by renaming a complete temporary file, so that cannot leave a corrupt image.
+fn install_stop_signals() -> Result<Arc<AtomicUsize>> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let received = Arc::new(AtomicUsize::new(0));
+    let once = Arc::new(AtomicBool::new(false));
+    for sig in [SIGINT, SIGTERM] {
+        // Registered first, so on the first signal `once` is still false and nothing exits.
+        signal_hook::flag::register_conditional_shutdown(sig, 128 + sig, Arc::clone(&once))
+            .context("cannot install signal handlers")?;
+        signal_hook::flag::register(sig, Arc::clone(&once)).context("cannot install signal handlers")?;
+        signal_hook::flag::register_usize(sig, Arc::clone(&received), sig as usize)
+            .context("cannot install signal handlers")?;
+    }
+    Ok(received)
+}
+
+fn signal_name(sig: usize) -> &'static str {
+    if sig == signal_hook::consts::SIGINT as usize {
+        "SIGINT"
+    } else if sig == signal_hook::consts::SIGTERM as usize {
+        "SIGTERM"
+    } else {
+        "a signal"
+    }
+}
+
 pub fn run(args: &RenderArgs) -> Result<String> {
     if let Some(s) = args.spp {
         if s == 0 || s > 1 << 24 {
@@ -116,6 +167,7 @@ pub fn run(args: &RenderArgs) -> Result<String> {
         None => None,
     };
     let pixel_bounds = args.pixelbounds.as_ref().map(|b| [b[0], b[1], b[2], b[3]]);
+    let stop = install_stop_signals()?;
     let start = Instant::now();
     let desc = pbrt::parse_file(&args.scene).map_err(|e| anyhow!("{e}"))?;
     let parsed = start.elapsed();
@@ -175,9 +227,22 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                 let secs = render_start.elapsed().as_secs_f64().max(1e-9);
                 bar.set_message(format!("{:.2} Msamples/s", t as f64 / secs / 1e6));
             };
-            let stats = job.run(&mut film, 0..built.spp, &progress);
-            rays += stats.rays;
-            spp_done = built.spp;
+            // Passes of growing size, each well under a second, so that a signal is answered quickly; a pixel's
+            // samples are added in the same order whatever the passes, so the image is the same.
+            let mut pass = 1u32;
+            while spp_done < built.spp && stop.load(Ordering::SeqCst) == 0 {
+                let pass_start = Instant::now();
+                let n = pass.min(built.spp - spp_done);
+                let stats = job.run(&mut film, spp_done..spp_done + n, &progress);
+                rays += stats.rays;
+                spp_done += n;
+                let took = pass_start.elapsed();
+                if took < Duration::from_millis(250) {
+                    pass = pass.saturating_mul(2);
+                } else if took > Duration::from_millis(1000) && pass > 1 {
+                    pass /= 2;
+                }
+            }
         }
         Some(seconds) => {
             // Progressive: passes of growing sample counts until the time is spent (each pass continues the
@@ -188,7 +253,7 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                     .unwrap_or_else(|_| ProgressStyle::default_spinner()),
             );
             let mut pass = 1u32;
-            while spp_done == 0 || render_start.elapsed() < budget {
+            while (spp_done == 0 || render_start.elapsed() < budget) && stop.load(Ordering::SeqCst) == 0 {
                 let pass_start = Instant::now();
                 let progress = |n: u64| {
                     taken.fetch_add(n, Ordering::Relaxed);
@@ -209,12 +274,39 @@ pub fn run(args: &RenderArgs) -> Result<String> {
             }
         }
     }
+    let signal = stop.load(Ordering::SeqCst);
+    bar.finish_and_clear();
+    let path = built.film.filename.clone();
+    if signal != 0 && spp_done == 0 {
+        return Err(Interrupted {
+            message: format!("interrupted by {} before the first sample pass; nothing written", signal_name(signal)),
+            exit_code: (128 + signal).min(255) as u8,
+        }
+        .into());
+    }
     // Whatever the integrator keeps outside the film (photon mapping's progressive estimate) goes in once.
     job.finish(&mut film);
-    bar.finish_and_clear();
     let render_time = render_start.elapsed();
-    let path = built.film.filename.clone();
-    film::write_image(&film, &path).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+    let requested = if args.time.is_some() { spp_done } else { built.spp };
+    let mut header = vec![
+        ("samplesPerPixel".to_string(), spp_done.to_string()),
+        ("samplesPerPixelRequested".to_string(), requested.to_string()),
+    ];
+    if signal != 0 {
+        header.push(("interruptedBy".to_string(), signal_name(signal).to_string()));
+    }
+    film::write_image_with(&film, &path, &header).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+    if signal != 0 {
+        return Err(Interrupted {
+            message: format!(
+                "interrupted by {} after {spp_done} of {requested} {unit}; wrote {}",
+                signal_name(signal),
+                path.display()
+            ),
+            exit_code: (128 + signal).min(255) as u8,
+        }
+        .into());
+    }
     if args.quiet {
         return Ok(String::new());
     }

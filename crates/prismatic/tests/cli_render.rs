@@ -413,3 +413,79 @@ Shape "trianglemesh" "integer indices" [0 1 2 0 2 3] "point3 P" [-5 -5 0  5 -5 0
     assert_clean_failure(&run, "--aovs with png");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Starts `prismatic render` with `args` in `dir`, waits until it has rendered for a while (its output's temporary
+/// file cannot tell, so: a fixed second and a half, far more than this tiny scene needs to start), then sends
+/// `signals` (names for kill(1)) in a row and returns what it did.
+#[cfg(unix)]
+fn render_then_signal(dir: &Path, args: &[&str], signals: &[&str]) -> Output {
+    let child = Command::new(env!("CARGO_BIN_EXE_prismatic"))
+        .arg("render")
+        .args(args)
+        .current_dir(dir)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    for sig in signals {
+        let sent = Command::new("kill").args(["-s", sig, &child.id().to_string()]).status().unwrap();
+        assert!(sent.success(), "kill -s {sig}");
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// SIGINT and SIGTERM stop a render at the next pass boundary: the image of the samples done so far is written,
+/// its EXR header says how many, stderr says so too, and the exit status is 128 + the signal. The image is exactly
+/// (bit for bit) a render of that many samples, so no partial pass got in.
+#[cfg(unix)]
+#[test]
+fn a_signal_stops_the_render_and_keeps_the_samples_done() {
+    let dir = temp_dir("signal");
+    std::fs::write(dir.join("scene.pbrt"), SMALL_SCENE).unwrap();
+    for (sig, code) in [("INT", 130), ("TERM", 143)] {
+        let out = format!("stopped-{sig}.exr");
+        let run = render_then_signal(&dir, &["scene.pbrt", "--spp", "10000000", "-o", &out], &[sig]);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(code), "SIG{sig}: {stderr}");
+        assert!(
+            stderr.contains(&format!("interrupted by SIG{sig} after ")) && !stderr.contains("panicked"),
+            "{stderr}"
+        );
+        let header = film::read_exr_text_attributes(&dir.join(&out)).unwrap();
+        let spp: u32 = header["samplesPerPixel"].parse().unwrap();
+        assert!(spp > 0 && spp < 10_000_000, "{header:?}");
+        assert_eq!(header["samplesPerPixelRequested"], "10000000");
+        assert_eq!(header["interruptedBy"], format!("SIG{sig}"));
+        assert!(stderr.contains(&format!("after {spp} of 10000000 spp")), "{stderr}");
+        // The same samples rendered without interruption.
+        let whole = prismatic(&dir, &["scene.pbrt", "--spp", &spp.to_string(), "-o", "whole.exr", "--quiet"]);
+        assert!(whole.status.success(), "{}", String::from_utf8_lossy(&whole.stderr));
+        let (a, b) =
+            (film::read_exr_rgb(&dir.join(&out)).unwrap(), film::read_exr_rgb(&dir.join("whole.exr")).unwrap());
+        assert!(a.2.iter().zip(&b.2).all(|(p, q)| p.map(f32::to_bits) == q.map(f32::to_bits)), "SIG{sig}");
+        assert!(!listing(&dir).iter().any(|n| n.contains(".tmp")), "{:?}", listing(&dir));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A second signal ends the process at once (status 130), and an existing output file is never left half-written:
+/// it is either the old file or a complete new one.
+#[cfg(unix)]
+#[test]
+fn a_second_signal_exits_at_once_without_corrupting_the_output() {
+    let dir = temp_dir("signal2");
+    std::fs::write(dir.join("scene.pbrt"), SMALL_SCENE).unwrap();
+    let first = prismatic(&dir, &["scene.pbrt", "-o", "out.exr", "--quiet"]);
+    assert!(first.status.success());
+    let before = std::fs::read(dir.join("out.exr")).unwrap();
+    let run = render_then_signal(&dir, &["scene.pbrt", "--spp", "10000000", "-o", "out.exr"], &["INT", "INT"]);
+    assert_eq!(run.status.code(), Some(130), "{}", String::from_utf8_lossy(&run.stderr));
+    let after = std::fs::read(dir.join("out.exr")).unwrap();
+    if after != before {
+        // The first signal's image got written before the second arrived: it must be whole.
+        let header = film::read_exr_text_attributes(&dir.join("out.exr")).unwrap();
+        assert_eq!(header["interruptedBy"], "SIGINT");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
