@@ -1,5 +1,6 @@
 //! Materials: pbrt-v4's `Material` and `MakeNamedMaterial` directives (`diffuse`, `diffusetransmission`,
-//! `conductor`, `dielectric`, `thindielectric`, `coateddiffuse`, `coatedconductor`, `mix`, `interface`) with their
+//! `conductor`, `dielectric`, `thindielectric`, `coateddiffuse`, `coatedconductor`, `mix`, `interface`,
+//! `subsurface`) with their
 //! roughness, conductor, index-of-refraction and layer parameters, and the index a shape's material reference
 //! resolves to.
 
@@ -12,6 +13,7 @@ use super::textures::Textures;
 use super::{err, finite_positive, unsupported, Result};
 use crate::bump::NormalPerturbation;
 use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
+use crate::medium::{HomogeneousMedium, Medium};
 use crate::scene::NO_MATERIAL;
 use crate::texture::{FloatTexture, SpectrumTexture};
 use film::ColorEncoding;
@@ -22,6 +24,11 @@ pub(super) struct Materials {
     pub(super) list: Vec<Material>,
     /// Each material's bump or normal map, in the same order.
     pub(super) perturbations: Vec<Option<NormalPerturbation>>,
+    /// The medium inside a `subsurface` material's shapes, in the same order (appended to the scene's media by
+    /// [`Materials::attach_interiors`]).
+    pub(super) interiors: Vec<Option<HomogeneousMedium>>,
+    /// The index of that medium among the scene's media, once attached.
+    pub(super) interior_index: Vec<Option<u32>>,
     names: HashMap<String, u32>,
 }
 
@@ -35,14 +42,37 @@ impl Materials {
         }
         let mut materials = Vec::with_capacity(n_anon + desc.named_materials.len());
         let mut perturbations = Vec::with_capacity(materials.capacity());
+        let mut interiors = Vec::with_capacity(materials.capacity());
         for e in desc.materials.iter().chain(desc.named_materials.iter().map(|(_, e)| e)) {
-            let m = material(textures, e, &names)?;
+            let (m, interior) = if e.name == "subsurface" {
+                let (m, medium) = super::subsurface::subsurface(e, roughness(textures, &e.params)?)?;
+                (m, Some(medium))
+            } else {
+                (material(textures, e, &names)?, None)
+            };
+            interiors.push(interior);
             // A mix has none of its own (the material it picks brings its own), nor has an interface.
             let own = !matches!(m, Material::Mix { .. } | Material::Interface);
             perturbations.push(if own { normal_perturbation(textures, e)? } else { None });
             materials.push(m);
         }
-        Ok(Materials { list: materials, perturbations, names })
+        let interior_index = vec![None; materials.len()];
+        Ok(Materials { list: materials, perturbations, interiors, interior_index, names })
+    }
+
+    /// Appends the interior media of `subsurface` materials to `media` and records their indices.
+    pub(super) fn attach_interiors(&mut self, media: &mut Vec<Medium>) {
+        for (i, interior) in self.interiors.iter_mut().enumerate() {
+            if let Some(m) = interior.take() {
+                self.interior_index[i] = Some(media.len() as u32);
+                media.push(Medium::Homogeneous(m));
+            }
+        }
+    }
+
+    /// The medium inside shapes of material `index` (a `subsurface` material's), if any.
+    pub(super) fn interior(&self, index: u32) -> Option<u32> {
+        self.interior_index.get(index as usize).copied().flatten()
     }
 
     /// The index a shape's material reference resolves to; an `interface` material is [`NO_MATERIAL`], a boundary
@@ -242,6 +272,7 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>) -> Result<Ma
                         "coatedconductor",
                         "mix",
                         "interface",
+                        "subsurface",
                     ],
                 ),
             )

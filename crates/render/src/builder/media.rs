@@ -283,6 +283,17 @@ fn uniform_grid(m: &MediumEntity) -> Result<GridMedium> {
     Ok(GridMedium { medium_from_render, bounds: (p0, p1), density, sigma_a, sigma_s, le, phase: phase(m)? })
 }
 
+/// pbrt-v4's named measured medium `name` as (σa, σs) spectra in mm⁻¹ (reduced scattering as σs, for g = 0), or
+/// the list of known names.
+pub(super) fn measured_medium(name: &str) -> std::result::Result<(Spectrum, Spectrum), String> {
+    let Some(preset) = MEASURED_MEDIA.iter().find(|mm| mm.name == name) else {
+        let names: Vec<&str> = MEASURED_MEDIA.iter().map(|mm| mm.name).collect();
+        return Err(format!("unknown measured medium '{name}'; known names: {}", names.join(", ")));
+    };
+    let rgb = |v: [f64; 3]| RgbUnboundedSpectrum::new(v).map(Spectrum::RgbUnbounded).map_err(|e| e.to_string());
+    Ok((rgb(preset.sigma_a)?, rgb(preset.sigma_prime_s)?))
+}
+
 /// One of pbrt-v4's named measured media: reduced scattering σ's and absorption σa in mm⁻¹ at red, green and
 /// blue, used as σs and σa of a `homogeneous` medium (`"string preset"`).
 struct MeasuredMedium {

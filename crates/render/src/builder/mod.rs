@@ -17,6 +17,7 @@ mod lights;
 mod materials;
 mod media;
 mod shapes;
+mod subsurface;
 mod textures;
 
 /// Command-line overrides of the scene's settings.
@@ -105,7 +106,11 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
 
     // Sampler and integrator.
     let scene_spp = sampler_spp(desc)?;
-    let media = media::Media::build(desc)?;
+    let textures = textures::Textures::build(desc)?;
+    let mut materials = materials::Materials::build(desc, &textures)?;
+    let mut media = media::Media::build(desc)?;
+    // A `subsurface` material's shapes are filled with its medium.
+    materials.attach_interiors(&mut media.list);
     let integrator = Integrator::read(&mut IntegratorParams {
         entity: &desc.integrator,
         media_scatter: media.any_scattering(),
@@ -123,8 +128,6 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
         );
     }
 
-    let textures = textures::Textures::build(desc)?;
-    let materials = materials::Materials::build(desc, &textures)?;
     let camera_medium = media.of(&desc.camera.medium, &desc.camera.entity.loc)?;
     // Area lights are made with their shapes, so they come before the `LightSource` lights.
     let (mut lights, mut light_media) = (vec![], vec![]);

@@ -86,7 +86,11 @@ pub(super) fn make_geometry(
                 let alpha = shape_alpha(textures, &se.entity.params, &se.entity.loc)?;
                 let Some(shape) = shape? else { continue };
                 let material = materials.index(&se.material, &se.entity.loc)?;
-                let inside = named_media.of(&se.inside_medium, &se.entity.loc)?;
+                // A `subsurface` material fills its shapes with its medium (in place of a named inside medium).
+                let inside = match materials.interior(material) {
+                    Some(m) => Some(m),
+                    None => named_media.of(&se.inside_medium, &se.entity.loc)?,
+                };
                 let outside = named_media.of(&se.outside_medium, &se.entity.loc)?;
                 let media = (inside.is_some() || outside.is_some() || material == NO_MATERIAL)
                     .then_some(MediumInterface { inside, outside });
