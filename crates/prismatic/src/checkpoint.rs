@@ -499,9 +499,9 @@ mod tests {
         let (a, b) = (dir.join("a.pbrt"), dir.join("b.pbrt"));
         std::fs::write(&a, "WorldBegin\n").unwrap();
         std::fs::write(&b, "WorldBegin\n").unwrap();
-        assert_eq!(scene_hash(&[a.clone()]).unwrap(), scene_hash(&[b.clone()]).unwrap());
+        assert_eq!(scene_hash(std::slice::from_ref(&a)).unwrap(), scene_hash(std::slice::from_ref(&b)).unwrap());
         std::fs::write(&b, "WorldBegin \n").unwrap();
-        assert_ne!(scene_hash(&[a.clone()]).unwrap(), scene_hash(&[b.clone()]).unwrap());
+        assert_ne!(scene_hash(std::slice::from_ref(&a)).unwrap(), scene_hash(std::slice::from_ref(&b)).unwrap());
         // Where one file ends counts: "ab" + "c" is not "a" + "bc".
         std::fs::write(&a, "ab").unwrap();
         std::fs::write(&b, "c").unwrap();

@@ -592,6 +592,19 @@ impl ParamSet {
     }
 }
 
+/// File name `s` of parameter `p` resolved against its search directories (see [`ParamSet::get_filename`]).
+fn resolve_file(p: &Param, s: &str) -> Option<PathBuf> {
+    if s.is_empty() {
+        return None;
+    }
+    let path = Path::new(s);
+    if path.is_absolute() {
+        return Some(path.to_path_buf());
+    }
+    let candidates: Vec<PathBuf> = p.search_dirs.iter().map(|d| d.join(path)).collect();
+    Some(candidates.iter().find(|c| c.exists()).or(candidates.first()).cloned().unwrap_or_else(|| path.to_path_buf()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -653,17 +666,4 @@ mod tests {
         assert_eq!(set.get_spectrum_texture("none", SpectrumKind::Albedo).unwrap(), None);
         assert_eq!(set.param_type("eta"), Some(ParamType::Float));
     }
-}
-
-/// File name `s` of parameter `p` resolved against its search directories (see [`ParamSet::get_filename`]).
-fn resolve_file(p: &Param, s: &str) -> Option<PathBuf> {
-    if s.is_empty() {
-        return None;
-    }
-    let path = Path::new(s);
-    if path.is_absolute() {
-        return Some(path.to_path_buf());
-    }
-    let candidates: Vec<PathBuf> = p.search_dirs.iter().map(|d| d.join(path)).collect();
-    Some(candidates.iter().find(|c| c.exists()).or(candidates.first()).cloned().unwrap_or_else(|| path.to_path_buf()))
 }

@@ -216,10 +216,8 @@ impl SppmState {
         for _ in 0..npix {
             let v: Vec<f64> = (0..Self::PIXEL_VALUES).map(|k| f64_at(at + 8 * k)).collect();
             at += 8 * Self::PIXEL_VALUES;
-            if !(v[0].is_finite() && v[0] > 0.0)
-                || !(v[1].is_finite() && v[1] >= 0.0)
-                || !v.iter().all(|x| x.is_finite())
-            {
+            let valid = v.iter().all(|x| x.is_finite()) && v[0] > 0.0 && v[1] >= 0.0;
+            if !valid {
                 return Err(format!("the photon-mapping state holds a pixel with radius {} and count {}", v[0], v[1]));
             }
             pixels.push(PixelState {
