@@ -136,8 +136,8 @@ fn render_and_kill(dir: &Path, args: &[&str]) {
 
 /// SIGKILL between checkpoints, then `render --resume`: the image is bit for bit the uninterrupted render's, for
 /// every integrator (splats of lightpath and bdpt, sppm's progressive statistics), RGB and spectral films in
-/// turn. The checkpoint was really taken mid-render (fewer passes done than asked), and no temporary file is left
-/// that a reader could take for it.
+/// turn. The checkpoint was really taken mid-render (fewer passes done than asked). (A kill during a write can
+/// leave a temporary file beside it; the checkpoint itself is always a complete one.)
 #[cfg(unix)]
 #[test]
 fn a_killed_render_resumes_to_the_uninterrupted_image() {
