@@ -30,6 +30,9 @@ use spectral::{
 };
 use std::path::PathBuf;
 
+mod state;
+pub use state::{FilmState, Plane};
+
 /// What a film records besides colour.
 #[derive(Clone, Debug, PartialEq)]
 pub enum FilmKind {

@@ -20,7 +20,7 @@
 //! The reader accepts any channel name the layout's grammar allows,
 //! `S0.<digits>[,<digits>][e±<digits>][SI prefix](m|Hz)`, converting to nm.
 
-use crate::{AovImages, Film, ImageError};
+use crate::{AovImages, Film, FilmState, ImageError, PixelBounds, Plane};
 use exr::prelude::{
     self as ex, AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes, Layer,
     LayerAttributes, Text, Vec2,
@@ -238,59 +238,178 @@ pub fn write_image_with(film: &Film, path: &Path, extra_attributes: &[(String, S
     let format = ImageFormat::from_path(path)?;
     let bounds = film.bounds();
     let (w, h) = (bounds.width(), bounds.height());
-    let rgb = film.to_rgb_image();
     match format {
-        ImageFormat::Png => write_atomic(path, |out| encode_png(out, path, w, h, &rgb)),
-        ImageFormat::Pfm => write_atomic(path, |out| encode_pfm(out, path, w, h, &rgb)),
+        ImageFormat::Png => write_atomic(path, |out| encode_png(out, path, w, h, &film.to_rgb_image())),
+        ImageFormat::Pfm => write_atomic(path, |out| encode_pfm(out, path, w, h, &film.to_rgb_image())),
         ImageFormat::Exr => {
-            let npix = rgb.len();
-            let mut channels: Vec<(String, Vec<f32>)> = Vec::new();
-            for (c, name) in ["R", "G", "B"].iter().enumerate() {
-                channels.push((name.to_string(), rgb.iter().map(|p| p[c]).collect()));
-            }
-            // The interleaved copy is not needed once the channels exist: at 1080×1080 it is 14 MB of peak memory.
-            drop(rgb);
-            let mut attributes = extra_attributes.to_vec();
-            let nb = film.nbuckets();
-            if nb > 0 {
-                let spectral = film.to_spectral_image();
-                for (b, lambda) in film.spec().kind.bucket_centres().into_iter().enumerate() {
-                    let values = (0..npix).map(|i| spectral[i * nb + b]).collect();
-                    channels.push((spectral_channel_name(lambda), values));
-                }
-                attributes.push(("spectralLayoutVersion".to_string(), SPECTRAL_LAYOUT_VERSION.to_string()));
-                attributes.push(("emissiveUnits".to_string(), EMISSIVE_UNITS.to_string()));
-            }
-            if let Some(AovImages { albedo, normal }) = film.to_aov_images() {
-                // pbrt-v4's gbuffer film names them Albedo.* and Ns.* (shading normal); --aovs uses albedo.*, N.*.
-                let (albedo_names, normal_names) = if film.spec().gbuffer.is_some() {
-                    (["Albedo.R", "Albedo.G", "Albedo.B"], ["Ns.X", "Ns.Y", "Ns.Z"])
-                } else {
-                    (["albedo.R", "albedo.G", "albedo.B"], ["N.X", "N.Y", "N.Z"])
-                };
-                for (c, name) in albedo_names.iter().enumerate() {
-                    channels.push((name.to_string(), albedo.iter().map(|p| p[c]).collect()));
-                }
-                for (c, name) in normal_names.iter().enumerate() {
-                    channels.push((name.to_string(), normal.iter().map(|p| p[c]).collect()));
-                }
-            }
-            let cs = &film.spec().color_space;
-            let chroma = ex::attribute::Chromaticities {
-                red: Vec2(cs.primaries[0][0] as f32, cs.primaries[0][1] as f32),
-                green: Vec2(cs.primaries[1][0] as f32, cs.primaries[1][1] as f32),
-                blue: Vec2(cs.primaries[2][0] as f32, cs.primaries[2][1] as f32),
-                white: Vec2(cs.white[0] as f32, cs.white[1] as f32),
-            };
-            // pbrt-v4 writes a crop as the data window inside a display window of the full image.
-            let windows = ExrWindows {
-                position: (bounds.x0, bounds.y0),
-                display: (film.width(), film.height()),
-                half: film.spec().write_fp16,
-            };
-            write_atomic(path, |out| encode_exr(out, path, w, h, channels, &attributes, Some(chroma), windows))
+            let exr = film_exr(film, extra_attributes);
+            write_atomic(path, |out| encode_exr(out, path, w, h, exr))
         }
     }
+}
+
+/// The channels, attributes and windows of a film's EXR (see [`write_image`]).
+fn film_exr(film: &Film, extra_attributes: &[(String, String)]) -> ExrContent {
+    let bounds = film.bounds();
+    let rgb = film.to_rgb_image();
+    let npix = rgb.len();
+    let mut channels: Vec<(String, Vec<f32>)> = Vec::new();
+    for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        channels.push((name.to_string(), rgb.iter().map(|p| p[c]).collect()));
+    }
+    // The interleaved copy is not needed once the channels exist: at 1080×1080 it is 14 MB of peak memory.
+    drop(rgb);
+    let mut attributes = extra_attributes.to_vec();
+    let nb = film.nbuckets();
+    if nb > 0 {
+        let spectral = film.to_spectral_image();
+        for (b, lambda) in film.spec().kind.bucket_centres().into_iter().enumerate() {
+            let values = (0..npix).map(|i| spectral[i * nb + b]).collect();
+            channels.push((spectral_channel_name(lambda), values));
+        }
+        attributes.push(("spectralLayoutVersion".to_string(), SPECTRAL_LAYOUT_VERSION.to_string()));
+        attributes.push(("emissiveUnits".to_string(), EMISSIVE_UNITS.to_string()));
+    }
+    if let Some(AovImages { albedo, normal }) = film.to_aov_images() {
+        // pbrt-v4's gbuffer film names them Albedo.* and Ns.* (shading normal); --aovs uses albedo.*, N.*.
+        let (albedo_names, normal_names) = if film.spec().gbuffer.is_some() {
+            (["Albedo.R", "Albedo.G", "Albedo.B"], ["Ns.X", "Ns.Y", "Ns.Z"])
+        } else {
+            (["albedo.R", "albedo.G", "albedo.B"], ["N.X", "N.Y", "N.Z"])
+        };
+        for (c, name) in albedo_names.iter().enumerate() {
+            channels.push((name.to_string(), albedo.iter().map(|p| p[c]).collect()));
+        }
+        for (c, name) in normal_names.iter().enumerate() {
+            channels.push((name.to_string(), normal.iter().map(|p| p[c]).collect()));
+        }
+    }
+    let cs = &film.spec().color_space;
+    let chroma = ex::attribute::Chromaticities {
+        red: Vec2(cs.primaries[0][0] as f32, cs.primaries[0][1] as f32),
+        green: Vec2(cs.primaries[1][0] as f32, cs.primaries[1][1] as f32),
+        blue: Vec2(cs.primaries[2][0] as f32, cs.primaries[2][1] as f32),
+        white: Vec2(cs.white[0] as f32, cs.white[1] as f32),
+    };
+    // pbrt-v4 writes a crop as the data window inside a display window of the full image.
+    let windows = ExrWindows {
+        position: (bounds.x0, bounds.y0),
+        display: (film.width(), film.height()),
+        half: film.spec().write_fp16,
+    };
+    ExrContent { channels, bits: Vec::new(), attributes, chromaticities: Some(chroma), windows }
+}
+
+/// What an EXR file holds: float channels, 32-bit unsigned integer channels, text attributes, chromaticities and
+/// windows.
+struct ExrContent {
+    channels: Vec<(String, Vec<f32>)>,
+    bits: Vec<(String, Vec<u32>)>,
+    attributes: Vec<(String, String)>,
+    chromaticities: Option<ex::attribute::Chromaticities>,
+    windows: ExrWindows,
+}
+
+/// The prefix of the channels of a render part that hold the film's accumulators.
+const PART_PREFIX: &str = "sum.";
+/// Attributes of a render part that hold the film's counts (light paths as the hexadecimal bits of an `f64`).
+const PART_LIGHT_PATHS: &str = "sum.lightPaths";
+const PART_REJECTED: &str = "sum.rejectedSamples";
+const PART_REJECTED_SPLATS: &str = "sum.rejectedSplats";
+
+/// Writes a *part* of a render: the EXR of [`write_image_with`] (the part's own image, to look at) plus the
+/// film's unnormalised accumulators ([`Film::state`]), each `f64` plane exactly, as two `UINT` channels
+/// `sum.<plane>.hi` and `sum.<plane>.lo` holding the high and low 32 bits of its IEEE 754 binary64 bits, and the
+/// film's counts as text attributes `sum.lightPaths` (hexadecimal `f64` bits), `sum.rejectedSamples` and
+/// `sum.rejectedSplats`. [`read_part`] reads them back bit for bit, so parts add up to the film one process would
+/// have accumulated. The path must end in `.exr`.
+pub fn write_part(film: &Film, path: &Path, extra_attributes: &[(String, String)]) -> Result<(), ImageError> {
+    if ImageFormat::from_path(path)? != ImageFormat::Exr {
+        return Err(ImageError::InvalidImage(format!("{}: a render part is an .exr file", path.display())));
+    }
+    let state = film.state();
+    let mut exr = film_exr(film, extra_attributes);
+    // Full precision: the sums are data, not a picture.
+    exr.windows.half = false;
+    for plane in &state.planes {
+        let hi = plane.values.iter().map(|v| (v.to_bits() >> 32) as u32).collect();
+        let lo = plane.values.iter().map(|v| v.to_bits() as u32).collect();
+        exr.bits.push((format!("{PART_PREFIX}{}.hi", plane.name), hi));
+        exr.bits.push((format!("{PART_PREFIX}{}.lo", plane.name), lo));
+    }
+    exr.attributes.push((PART_LIGHT_PATHS.into(), format!("{:016x}", state.light_paths.to_bits())));
+    exr.attributes.push((PART_REJECTED.into(), state.rejected_samples.to_string()));
+    exr.attributes.push((PART_REJECTED_SPLATS.into(), state.rejected_splats.to_string()));
+    let b = film.bounds();
+    write_atomic(path, |out| encode_exr(out, path, b.width(), b.height(), exr))
+}
+
+/// Reads a render part written by [`write_part`]: its text attributes and the film state it stores (the pixels
+/// of its data window, in full-image coordinates). Anything else (a plain image, a truncated file, planes of
+/// different sizes, missing halves, bad counts) is an error.
+pub fn read_part(path: &Path) -> Result<(BTreeMap<String, String>, FilmState), ImageError> {
+    let image = read_exr(path)?;
+    let malformed = |message: String| ImageError::Malformed { path: path.to_path_buf(), message };
+    let (w, h) = exr_size(path, &image)?;
+    let origin = image.layer_data.attributes.layer_position;
+    let (x0, y0) = match (u32::try_from(origin.0), u32::try_from(origin.1)) {
+        (Ok(x), Ok(y)) if x.checked_add(w).is_some() && y.checked_add(h).is_some() => (x, y),
+        _ => return Err(malformed(format!("data window at ({}, {}) is not a part of an image", origin.0, origin.1))),
+    };
+    let mut attributes = BTreeMap::new();
+    for (name, value) in image.attributes.other.iter().chain(image.layer_data.attributes.other.iter()) {
+        if let AttributeValue::Text(t) = value {
+            attributes.insert(name.to_string(), t.to_string());
+        }
+    }
+    let npix = w as usize * h as usize;
+    let mut halves: BTreeMap<String, [Option<&[u32]>; 2]> = BTreeMap::new();
+    for c in &image.layer_data.channel_data.list {
+        let name = c.name.to_string();
+        let Some(rest) = name.strip_prefix(PART_PREFIX) else { continue };
+        let (plane, half) = match (rest.strip_suffix(".hi"), rest.strip_suffix(".lo")) {
+            (Some(p), _) => (p, 0),
+            (_, Some(p)) => (p, 1),
+            _ => return Err(malformed(format!("channel {name} is not a half of a stored sum"))),
+        };
+        let FlatSamples::U32(values) = &c.sample_data else {
+            return Err(malformed(format!("channel {name} is not a UINT channel")));
+        };
+        if values.len() != npix {
+            return Err(malformed(format!("channel {name} has {} values for {w}×{h} pixels", values.len())));
+        }
+        halves.entry(plane.to_string()).or_default()[half] = Some(values.as_slice());
+    }
+    if halves.is_empty() {
+        return Err(malformed("no sum.* channels: not a render part (write one with render --shard)".into()));
+    }
+    let mut planes = Vec::with_capacity(halves.len());
+    for (name, pair) in halves {
+        let [Some(hi), Some(lo)] = pair else { return Err(malformed(format!("sum.{name} lacks a half"))) };
+        let values = hi.iter().zip(lo).map(|(&a, &b)| f64::from_bits((a as u64) << 32 | b as u64)).collect();
+        planes.push(Plane { name, values });
+    }
+    let get = |key: &str| attributes.get(key).ok_or_else(|| malformed(format!("no '{key}' attribute")));
+    let light_paths = u64::from_str_radix(get(PART_LIGHT_PATHS)?, 16)
+        .map(f64::from_bits)
+        .map_err(|_| malformed(format!("'{PART_LIGHT_PATHS}' is not hexadecimal f64 bits")))?;
+    let count = |key: &str| -> Result<u64, ImageError> {
+        get(key)?.parse().map_err(|_| malformed(format!("'{key}' is not a count")))
+    };
+    let state = FilmState {
+        bounds: PixelBounds { x0, x1: x0 + w, y0, y1: y0 + h },
+        planes,
+        light_paths,
+        rejected_samples: count(PART_REJECTED)?,
+        rejected_splats: count(PART_REJECTED_SPLATS)?,
+    };
+    Ok((attributes, state))
+}
+
+/// Writes `bytes` to `path` atomically, as images are written (a synced temporary file renamed over `path`): a
+/// reader, or a process killed at any moment, sees the old file or the new one, never a part.
+pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
+    write_atomic(path, |out| out.write_all(bytes).map_err(io_err(path)))
 }
 
 /// Where an EXR's pixels lie and how they are stored: the data window's top-left corner in the display window,
@@ -323,8 +442,14 @@ pub fn write_rgb(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> R
                 .enumerate()
                 .map(|(c, n)| (n.to_string(), pixels.iter().map(|p| p[c]).collect()))
                 .collect();
-            let windows = ExrWindows::whole(width, height);
-            write_atomic(path, |out| encode_exr(out, path, width, height, channels, &[], None, windows))
+            let exr = ExrContent {
+                channels,
+                bits: Vec::new(),
+                attributes: Vec::new(),
+                chromaticities: None,
+                windows: ExrWindows::whole(width, height),
+            };
+            write_atomic(path, |out| encode_exr(out, path, width, height, exr))
         }
     }
 }
@@ -336,17 +461,14 @@ fn text(path: &Path, s: &str) -> Result<Text, ImageError> {
     })
 }
 
-#[allow(clippy::too_many_arguments)]
 fn encode_exr(
     out: &mut BufWriter<File>,
     path: &Path,
     width: u32,
     height: u32,
-    channels: Vec<(String, Vec<f32>)>,
-    attributes: &[(String, String)],
-    chromaticities: Option<ex::attribute::Chromaticities>,
-    windows: ExrWindows,
+    exr: ExrContent,
 ) -> Result<(), ImageError> {
+    let ExrContent { channels, bits, attributes, chromaticities, windows } = exr;
     let samples = |values: Vec<f32>| {
         if windows.half {
             // Half floats top out at 65504; larger values are clamped to it, as pbrt-v4 does.
@@ -355,12 +477,15 @@ fn encode_exr(
             FlatSamples::F32(values)
         }
     };
-    let list = channels
+    let mut list = channels
         .into_iter()
         .map(|(name, values)| Ok(AnyChannel::new(text(path, &name)?, samples(values))))
         .collect::<Result<Vec<_>, ImageError>>()?;
+    for (name, values) in bits {
+        list.push(AnyChannel::new(text(path, &name)?, FlatSamples::U32(values)));
+    }
     let mut layer_attributes = LayerAttributes::default();
-    for (name, value) in attributes {
+    for (name, value) in &attributes {
         layer_attributes.other.insert(text(path, name)?, AttributeValue::Text(text(path, value)?));
     }
     layer_attributes.layer_position = Vec2(windows.position.0 as i32, windows.position.1 as i32);

@@ -41,8 +41,8 @@ pub mod tga;
 
 pub use error::{FilmError, ImageError};
 pub use film::{
-    AovImages, CameraResponse, Film, FilmKind, FilmRow, FilmSpec, GBuffer, PixelBounds, PixelSensor, SampleConversion,
-    SpectralEstimates, Splat,
+    AovImages, CameraResponse, Film, FilmKind, FilmRow, FilmSpec, FilmState, GBuffer, PixelBounds, PixelSensor, Plane,
+    SampleConversion, SpectralEstimates, Splat,
 };
 pub use filter::{Filter, FilterSample, FilterSampler};
 pub use image_io::{
@@ -50,3 +50,4 @@ pub use image_io::{
     read_png_linear, read_rgb, spectral_channel_name, write_image, write_rgb, ExrLayout, ImageFormat, SpectralImage,
 };
 pub use image_io::{read_exr_text_attributes, read_rgb_encoded, write_image_with, ColorEncoding};
+pub use image_io::{read_part, write_file_atomic, write_part};

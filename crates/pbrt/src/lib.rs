@@ -43,7 +43,9 @@ pub use scene::SceneDescription;
 /// Parses the scene file at `path` and everything it includes.
 pub fn parse_file(path: &Path) -> Result<SceneDescription, ParseError> {
     let text = parser::read_text(path, None)?;
-    parser::Parser::new(path, text).run()
+    let mut scene = parser::Parser::new(path, text).run()?;
+    scene.files.insert(0, path.to_path_buf());
+    Ok(scene)
 }
 
 /// Parses scene text as if it were the file `virtual_path`: locations name that path, and `Include`, `Import`

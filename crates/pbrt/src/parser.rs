@@ -537,6 +537,7 @@ impl Parser {
             ParseError::new(loc.clone(), format!("spectrum file '{}': {e} (expected λ value pairs)", path.display()))
         })?;
         let s = Spectrum::PiecewiseLinear(Arc::new(table));
+        self.scene.files.push(path.clone());
         self.spectrum_files.insert(key, s.clone());
         Ok(s)
     }
@@ -1090,6 +1091,7 @@ impl Parser {
             ));
         }
         let text = read_text(&path, Some(&loc))?;
+        self.scene.files.push(path.clone());
         let file: Arc<Path> = Arc::from(path.as_path());
         self.files.push(Source {
             lexer: Lexer::new(text, file),

@@ -265,6 +265,30 @@ fn includes_and_imports_resolve_relative_to_the_including_file() {
     assert!(s.shapes[2].render_from_object.is_identity());
     assert!(s.shapes[0].entity.loc.file.ends_with("sub/a.pbrt"));
     assert_eq!(s.shapes[0].entity.loc.line, 2);
+    // Every file read is listed once, in the order read (what a checkpoint's scene hash covers).
+    let files: Vec<String> =
+        s.files.iter().map(|f| f.strip_prefix(&dir).unwrap().to_string_lossy().into_owned()).collect();
+    assert_eq!(files, ["main.pbrt", "sub/a.pbrt", "sub/deeper/b.pbrt", "sub/imp.pbrt"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn spectrum_files_and_file_parameters_are_input_files() {
+    let dir = temp_dir("input-files");
+    std::fs::write(dir.join("glow.spd"), "400 1  500 2  600 1\n").unwrap();
+    std::fs::write(
+        dir.join("main.pbrt"),
+        "WorldBegin\nAreaLightSource \"diffuse\" \"spectrum L\" \"glow.spd\"\n\
+         Shape \"plymesh\" \"string filename\" \"mesh.ply\"\n\
+         Shape \"plymesh\" \"string filename\" \"other.ply\"\n",
+    )
+    .unwrap();
+    let s = pbrt::parse_file(&dir.join("main.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.files, [dir.join("main.pbrt"), dir.join("glow.spd")]);
+    // A file parameter counts once the renderer reads it as a file name (here: the first mesh only).
+    assert_eq!(s.input_files(), s.files);
+    assert_eq!(s.shapes[0].entity.params.get_filename("filename").unwrap(), Some(dir.join("mesh.ply")));
+    assert_eq!(s.input_files(), [dir.join("main.pbrt"), dir.join("glow.spd"), dir.join("mesh.ply")]);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -3,8 +3,10 @@
 //! A thin layer: it parses arguments, calls the library crates and prints. Errors are reported as one message and a
 //! non-zero exit status, never a panic.
 
+mod checkpoint;
 mod compare_cmd;
 mod ior_cmd;
+mod merge_cmd;
 mod render_cmd;
 mod spectrum_cmd;
 
@@ -28,6 +30,8 @@ enum Command {
     Spectrum(spectrum_cmd::SpectrumArgs),
     /// Render a pbrt-v4 scene to EXR, PNG or PFM (spectral path tracing with dispersion).
     Render(render_cmd::RenderArgs),
+    /// Merge the parts of a sharded render (render --shard K/N) into the image one process would have rendered.
+    Merge(merge_cmd::MergeArgs),
     /// Compare two renders: means and (relative) RMS difference, for noise and convergence measurements.
     Compare(compare_cmd::CompareArgs),
 }
@@ -39,6 +43,7 @@ fn main() -> ExitCode {
         Command::Spectrum(args) => spectrum_cmd::run(&args),
         Command::Render(args) => render_cmd::run(&args),
         Command::Compare(args) => compare_cmd::run(&args),
+        Command::Merge(args) => merge_cmd::run(&args),
     };
     match result {
         Ok(text) => {

@@ -1,7 +1,8 @@
 //! `prismatic render`: a pbrt-v4 scene in, an image out.
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -9,23 +10,44 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use render::integrator::{Integrator, PassUnit};
 use render::{build_scene, BuildOptions};
+
+use crate::checkpoint::{self, Checkpoint, Plan};
 use spectral::WavelengthStrategy;
 
 /// Arguments of `prismatic render`.
 #[derive(Args, Debug)]
 #[command(after_help = "Examples:\n  prismatic render scenes/cornell-glass.pbrt -o cornell.png\n  \
                         prismatic render scene.pbrt --spp 64 --wavelengths cmf -o out.exr\n  \
-                        prismatic render scene.pbrt --time 30 --resolution 640x480\n\n\
+                        prismatic render scene.pbrt --time 30 --resolution 640x480\n  \
+                        prismatic render scene.pbrt --spp 4096 --checkpoint scene.ckpt -o out.exr\n  \
+                        prismatic render --resume scene.ckpt\n  \
+                        prismatic render scene.pbrt --spp 4096 --shard 2/8 -o part-2.exr\n  \
+                        prismatic merge part-*.exr -o out.exr\n\n\
                         The output format follows the file extension: .exr (linear RGB; spectral films add S0.<λ>nm \
                         channels), .png (sRGB, dithered 8-bit), .pfm.\n\n\
                         Ctrl-C (SIGINT) or SIGTERM stops at the end of the current sample pass (passes last at most \
                         about a second), writes the image of the samples done (the EXR header's samplesPerPixel \
                         says how many) and exits with status 130 (SIGINT) or 143 (SIGTERM); a second signal exits \
-                        at once, leaving any earlier output file as it was.")]
+                        at once, leaving any earlier output file as it was.\n\n\
+                        Checkpoints: with --checkpoint FILE the render's accumulated state is written to FILE \
+                        (atomically) at a pass boundary every --checkpoint-every seconds, when a signal stops it, \
+                        and at the end. After a crash, a kill or a lost node, `prismatic render --resume FILE` \
+                        continues from the last complete checkpoint and writes exactly the image of an \
+                        uninterrupted render. It reads the scene again and refuses to go on if any of its files \
+                        (the main file, Include/Import, PLY, image and spectrum files) or the options that change \
+                        the image differ; the same command line with --resume added works too, and -o may name \
+                        another output.\n\n\
+                        Shards: --shard K/N renders the K-th of N parts of the render, on as many machines: \
+                        contiguous ranges of sample indices (for sppm, whose radii shrink from iteration to \
+                        iteration, bands of image rows with all iterations). Each part is an EXR (the part's image \
+                        plus its exact unnormalised sums); `prismatic merge` adds them into the image one process \
+                        would have rendered.")]
 pub struct RenderArgs {
-    /// The pbrt-v4 scene file.
-    pub scene: PathBuf,
+    /// The pbrt-v4 scene file (optional with --resume: the checkpoint names it).
+    #[arg(required_unless_present = "resume")]
+    pub scene: Option<PathBuf>,
 
     /// Output image (overrides the scene's Film "filename").
     #[arg(short, long, value_name = "FILE")]
@@ -44,7 +66,7 @@ pub struct RenderArgs {
     pub seed: u32,
 
     /// Render progressively for this many seconds, then write (instead of a fixed --spp).
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", conflicts_with_all = ["checkpoint", "resume", "shard"])]
     pub time: Option<f64>,
 
     /// Image size WxH (overrides the scene's film resolution).
@@ -69,6 +91,25 @@ pub struct RenderArgs {
     /// (EXR output only).
     #[arg(long)]
     pub aovs: bool,
+
+    /// Keep the render's accumulated state in FILE (written atomically at pass boundaries), to --resume after a
+    /// crash or a kill. With --resume, defaults to the checkpoint resumed.
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<PathBuf>,
+
+    /// Seconds between checkpoints (at the next pass boundary; 0 for every pass).
+    #[arg(long, value_name = "SECONDS", default_value_t = 300.0)]
+    pub checkpoint_every: f64,
+
+    /// Continue the render saved in this checkpoint: same scene files and options (checked), exactly the image
+    /// of an uninterrupted render. Options given with it must match the checkpoint's; -o may change.
+    #[arg(long, value_name = "FILE")]
+    pub resume: Option<PathBuf>,
+
+    /// Render only the K-th of N parts (K from 1 to N) into an EXR part for `prismatic merge`: sample indices
+    /// (K−1)·spp/N up to K·spp/N (for sppm: the K-th of N bands of image rows, all iterations).
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
 
     /// No progress bar and no statistics.
     #[arg(long)]
@@ -140,6 +181,141 @@ fn signal_name(sig: usize) -> &'static str {
     }
 }
 
+/// A render ready to go: the scene built from a [`Plan`], its film, the passes this process renders, and the hashes
+/// that identify it.
+pub struct Setup {
+    /// The scene.
+    pub built: render::BuiltScene,
+    /// The film this process renders into (a band of rows for an sppm shard).
+    pub spec: film::FilmSpec,
+    /// The pixels of the whole render (the film's, or the crop's).
+    pub whole: film::PixelBounds,
+    /// The passes this process renders.
+    pub passes: Range<u32>,
+    /// The passes of the whole render.
+    pub total: u32,
+    /// See [`checkpoint::scene_hash`].
+    pub scene_hash: u64,
+    /// See [`checkpoint::options_hash`].
+    pub options_hash: u64,
+    /// Time spent parsing the scene files.
+    pub parsed: Duration,
+}
+
+impl Setup {
+    /// Parses and builds the scene of `plan` and works out the film and the passes (of its shard, if any).
+    pub fn new(plan: &Plan) -> Result<Self> {
+        let start = Instant::now();
+        let desc = pbrt::parse_file(&plan.scene).map_err(|e| anyhow!("{e}"))?;
+        let parsed = start.elapsed();
+        let options = BuildOptions {
+            resolution: plan.resolution,
+            spp: plan.spp,
+            output: plan.output.clone(),
+            crop_window: plan.crop_window,
+            pixel_bounds: plan.pixel_bounds,
+        };
+        let mut built = build_scene(&desc, &options).map_err(|e| anyhow!("{e}"))?;
+        let scene_hash = checkpoint::scene_hash(&desc.input_files())?;
+        let mut spec = built.film.clone();
+        if plan.aovs {
+            spec.aovs = true;
+        }
+        spec.wavelengths = plan.wavelengths;
+        let whole = spec.bounds();
+        let unit = built.integrator.needs().unit;
+        let total = built.spp;
+        let resolved = format!(
+            "integrator={}\npasses={total}\nfilm={}x{} {:?} {:?} aovs={}\n",
+            built.integrator.name(),
+            spec.width,
+            spec.height,
+            whole,
+            spec.kind,
+            spec.aovs
+        );
+        let options_hash = checkpoint::options_hash(plan, &resolved);
+        let passes = match (plan.shard, unit) {
+            (None, _) => 0..total,
+            (Some((k, n)), PassUnit::Samples) => {
+                if n > total {
+                    bail!("--shard {k}/{n}: {total} spp cannot be split into {n} parts of at least one sample");
+                }
+                split(total, (k, n))
+            }
+            (Some((k, n)), PassUnit::Iterations) => {
+                // Photon mapping's radii shrink with the iterations, so disjoint iterations are not independent
+                // renders: a shard renders all iterations for a band of rows instead. Each pixel's statistics
+                // depend only on the photons near its own visible points, and the photon count per iteration is
+                // the whole render's, so the band's pixels are exactly those of the whole render.
+                let h = whole.height();
+                if n > h {
+                    bail!("--shard {k}/{n}: sppm shards are bands of image rows, and the image has only {h} rows");
+                }
+                let rows = split(h, (k, n));
+                spec.pixel_bounds =
+                    Some(film::PixelBounds { y0: whole.y0 + rows.start, y1: whole.y0 + rows.end, ..whole });
+                if let Integrator::Sppm(s) = &mut built.integrator {
+                    s.photons_per_iteration.get_or_insert(whole.width() as u64 * whole.height() as u64);
+                }
+                0..total
+            }
+        };
+        Ok(Setup { built, spec, whole, passes, total, scene_hash, options_hash, parsed })
+    }
+
+    /// The EXR header attributes of a part of a sharded render (see `prismatic merge`).
+    pub fn part_attributes(&self, plan: &Plan, done: u32) -> Vec<(String, String)> {
+        let (k, n) = plan.shard.unwrap_or((1, 1));
+        let w = self.whole;
+        let mut out = vec![
+            ("prismatic.part".to_string(), "1".to_string()),
+            ("prismatic.shard".into(), format!("{k}/{n}")),
+            ("prismatic.unit".into(), self.built.integrator.needs().unit.name().into()),
+            ("prismatic.passes".into(), format!("{}..{done}", self.passes.start)),
+            ("prismatic.passesTotal".into(), self.total.to_string()),
+            ("prismatic.bounds".into(), format!("{} {} {} {}", w.x0, w.x1, w.y0, w.y1)),
+            ("prismatic.seed".into(), plan.seed.to_string()),
+            ("prismatic.sceneHash".into(), format!("{:016x}", self.scene_hash)),
+            ("prismatic.optionsHash".into(), format!("{:016x}", self.options_hash)),
+        ];
+        out.extend(plan.to_pairs().into_iter().map(|(key, v)| (format!("prismatic.plan.{key}"), v)));
+        out
+    }
+}
+
+/// The K-th of N contiguous parts of `0..len` (K from 1): `(K−1)·len/N .. K·len/N`, rounded down.
+pub fn split(len: u32, (k, n): (u32, u32)) -> Range<u32> {
+    let at = |i: u32| (i as u64 * len as u64 / n as u64) as u32;
+    at(k - 1)..at(k)
+}
+
+/// The render's options from the command line, paths made absolute (a checkpoint may be resumed elsewhere).
+fn plan_from_args(args: &RenderArgs, scene: &Path) -> Result<Plan> {
+    let crop_window = match &args.cropwindow {
+        Some(c) => {
+            if let Some(v) = c.iter().find(|v| !(0.0..=1.0).contains(*v)) {
+                bail!("--cropwindow values are fractions of the image in [0, 1], got {v}");
+            }
+            Some([c[0], c[1], c[2], c[3]])
+        }
+        None => None,
+    };
+    let absolute = |p: &Path| std::path::absolute(p).with_context(|| format!("cannot resolve {}", p.display()));
+    Ok(Plan {
+        scene: absolute(scene)?,
+        output: args.output.as_deref().map(absolute).transpose()?,
+        spp: args.spp,
+        seed: args.seed,
+        wavelengths: args.wavelengths,
+        resolution: args.resolution,
+        crop_window,
+        pixel_bounds: args.pixelbounds.as_ref().map(|b| [b[0], b[1], b[2], b[3]]),
+        aovs: args.aovs,
+        shard: args.shard.as_deref().map(checkpoint::parse_shard).transpose()?,
+    })
+}
+
 pub fn run(args: &RenderArgs) -> Result<String> {
     if let Some(s) = args.spp {
         if s == 0 || s > 1 << 24 {
@@ -151,58 +327,107 @@ pub fn run(args: &RenderArgs) -> Result<String> {
             bail!("--time must be a positive number of seconds (at most 1e7), got {t}");
         }
     }
+    let every = args.checkpoint_every;
+    if !(every.is_finite() && (0.0..=1e9).contains(&every)) {
+        bail!("--checkpoint-every must be a number of seconds between 0 and 1e9, got {every}");
+    }
     if let Some(n) = args.threads {
         if n == 0 {
             bail!("--threads must be at least 1");
         }
         rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot start the thread pool")?;
     }
-    let crop_window = match &args.cropwindow {
-        Some(c) => {
-            if let Some(v) = c.iter().find(|v| !(0.0..=1.0).contains(*v)) {
-                bail!("--cropwindow values are fractions of the image in [0, 1], got {v}");
+    // The render's options: the command line's, or the checkpoint's (which a command line given with it must
+    // match).
+    let (mut plan, resume) = match &args.resume {
+        Some(path) => {
+            let ck = Checkpoint::load(path)?;
+            let recorded = Plan::from_text(&ck.plan).with_context(|| format!("checkpoint {}", path.display()))?;
+            if let Some(scene) = &args.scene {
+                let given = plan_from_args(args, scene)?;
+                let diff = given.differences(&recorded);
+                if !diff.is_empty() {
+                    bail!(
+                        "the options differ from those of checkpoint {} (given vs recorded): {}",
+                        path.display(),
+                        diff.join("; ")
+                    );
+                }
             }
-            Some([c[0], c[1], c[2], c[3]])
+            let mut plan = recorded;
+            if let Some(o) = &args.output {
+                plan.output = Some(std::path::absolute(o).with_context(|| format!("cannot resolve {}", o.display()))?);
+            }
+            (plan, Some(ck))
         }
-        None => None,
+        None => {
+            let scene = args.scene.as_deref().ok_or_else(|| anyhow!("no scene file given"))?;
+            (plan_from_args(args, scene)?, None)
+        }
     };
-    let pixel_bounds = args.pixelbounds.as_ref().map(|b| [b[0], b[1], b[2], b[3]]);
+    let checkpoint_path = args.checkpoint.clone().or_else(|| args.resume.clone());
     let stop = install_stop_signals()?;
     let start = Instant::now();
-    let desc = pbrt::parse_file(&args.scene).map_err(|e| anyhow!("{e}"))?;
-    let parsed = start.elapsed();
-    let options = BuildOptions {
-        resolution: args.resolution,
-        spp: args.spp,
-        output: args.output.clone(),
-        crop_window,
-        pixel_bounds,
-    };
-    let built = build_scene(&desc, &options).map_err(|e| anyhow!("{e}"))?;
+    let setup = Setup::new(&plan)?;
+    let built = &setup.built;
     for w in &built.warnings {
         eprintln!("{w}");
     }
     // Check the output before spending time on the render.
-    let out_path = &built.film.filename;
-    film::ImageFormat::from_path(out_path).map_err(|e| anyhow!("{e}"))?;
+    let out_path = built.film.filename.clone();
+    let format = film::ImageFormat::from_path(&out_path).map_err(|e| anyhow!("{e}"))?;
     if let Some(dir) = out_path.parent().filter(|d| !d.as_os_str().is_empty()) {
         if !dir.is_dir() {
             bail!("cannot write {}: directory {} does not exist", out_path.display(), dir.display());
         }
     }
-    // Scene load: parsing the files, then building (shapes and their PLY files, textures, lights, the BVH).
-    let setup = start.elapsed();
-    let mut spec = built.film.clone();
-    if args.aovs {
-        if film::ImageFormat::from_path(out_path).ok() != Some(film::ImageFormat::Exr) {
-            bail!("--aovs needs an .exr output (got {})", out_path.display());
-        }
-        spec.aovs = true;
+    if plan.aovs && format != film::ImageFormat::Exr {
+        bail!("--aovs needs an .exr output (got {})", out_path.display());
     }
-    spec.wavelengths = args.wavelengths;
-    let mut film = film::Film::new(spec).map_err(|e| anyhow!("{e}"))?;
+    if plan.shard.is_some() && format != film::ImageFormat::Exr {
+        bail!(
+            "a shard's part is an EXR file that `prismatic merge` reads: -o must end in .exr (got {})",
+            out_path.display()
+        );
+    }
+    // The output is fixed from now on: a checkpoint resumed from another directory writes the same file.
+    plan.output =
+        Some(std::path::absolute(&out_path).with_context(|| format!("cannot resolve {}", out_path.display()))?);
+    // Scene load: parsing the files, then building (shapes and their PLY files, textures, lights, the BVH).
+    let setup_time = start.elapsed();
+    let mut film = film::Film::new(setup.spec.clone()).map_err(|e| anyhow!("{e}"))?;
     let unit = built.integrator.needs().unit.name();
-    let mut job = built.integrator.begin(&built.scene, &film, args.seed).map_err(|e| anyhow!("{e}"))?;
+    let mut job = built.integrator.begin(&built.scene, &film, plan.seed).map_err(|e| anyhow!("{e}"))?;
+    let passes = setup.passes.clone();
+    let mut done = passes.start;
+    if let (Some(ck), Some(path)) = (&resume, &args.resume) {
+        let at = path.display();
+        if ck.scene_hash != setup.scene_hash {
+            bail!("the scene's files changed since checkpoint {at} was written (its scene hash differs); resuming would not give the image of one render");
+        }
+        if ck.options_hash != setup.options_hash || ck.passes != passes {
+            bail!("checkpoint {at} is of a render with other options or passes ({:?}, now {:?})", ck.passes, passes);
+        }
+        if ck.film.bounds != film.bounds() {
+            bail!("checkpoint {at} holds pixels {:?}, the render {:?}", ck.film.bounds, film.bounds());
+        }
+        film.paste(&ck.film).map_err(|e| anyhow!("checkpoint {at}: {e}"))?;
+        job.restore_state(&ck.job).map_err(|e| anyhow!("checkpoint {at}: {e}"))?;
+        done = ck.done;
+    }
+    let save_checkpoint = |film: &film::Film, job: &dyn render::integrator::RenderJob, done: u32| -> Result<()> {
+        let Some(path) = &checkpoint_path else { return Ok(()) };
+        let ck = Checkpoint {
+            scene_hash: setup.scene_hash,
+            options_hash: setup.options_hash,
+            passes: passes.clone(),
+            done,
+            plan: plan.to_text(),
+            film: film.state(),
+            job: job.save_state(),
+        };
+        ck.save(path).with_context(|| format!("checkpoint {}", path.display()))
+    };
     // Pixels rendered: the film's pixel bounds (a crop), or the whole image.
     let (w, h) = (film.bounds().width() as u64, film.bounds().height() as u64);
 
@@ -212,10 +437,10 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     let taken = AtomicU64::new(0);
     let render_start = Instant::now();
     let mut rays = 0u64;
-    let mut spp_done = 0u32;
+    let first = done;
     match args.time {
         None => {
-            let total = w * h * built.spp as u64;
+            let total = w * h * (passes.end - done) as u64;
             bar.set_length(total);
             bar.set_style(
                 ProgressStyle::with_template("{bar:40} {percent:>3}%  {msg}  eta {eta}")
@@ -230,18 +455,27 @@ pub fn run(args: &RenderArgs) -> Result<String> {
             // Passes of growing size, each well under a second, so that a signal is answered quickly; a pixel's
             // samples are added in the same order whatever the passes, so the image is the same.
             let mut pass = 1u32;
-            while spp_done < built.spp && stop.load(Ordering::SeqCst) == 0 {
+            let mut saved = (done, Instant::now());
+            while done < passes.end && stop.load(Ordering::SeqCst) == 0 {
                 let pass_start = Instant::now();
-                let n = pass.min(built.spp - spp_done);
-                let stats = job.run(&mut film, spp_done..spp_done + n, &progress);
+                let n = pass.min(passes.end - done);
+                let stats = job.run(&mut film, done..done + n, &progress);
                 rays += stats.rays;
-                spp_done += n;
+                done += n;
                 let took = pass_start.elapsed();
                 if took < Duration::from_millis(250) {
                     pass = pass.saturating_mul(2);
                 } else if took > Duration::from_millis(1000) && pass > 1 {
                     pass /= 2;
                 }
+                if done < passes.end && saved.1.elapsed().as_secs_f64() >= every {
+                    save_checkpoint(&film, job.as_ref(), done)?;
+                    saved = (done, Instant::now());
+                }
+            }
+            // The last state too (after a signal, or the end: resuming a finished render writes its image again).
+            if saved.0 != done {
+                save_checkpoint(&film, job.as_ref(), done)?;
             }
         }
         Some(seconds) => {
@@ -253,16 +487,16 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                     .unwrap_or_else(|_| ProgressStyle::default_spinner()),
             );
             let mut pass = 1u32;
-            while (spp_done == 0 || render_start.elapsed() < budget) && stop.load(Ordering::SeqCst) == 0 {
+            while (done == 0 || render_start.elapsed() < budget) && stop.load(Ordering::SeqCst) == 0 {
                 let pass_start = Instant::now();
                 let progress = |n: u64| {
                     taken.fetch_add(n, Ordering::Relaxed);
                 };
-                let range = spp_done..spp_done + pass;
+                let range = done..done + pass;
                 let stats = job.run(&mut film, range, &progress);
                 rays += stats.rays;
-                spp_done += pass;
-                bar.set_message(format!("{spp_done} {unit}"));
+                done += pass;
+                bar.set_message(format!("{done} {unit}"));
                 bar.tick();
                 // Grow the pass while it stays well inside the remaining time.
                 let left = budget.saturating_sub(render_start.elapsed());
@@ -276,10 +510,19 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     }
     let signal = stop.load(Ordering::SeqCst);
     bar.finish_and_clear();
-    let path = built.film.filename.clone();
-    if signal != 0 && spp_done == 0 {
+    let path = out_path;
+    // Messages name the output as the command line did.
+    let shown = args.output.clone().unwrap_or_else(|| path.clone());
+    let resume_hint = checkpoint_path
+        .as_ref()
+        .map(|c| format!("; resume with: prismatic render --resume {}", c.display()))
+        .unwrap_or_default();
+    if signal != 0 && done == passes.start {
         return Err(Interrupted {
-            message: format!("interrupted by {} before the first sample pass; nothing written", signal_name(signal)),
+            message: format!(
+                "interrupted by {} before the first sample pass; nothing written{resume_hint}",
+                signal_name(signal)
+            ),
             exit_code: (128 + signal).min(255) as u8,
         }
         .into());
@@ -287,7 +530,8 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     // Whatever the integrator keeps outside the film (photon mapping's progressive estimate) goes in once.
     job.finish(&mut film);
     let render_time = render_start.elapsed();
-    let requested = if args.time.is_some() { spp_done } else { built.spp };
+    let spp_done = done - passes.start;
+    let requested = if args.time.is_some() { done } else { passes.end - passes.start };
     let mut header = vec![
         ("samplesPerPixel".to_string(), spp_done.to_string()),
         ("samplesPerPixelRequested".to_string(), requested.to_string()),
@@ -295,13 +539,18 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     if signal != 0 {
         header.push(("interruptedBy".to_string(), signal_name(signal).to_string()));
     }
-    film::write_image_with(&film, &path, &header).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+    if plan.shard.is_some() {
+        header.extend(setup.part_attributes(&plan, done));
+        film::write_part(&film, &path, &header).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+    } else {
+        film::write_image_with(&film, &path, &header).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+    }
     if signal != 0 {
         return Err(Interrupted {
             message: format!(
-                "interrupted by {} after {spp_done} of {requested} {unit}; wrote {}",
+                "interrupted by {} after {spp_done} of {requested} {unit}; wrote {}{resume_hint}",
                 signal_name(signal),
-                path.display()
+                shown.display()
             ),
             exit_code: (128 + signal).min(255) as u8,
         }
@@ -310,23 +559,28 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     if args.quiet {
         return Ok(String::new());
     }
-    let samples = w * h * spp_done as u64;
+    let samples = w * h * (done - first) as u64;
     let secs = render_time.as_secs_f64().max(1e-9);
     let peak = peak_rss_bytes().map(|b| format!("{:.1} MB", b as f64 / 1e6)).unwrap_or_else(|| "unknown".into());
+    let resumed = if first != passes.start { format!(", resumed at {first}") } else { String::new() };
+    let shard = plan
+        .shard
+        .map(|(k, n)| format!(", shard {k}/{n}: passes {}..{}", passes.start, passes.end))
+        .unwrap_or_default();
     Ok(format!(
-        "wrote {} ({}x{}, {} {}, {} wavelengths, {})\n\
+        "wrote {} ({}x{}, {} {}, {} wavelengths, {}{resumed}{shard})\n\
          scene load {:.2} s (parse {:.2} s, build {:.2} s; {} triangles, {} lights), render {:.2} s\n\
          {:.3} Msamples/s, {:.3} Mrays/s, peak memory {}\n",
-        path.display(),
+        shown.display(),
         w,
         h,
         spp_done,
         unit,
-        args.wavelengths,
+        plan.wavelengths,
         built.integrator.name(),
-        setup.as_secs_f64(),
-        parsed.as_secs_f64(),
-        (setup - parsed).as_secs_f64(),
+        setup_time.as_secs_f64(),
+        setup.parsed.as_secs_f64(),
+        (setup_time - setup.parsed).as_secs_f64(),
         built.triangles,
         built.scene.lights.len(),
         secs,

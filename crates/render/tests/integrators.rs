@@ -636,3 +636,88 @@ fn a_render_split_into_two_runs_equals_one_run() {
         );
     }
 }
+
+/// A film like [`determinism_film`], RGB or spectral, holding only rows `rows` (all of them for `None`).
+fn film_of(spectral: bool, rows: Option<Range<u32>>) -> Film {
+    let mut spec = FilmSpec::new(WIDTH, HEIGHT, "determinism.exr");
+    if spectral {
+        spec.kind = FilmKind::spectral_default();
+    }
+    spec.filter = Filter::gaussian([1.5, 1.5], 0.5).unwrap();
+    spec.pixel_bounds = rows.map(|r| film::PixelBounds { x0: 0, x1: WIDTH, y0: r.start, y1: r.end });
+    Film::new(spec).unwrap()
+}
+
+/// A checkpoint holds the film's accumulators and the job's own state: a job stopped after passes `0..3`, whose
+/// film and state are put into a fresh film and a fresh job (as a new process does when it resumes), then run on
+/// `3..8`, gives bit for bit the film of `0..8` in one run, for every integrator (splats and photon mapping's
+/// statistics included), RGB and spectral films. A state of the wrong shape is an error.
+#[test]
+fn a_render_resumed_from_its_saved_state_equals_one_run() {
+    let scene = determinism_room();
+    for spectral in [false, true] {
+        for integrator in all_integrators() {
+            let name = format!("{} ({})", integrator.name(), if spectral { "spectral" } else { "rgb" });
+            let mut whole = film_of(spectral, None);
+            integrator.render(&scene, &mut whole, 0..8, 5, &|_| {}).unwrap();
+            let (film_state, job_state) = {
+                let mut film = film_of(spectral, None);
+                let mut job = integrator.begin(&scene, &film, 5).unwrap();
+                job.run(&mut film, 0..3, &|_| {});
+                (film.state(), job.save_state())
+            };
+            assert_eq!(job_state.is_empty(), !matches!(integrator, Integrator::Sppm(_)), "{name}");
+            let mut resumed = film_of(spectral, None);
+            resumed.paste(&film_state).unwrap();
+            let mut job = integrator.begin(&scene, &resumed, 5).unwrap();
+            if let Some((_, shorter)) = job_state.split_last() {
+                assert!(job.restore_state(shorter).is_err(), "{name}");
+            }
+            assert!(job.restore_state(&[1, 2, 3]).is_err(), "{name}");
+            job.restore_state(&job_state).unwrap();
+            job.run(&mut resumed, 3..8, &|_| {});
+            job.finish(&mut resumed);
+            assert_same(&whole, &resumed, 0.0, &name);
+        }
+    }
+}
+
+/// Shards of a render: contiguous sample ranges rendered apart and their films' sums added in pass order equal
+/// the film of all samples to the rounding of the additions (each sum regrouped: at most 2·n·2⁻⁵³ of the sum of
+/// the terms' magnitudes, n = 8 passes, so 1e-14 relative for these sums of positive terms); photon mapping, whose
+/// radii shrink with the iterations, renders tiles of rows with all iterations and the whole image's photon count
+/// instead, and its tiles pasted together equal the whole image bit for bit.
+#[test]
+fn shards_add_up_to_the_whole_render() {
+    let scene = determinism_room();
+    let ranges = [0..3, 3..5, 5..8];
+    for spectral in [false, true] {
+        for integrator in all_integrators() {
+            let name = format!("{} ({})", integrator.name(), if spectral { "spectral" } else { "rgb" });
+            let mut whole = film_of(spectral, None);
+            integrator.render(&scene, &mut whole, 0..8, 5, &|_| {}).unwrap();
+            let mut merged = film_of(spectral, None);
+            if let Integrator::Sppm(s) = integrator {
+                let photons = Some(WIDTH as u64 * HEIGHT as u64);
+                let tiled = Integrator::Sppm(SppmIntegrator { photons_per_iteration: photons, ..s });
+                for rows in [0..5, 5..6, 6..HEIGHT] {
+                    let mut tile = film_of(spectral, Some(rows));
+                    tiled.render(&scene, &mut tile, 0..8, 5, &|_| {}).unwrap();
+                    merged.paste(&tile.state()).unwrap();
+                }
+                assert_same(&whole, &merged, 0.0, &name);
+                continue;
+            }
+            for (k, r) in ranges.iter().enumerate() {
+                let mut part = film_of(spectral, None);
+                integrator.render(&scene, &mut part, r.clone(), 5, &|_| {}).unwrap();
+                if k == 0 {
+                    merged.paste(&part.state()).unwrap();
+                } else {
+                    merged.add_state(&part.state()).unwrap();
+                }
+            }
+            assert_same(&whole, &merged, 1e-14, &name);
+        }
+    }
+}

@@ -1,7 +1,7 @@
 //! The entities of a scene and the description that holds them.
 
 use std::collections::HashSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use geometry::Transform;
@@ -192,6 +192,9 @@ pub struct SceneDescription {
     /// Warnings from parsing (deprecated or ignored directives, …). Unused parameters are reported later, by
     /// [`SceneDescription::unused_parameters`], once the renderer has read what it understands.
     pub warnings: Vec<Diagnostic>,
+    /// Every file the parser read, in the order read: the main file, `Include`d and `Import`ed files, spectrum
+    /// files (what a checkpoint's scene hash covers, with the files the builder reads).
+    pub files: Vec<PathBuf>,
 }
 
 impl SceneDescription {
@@ -216,6 +219,7 @@ impl SceneDescription {
             instances: Vec::new(),
             options: Vec::new(),
             warnings: Vec::new(),
+            files: Vec::new(),
             file,
         }
     }
@@ -259,6 +263,21 @@ impl SceneDescription {
             v.extend(s.area_light.iter().map(|a| &a.params));
         }
         v
+    }
+
+    /// Every input file of the scene: the files the parser read ([`SceneDescription::files`]), then the files named
+    /// by parameters the renderer read as file names (PLY meshes, image textures, environment maps, …), each once,
+    /// in that order. Complete once the scene has been built.
+    pub fn input_files(&self) -> Vec<PathBuf> {
+        let mut seen = HashSet::new();
+        let mut out = Vec::new();
+        let named = self.param_sets().into_iter().flat_map(|set| set.files_read());
+        for f in self.files.iter().cloned().chain(named) {
+            if seen.insert(f.clone()) {
+                out.push(f);
+            }
+        }
+        out
     }
 
     /// "unused parameter" warnings over the whole scene, each parameter once, in file order. Call it after the

@@ -140,6 +140,8 @@ pub struct Param {
     /// True for defaults set by `Attribute`, which are not reported when unused.
     pub may_be_unused: bool,
     used: Arc<AtomicBool>,
+    /// Set once the parameter was read as the name of an input file ([`ParamSet::get_filename`]).
+    names_file: Arc<AtomicBool>,
 }
 
 impl PartialEq for Param {
@@ -170,6 +172,7 @@ impl Param {
             search_dirs: Vec::new(),
             may_be_unused: false,
             used: Arc::new(AtomicBool::new(false)),
+            names_file: Arc::new(AtomicBool::new(false)),
         }
     }
 
@@ -532,22 +535,17 @@ impl ParamSet {
     pub fn get_filename(&self, name: &str) -> Result<Option<PathBuf>, SceneError> {
         let Some(p) = self.typed(name, &[ParamType::String])? else { return Ok(None) };
         let s = p.one_string()?;
-        if s.is_empty() {
-            return Ok(None);
-        }
-        let path = Path::new(s);
-        if path.is_absolute() {
-            return Ok(Some(path.to_path_buf()));
-        }
-        let candidates: Vec<PathBuf> = p.search_dirs.iter().map(|d| d.join(path)).collect();
-        Ok(Some(
-            candidates
-                .iter()
-                .find(|c| c.exists())
-                .or(candidates.first())
-                .cloned()
-                .unwrap_or_else(|| path.to_path_buf()),
-        ))
+        p.names_file.store(true, Ordering::Relaxed);
+        Ok(resolve_file(p, s))
+    }
+
+    /// The files named by parameters read with [`ParamSet::get_filename`] so far, resolved as it resolves them.
+    pub fn files_read(&self) -> Vec<PathBuf> {
+        self.params
+            .iter()
+            .filter(|p| p.names_file.load(Ordering::Relaxed))
+            .filter_map(|p| p.strings.first().and_then(|s| resolve_file(p, s)))
+            .collect()
     }
 
     /// The texture name of a `texture` parameter (`None` if absent, of another type, or empty).
@@ -592,6 +590,19 @@ impl ParamSet {
             .map(|p| Diagnostic::new(p.loc.clone(), format!("unused parameter '{} {}'", p.ty, p.name)))
             .collect()
     }
+}
+
+/// File name `s` of parameter `p` resolved against its search directories (see [`ParamSet::get_filename`]).
+fn resolve_file(p: &Param, s: &str) -> Option<PathBuf> {
+    if s.is_empty() {
+        return None;
+    }
+    let path = Path::new(s);
+    if path.is_absolute() {
+        return Some(path.to_path_buf());
+    }
+    let candidates: Vec<PathBuf> = p.search_dirs.iter().map(|d| d.join(path)).collect();
+    Some(candidates.iter().find(|c| c.exists()).or(candidates.first()).cloned().unwrap_or_else(|| path.to_path_buf()))
 }
 
 #[cfg(test)]

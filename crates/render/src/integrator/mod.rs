@@ -68,6 +68,23 @@ pub trait RenderJob: Send {
 
     /// Writes what the job keeps outside the film (photon mapping's progressive estimate) into `film`.
     fn finish(self: Box<Self>, film: &mut Film);
+
+    /// What the job keeps between passes outside the film, as little-endian bytes (photon mapping's per-pixel
+    /// statistics; empty for the integrators that keep nothing: their passes leave everything in the film, splats
+    /// included). With the film's accumulators, it is what a checkpoint stores.
+    fn save_state(&self) -> Vec<u8> {
+        Vec::new()
+    }
+
+    /// Puts back a state saved by [`RenderJob::save_state`] of a job of the same integrator, scene and film, so that
+    /// the next passes continue that render exactly. A state of another shape is an error, never a panic.
+    fn restore_state(&mut self, state: &[u8]) -> Result<(), String> {
+        if state.is_empty() {
+            Ok(())
+        } else {
+            Err(format!("this integrator keeps no state outside the film, but {} bytes were given", state.len()))
+        }
+    }
 }
 
 /// The parameters of an `Integrator` directive, with pbrt-v4's shared ones read the same way for all.

@@ -150,6 +150,96 @@ impl SppmState {
         self.iterations
     }
 
+    /// Values per pixel in [`SppmState::to_bytes`]: radius, n, τ (XYZ), direct light (XYZ), weight sum.
+    const PIXEL_VALUES: usize = 9;
+    /// Bytes of [`SppmState::to_bytes`]'s header.
+    const HEADER_BYTES: usize = 4 + 8 + 5 * 4;
+
+    /// The state as little-endian bytes: iterations (u32), photons emitted (u64), origin x, origin y, width,
+    /// height, buckets (u32 each), then per pixel radius, n, τ X Y Z, direct X Y Z, weight sum (f64 each), then τ
+    /// and direct light per bucket (f64, pixel-major).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let npix = self.pixels.len();
+        let mut out = Vec::with_capacity(
+            Self::HEADER_BYTES + 8 * (npix * Self::PIXEL_VALUES + self.tau_buckets.len() + self.ld_buckets.len()),
+        );
+        out.extend_from_slice(&self.iterations.to_le_bytes());
+        out.extend_from_slice(&self.photons.to_le_bytes());
+        for v in [self.origin.0, self.origin.1, self.width, self.height, self.nbuckets as u32] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        for p in &self.pixels {
+            let values = [p.radius, p.n, p.tau_xyz[0], p.tau_xyz[1], p.tau_xyz[2]];
+            for v in values.into_iter().chain(p.ld_xyz).chain([p.weight]) {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        for v in self.tau_buckets.iter().chain(&self.ld_buckets) {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        out
+    }
+
+    /// Puts back a state written by [`SppmState::to_bytes`] for the same pixels and buckets; anything else (other
+    /// sizes, a wrong length, radii that are not positive, counts that are not finite) is an error and leaves
+    /// the state as it was.
+    pub fn restore(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let npix = self.pixels.len();
+        let nb = self.nbuckets;
+        let want = npix
+            .checked_mul(Self::PIXEL_VALUES + 2 * nb)
+            .and_then(|n| n.checked_mul(8))
+            .and_then(|n| n.checked_add(Self::HEADER_BYTES));
+        if Some(bytes.len()) != want {
+            return Err(format!(
+                "the photon-mapping state has {} bytes; {} pixels with {nb} buckets need {}",
+                bytes.len(),
+                npix,
+                want.map_or("more than can be addressed".into(), |n| n.to_string())
+            ));
+        }
+        let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap_or_default());
+        let f64_at = |i: usize| f64::from_le_bytes(bytes[i..i + 8].try_into().unwrap_or_default());
+        let iterations = u32_at(0);
+        let photons = u64::from_le_bytes(bytes[4..12].try_into().unwrap_or_default());
+        let dims = [u32_at(12), u32_at(16), u32_at(20), u32_at(24), u32_at(28)];
+        let own = [self.origin.0, self.origin.1, self.width, self.height, nb as u32];
+        if dims != own {
+            return Err(format!(
+                "the photon-mapping state is for pixels at ({}, {}) of {}×{} with {} buckets, not ({}, {}) of {}×{} \
+                 with {}",
+                dims[0], dims[1], dims[2], dims[3], dims[4], own[0], own[1], own[2], own[3], own[4]
+            ));
+        }
+        let mut at = Self::HEADER_BYTES;
+        let mut pixels = Vec::with_capacity(npix);
+        for _ in 0..npix {
+            let v: Vec<f64> = (0..Self::PIXEL_VALUES).map(|k| f64_at(at + 8 * k)).collect();
+            at += 8 * Self::PIXEL_VALUES;
+            let valid = v.iter().all(|x| x.is_finite()) && v[0] > 0.0 && v[1] >= 0.0;
+            if !valid {
+                return Err(format!("the photon-mapping state holds a pixel with radius {} and count {}", v[0], v[1]));
+            }
+            pixels.push(PixelState {
+                radius: v[0],
+                n: v[1],
+                tau_xyz: [v[2], v[3], v[4]],
+                ld_xyz: [v[5], v[6], v[7]],
+                weight: v[8],
+            });
+        }
+        let read_buckets = |at: &mut usize| -> Vec<f64> {
+            let out = (0..npix * nb).map(|k| f64_at(*at + 8 * k)).collect();
+            *at += 8 * npix * nb;
+            out
+        };
+        let tau = read_buckets(&mut at);
+        let ld = read_buckets(&mut at);
+        (self.iterations, self.photons, self.pixels, self.tau_buckets, self.ld_buckets) =
+            (iterations, photons, pixels, tau, ld);
+        Ok(())
+    }
+
     /// Writes the current estimate into `film` (one sample of weight 1 per pixel).
     ///
     /// Every iteration's camera sample carries its filter weight w into the direct light and the visible point's
@@ -192,13 +282,20 @@ fn cell_hash(c: [i32; 3], table: usize) -> usize {
 
 impl VisibleGrid {
     /// Inserts every visible point into each cell its gather sphere overlaps; cell size is the largest radius.
+    ///
+    /// A point goes into every cell its sphere's box overlaps, widened by a little more than the rounding of the
+    /// f32 distance test and of the box corners (0.1% of the radius and 2⁻²⁰ of the coordinates): every photon the
+    /// distance test accepts is then found whatever the grid's origin and cell size (rounded cell indices are
+    /// monotonic in the position). So which photons a point gathers does not depend on the other points, and a render
+    /// of a tile of the image gives its pixels exactly as the whole image's render does.
     fn build(points: &[Option<VisiblePoint<'_>>], radii: &[f64]) -> Option<Self> {
+        let reach = |p: Vec3, r: f64| Vec3::splat(r as f32 * 1.001) + p.abs() * (1.0 / (1 << 20) as f32);
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut max_r = 0.0f32;
         let mut count = 0usize;
         for (vp, &r) in points.iter().zip(radii) {
             if let Some(vp) = vp {
-                lo = lo.min(vp.p - Vec3::splat(r as f32));
+                lo = lo.min(vp.p - reach(vp.p, r));
                 max_r = max_r.max(r as f32);
                 count += 1;
             }
@@ -215,7 +312,8 @@ impl VisibleGrid {
         let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(count * 4);
         for (i, (vp, &r)) in points.iter().zip(radii).enumerate() {
             let Some(vp) = vp else { continue };
-            let (a, b) = (cell_of(vp.p - Vec3::splat(r as f32)), cell_of(vp.p + Vec3::splat(r as f32)));
+            let e = reach(vp.p, r);
+            let (a, b) = (cell_of(vp.p - e), cell_of(vp.p + e));
             for z in a[2]..=b[2] {
                 for y in a[1]..=b[1] {
                     for x in a[0]..=b[0] {
@@ -671,5 +769,13 @@ impl RenderJob for SppmRender<'_> {
 
     fn finish(self: Box<Self>, film: &mut Film) {
         self.state.write_to(film);
+    }
+
+    fn save_state(&self) -> Vec<u8> {
+        self.state.to_bytes()
+    }
+
+    fn restore_state(&mut self, state: &[u8]) -> Result<(), String> {
+        self.state.restore(state)
     }
 }
