@@ -29,7 +29,7 @@ pub mod shapes;
 pub mod subdiv;
 pub mod transform;
 
-pub use accel::{Accel, GeometryScene, Hit, Instance, Object, Shape};
+pub use accel::{Accel, GeometryScene, Hit, Instance, MovingInstance, Object, Shape};
 pub use animated::AnimatedTransform;
 pub use bilinear::BilinearMesh;
 pub use bounds::Bounds3;
