@@ -2,7 +2,6 @@
 
 use std::path::{Path, PathBuf};
 
-use geometry::Transform;
 use glam::DVec3;
 use scene::{FloatParam, MaterialRef, ParamType, SceneDescription, Spectrum, SpectrumKind, SpectrumParam};
 
