@@ -494,6 +494,7 @@ impl InstanceData {
         }
     }
 
+    #[inline]
     fn geom_to_render(&self, g: SurfaceGeom) -> SurfaceGeom {
         if self.identity {
             return g;
@@ -622,15 +623,18 @@ impl GeometryScene {
     }
 
     /// The instance data of `instance` (static, or moving and placed at `time`).
-    #[inline]
     fn instance_at(&self, instance: u32, time: f32) -> std::borrow::Cow<'_, InstanceData> {
         match self.instances.get(instance as usize) {
             Some(i) => std::borrow::Cow::Borrowed(i),
-            None => {
-                let m = &self.moving[instance as usize - self.instances.len()];
-                std::borrow::Cow::Owned(InstanceData::new(m.object, m.render_from_instance(time), Bounds3::EMPTY))
-            }
+            None => std::borrow::Cow::Owned(self.moving_at(instance, time)),
         }
+    }
+
+    /// Moving instance `instance` (numbered after the static ones) placed where it is at `time`.
+    #[inline(never)]
+    fn moving_at(&self, instance: u32, time: f32) -> InstanceData {
+        let m = &self.moving[instance as usize - self.instances.len()];
+        InstanceData::new(m.object, m.render_from_instance(time), Bounds3::EMPTY)
     }
 
     /// The object and render-from-instance transform of static instance `instance`; `None` if out of range or
@@ -665,8 +669,16 @@ impl GeometryScene {
         (primitive < *o.shape_starts.last()?).then(|| o.locate(primitive))
     }
 
+    #[inline]
     fn finish(&self, ray: &Ray, c: &Closest) -> Hit {
-        let inst = self.instance_at(c.instance, ray.time);
+        let moved;
+        let inst = match self.instances.get(c.instance as usize) {
+            Some(inst) => inst,
+            None => {
+                moved = self.moving_at(c.instance, ray.time);
+                &moved
+            }
+        };
         let blas = &self.objects[inst.object as usize];
         let (shape, element) = blas.locate(c.prim);
         let g = inst.geom_to_render(blas.shapes[shape as usize].surface_geom(element as usize, &c.hit));
@@ -729,6 +741,9 @@ impl GeometryScene {
     }
 
     /// The moving instances' part of [`GeometryScene::closest_hit`]: each is placed where it is at the ray's time.
+    /// Out of line, so that the static path's code stays as it was.
+    #[cold]
+    #[inline(never)]
     fn closest_moving(&self, ray: &Ray, best: &mut Closest) {
         if self.moving_tlas.nodes.is_empty() {
             return;
@@ -740,13 +755,15 @@ impl GeometryScene {
         let mut node;
         obvhs::traverse!(tlas, node, state, node_hits(node, &node_ray, best.hit.t, state.oct_inv4), {
             let k = self.moving_slot[state.primitive_id as usize];
-            let inst = self.instance_at(n_static + k, ray.time);
+            let inst = self.moving_at(n_static + k, ray.time);
             let (o, d) = inst.to_instance(ray.o, ray.d);
             self.objects[inst.object as usize].closest(o, d, n_static + k, best);
         });
     }
 
     /// True if a moving instance, placed where it is at the ray's time, is hit with `0 < t < t_max`.
+    #[cold]
+    #[inline(never)]
     fn occluded_moving(&self, ray: &Ray, t_max: f32) -> bool {
         if self.moving_tlas.nodes.is_empty() {
             return false;
@@ -760,7 +777,7 @@ impl GeometryScene {
         'search: {
             obvhs::traverse!(tlas, node, state, node_hits(node, &node_ray, t_max, state.oct_inv4), {
                 let k = self.moving_slot[state.primitive_id as usize];
-                let inst = self.instance_at(n_static + k, ray.time);
+                let inst = self.moving_at(n_static + k, ray.time);
                 let (o, d) = inst.to_instance(ray.o, ray.d);
                 if self.objects[inst.object as usize].any(o, d, t_max) {
                     hit = true;

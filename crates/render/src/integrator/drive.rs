@@ -56,6 +56,7 @@ impl CameraSampler {
     /// The camera sample of pixel (`x`, `y`), drawing the first five dimensions of `sampler`: wavelengths (1),
     /// film offset from the filter (2), lens (2); in a scene where something moves, six: the ray's time (1, uniform
     /// over the shutter) comes between the film offset and the lens, as in pbrt-v4's `GetCameraSample`.
+    #[inline]
     pub fn sample(&self, scene: &RenderScene, x: u32, y: u32, sampler: &mut Sampler) -> CameraSample {
         let wl = self.wavelengths.sample(sampler.next_1d() as f64);
         let [u0, u1] = sampler.next_2d();
