@@ -31,6 +31,7 @@ use obvhs::cwbvh::CwBvh;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
+use crate::animated::{transform_bounds, AnimatedTransform};
 use crate::bounds::Bounds3;
 use crate::mesh::TriangleMesh;
 use crate::ray::{gamma, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
@@ -138,6 +139,39 @@ pub struct Instance {
     pub render_from_instance: Transform,
 }
 
+/// An object that moves while the shutter is open: at time t it is placed by `outer(t) · inner(t)` (an instance's
+/// motion, and the motion of a moving shape inside its object; either may be fixed). Moving instances are kept out
+/// of the static instances' top-level BVH: they have their own, over bounds that cover their motion, so scenes
+/// without motion are traversed as before.
+#[derive(Clone, Debug)]
+pub struct MovingInstance {
+    /// Index into the objects.
+    pub object: u32,
+    /// Render from instance space (the `ObjectInstance`'s transform), applied last.
+    pub outer: AnimatedTransform,
+    /// Instance space from the object's own space (a moving shape's transform inside an object), applied first.
+    pub inner: AnimatedTransform,
+}
+
+impl MovingInstance {
+    /// The render-from-object transform at `time`.
+    pub fn render_from_instance(&self, time: f32) -> Transform {
+        let outer = self.outer.at(time as f64);
+        if !self.inner.is_animated() && self.inner.start().is_identity() {
+            return outer;
+        }
+        outer * self.inner.at(time as f64)
+    }
+
+    /// Render-space bounds of everything the object (with bounds `b` in its own space) covers during the motion.
+    fn motion_bounds(&self, b: &Bounds3) -> Bounds3 {
+        if !self.inner.is_animated() && self.inner.start().is_identity() {
+            return self.outer.motion_bounds(b);
+        }
+        self.outer.motion_bounds(&self.inner.motion_bounds(b))
+    }
+}
+
 /// Bit marking a BVH slot whose primitive is intersected through its shape rather than as an inline triangle (see
 /// [`Shape::element_triangle`]).
 const INDIRECT: u32 = 1 << 31;
@@ -155,6 +189,7 @@ struct Blas {
     bounds: Bounds3,
 }
 
+#[derive(Clone)]
 struct InstanceData {
     object: u32,
     identity: bool,
@@ -175,6 +210,12 @@ pub struct GeometryScene {
     tlas: CwBvh,
     /// Instance index per top-level BVH slot.
     tlas_slot_instance: Vec<u32>,
+    /// Moving instances; in a [`Hit`] they follow the static ones (`instance = instances.len() + k`).
+    moving: Vec<MovingInstance>,
+    /// Top-level BVH over the moving instances' motion bounds.
+    moving_tlas: CwBvh,
+    /// Moving-instance index per slot of `moving_tlas`.
+    moving_slot: Vec<u32>,
     bounds: Bounds3,
     build_time: Duration,
 }
@@ -398,6 +439,28 @@ impl Blas {
 }
 
 impl InstanceData {
+    /// The instance of `object` placed by `t`, whose render-space bounds are `bounds`.
+    fn new(object: u32, t: Transform, bounds: Bounds3) -> Self {
+        let m = t.matrix();
+        let lin = DMat3::from_mat4(m);
+        InstanceData {
+            object,
+            identity: t.is_identity(),
+            render_from_instance: m,
+            instance_from_render: t.inverse_matrix(),
+            linear: lin.as_mat3(),
+            abs_linear: Mat3::from_cols(
+                lin.x_axis.abs().as_vec3(),
+                lin.y_axis.abs().as_vec3(),
+                lin.z_axis.abs().as_vec3(),
+            ),
+            abs_translation: m.w_axis.truncate().abs().as_vec3(),
+            normal_matrix: DMat3::from_mat4(t.inverse_matrix()).transpose().as_mat3(),
+            transform: t,
+            bounds,
+        }
+    }
+
     /// The ray in instance space (origin transformed in f64), same `t` parametrization.
     #[inline]
     fn to_instance(&self, o: Vec3, d: Vec3) -> (Vec3, Vec3) {
@@ -431,6 +494,7 @@ impl InstanceData {
         }
     }
 
+    #[inline]
     fn geom_to_render(&self, g: SurfaceGeom) -> SurfaceGeom {
         if self.identity {
             return g;
@@ -460,8 +524,26 @@ impl GeometryScene {
     /// Builds the BVHs (in parallel). Errors if an instance names a missing object or an object has more than
     /// 2³¹ primitives.
     pub fn build(objects: Vec<Object>, instances: Vec<Instance>) -> Result<Self, GeometryError> {
+        Self::build_with_motion(objects, instances, Vec::new())
+    }
+
+    /// [`GeometryScene::build`] with instances that move during the shutter; rays find them where they are at the
+    /// ray's time ([`Ray::time`]).
+    pub fn build_with_motion(
+        objects: Vec<Object>,
+        instances: Vec<Instance>,
+        moving: Vec<MovingInstance>,
+    ) -> Result<Self, GeometryError> {
         let start = std::time::Instant::now();
         let n_objects = objects.len();
+        for (i, m) in moving.iter().enumerate() {
+            if m.object as usize >= n_objects {
+                return Err(GeometryError::InvalidInstance(format!(
+                    "moving instance {i} refers to object {} but there are {n_objects} objects",
+                    m.object
+                )));
+            }
+        }
         for (i, inst) in instances.iter().enumerate() {
             if inst.object as usize >= n_objects {
                 return Err(GeometryError::InvalidInstance(format!(
@@ -480,42 +562,15 @@ impl GeometryScene {
             .into_iter()
             .map(|inst| {
                 let t = inst.render_from_instance;
-                let m = t.matrix();
-                let lin = DMat3::from_mat4(m);
                 let ob = objects[inst.object as usize].bounds;
                 let bounds = if ob.is_empty() {
                     Bounds3::EMPTY
                 } else if t.is_identity() {
                     ob
                 } else {
-                    let mut b = Bounds3::EMPTY;
-                    for c in 0..8 {
-                        let corner = Vec3::new(
-                            if c & 1 == 0 { ob.min.x } else { ob.max.x },
-                            if c & 2 == 0 { ob.min.y } else { ob.max.y },
-                            if c & 4 == 0 { ob.min.z } else { ob.max.z },
-                        );
-                        b = b.union_point(t.point(corner.as_dvec3()).as_vec3());
-                    }
-                    let e = b.max.abs().max(b.min.abs()) * gamma(4);
-                    Bounds3 { min: b.min - e, max: b.max + e }
+                    transform_bounds(&t, &ob)
                 };
-                InstanceData {
-                    object: inst.object,
-                    identity: t.is_identity(),
-                    render_from_instance: m,
-                    instance_from_render: t.inverse_matrix(),
-                    linear: lin.as_mat3(),
-                    abs_linear: Mat3::from_cols(
-                        lin.x_axis.abs().as_vec3(),
-                        lin.y_axis.abs().as_vec3(),
-                        lin.z_axis.abs().as_vec3(),
-                    ),
-                    abs_translation: m.w_axis.truncate().abs().as_vec3(),
-                    normal_matrix: DMat3::from_mat4(t.inverse_matrix()).transpose().as_mat3(),
-                    transform: t,
-                    bounds,
-                }
+                InstanceData::new(inst.object, t, bounds)
             })
             .collect();
         let live: Vec<u32> =
@@ -524,8 +579,27 @@ impl GeometryScene {
         let mut tlas = build_bvh(&aabbs);
         let tlas_slot_instance = tlas.primitive_indices.iter().map(|&k| live[k as usize]).collect();
         tlas.primitive_indices = Vec::new();
-        let bounds = instances.iter().fold(Bounds3::EMPTY, |b, i| b.union(&i.bounds));
-        Ok(Self { objects, instances, tlas, tlas_slot_instance, bounds, build_time: start.elapsed() })
+        let mut bounds = instances.iter().fold(Bounds3::EMPTY, |b, i| b.union(&i.bounds));
+        // Moving instances: a top-level BVH of their own over the bounds of their whole motion.
+        let moving_bounds: Vec<Bounds3> =
+            moving.iter().map(|m| m.motion_bounds(&objects[m.object as usize].bounds)).collect();
+        let live: Vec<u32> = (0..moving.len() as u32).filter(|&k| !moving_bounds[k as usize].is_empty()).collect();
+        let aabbs: Vec<Aabb> = live.iter().map(|&k| to_aabb(&moving_bounds[k as usize])).collect();
+        let mut moving_tlas = build_bvh(&aabbs);
+        let moving_slot = moving_tlas.primitive_indices.iter().map(|&k| live[k as usize]).collect();
+        moving_tlas.primitive_indices = Vec::new();
+        bounds = moving_bounds.iter().fold(bounds, |b, m| b.union(m));
+        Ok(Self {
+            objects,
+            instances,
+            tlas,
+            tlas_slot_instance,
+            moving,
+            moving_tlas,
+            moving_slot,
+            bounds,
+            build_time: start.elapsed(),
+        })
     }
 
     /// Wall-clock time [`GeometryScene::build`] took.
@@ -538,12 +612,33 @@ impl GeometryScene {
         self.objects.len()
     }
 
-    /// Number of instances.
+    /// Number of (static) instances.
     pub fn instance_count(&self) -> usize {
         self.instances.len()
     }
 
-    /// The object and render-from-instance transform of instance `instance`; `None` if out of range.
+    /// Number of moving instances (numbered after the static ones in a [`Hit`]).
+    pub fn moving_instance_count(&self) -> usize {
+        self.moving.len()
+    }
+
+    /// The instance data of `instance` (static, or moving and placed at `time`).
+    fn instance_at(&self, instance: u32, time: f32) -> std::borrow::Cow<'_, InstanceData> {
+        match self.instances.get(instance as usize) {
+            Some(i) => std::borrow::Cow::Borrowed(i),
+            None => std::borrow::Cow::Owned(self.moving_at(instance, time)),
+        }
+    }
+
+    /// Moving instance `instance` (numbered after the static ones) placed where it is at `time`.
+    #[inline(never)]
+    fn moving_at(&self, instance: u32, time: f32) -> InstanceData {
+        let m = &self.moving[instance as usize - self.instances.len()];
+        InstanceData::new(m.object, m.render_from_instance(time), Bounds3::EMPTY)
+    }
+
+    /// The object and render-from-instance transform of static instance `instance`; `None` if out of range or
+    /// moving.
     pub fn instance(&self, instance: u32) -> Option<(u32, &Transform)> {
         self.instances.get(instance as usize).map(|i| (i.object, &i.transform))
     }
@@ -574,14 +669,21 @@ impl GeometryScene {
         (primitive < *o.shape_starts.last()?).then(|| o.locate(primitive))
     }
 
+    #[inline]
     fn finish(&self, ray: &Ray, c: &Closest) -> Hit {
-        let inst = &self.instances[c.instance as usize];
+        let moved;
+        let inst = match self.instances.get(c.instance as usize) {
+            Some(inst) => inst,
+            None => {
+                moved = self.moving_at(c.instance, ray.time);
+                &moved
+            }
+        };
         let blas = &self.objects[inst.object as usize];
         let (shape, element) = blas.locate(c.prim);
         let g = inst.geom_to_render(blas.shapes[shape as usize].surface_geom(element as usize, &c.hit));
         let mut tangent = g.dpdu - g.ns * g.ns.dot(g.dpdu);
         tangent = tangent.try_normalize().unwrap_or_else(|| coordinate_system(g.ns).0);
-        let _ = ray;
         Hit {
             t: c.hit.t,
             p: g.p,
@@ -632,7 +734,58 @@ impl GeometryScene {
                 self.objects[inst.object as usize].closest(o, d, i, &mut best);
             });
         }
+        if !self.moving.is_empty() {
+            self.closest_moving(ray, &mut best);
+        }
         (best.instance != u32::MAX).then_some(best)
+    }
+
+    /// The moving instances' part of [`GeometryScene::closest_hit`]: each is placed where it is at the ray's time.
+    /// Out of line, so that the static path's code stays as it was.
+    #[cold]
+    #[inline(never)]
+    fn closest_moving(&self, ray: &Ray, best: &mut Closest) {
+        if self.moving_tlas.nodes.is_empty() {
+            return;
+        }
+        let n_static = self.instances.len() as u32;
+        let node_ray = NodeRay::new(ray.o, ray.d);
+        let tlas = &self.moving_tlas;
+        let mut state = tlas.new_traversal(Vec3A::from(ray.d));
+        let mut node;
+        obvhs::traverse!(tlas, node, state, node_hits(node, &node_ray, best.hit.t, state.oct_inv4), {
+            let k = self.moving_slot[state.primitive_id as usize];
+            let inst = self.moving_at(n_static + k, ray.time);
+            let (o, d) = inst.to_instance(ray.o, ray.d);
+            self.objects[inst.object as usize].closest(o, d, n_static + k, best);
+        });
+    }
+
+    /// True if a moving instance, placed where it is at the ray's time, is hit with `0 < t < t_max`.
+    #[cold]
+    #[inline(never)]
+    fn occluded_moving(&self, ray: &Ray, t_max: f32) -> bool {
+        if self.moving_tlas.nodes.is_empty() {
+            return false;
+        }
+        let n_static = self.instances.len() as u32;
+        let node_ray = NodeRay::new(ray.o, ray.d);
+        let tlas = &self.moving_tlas;
+        let mut state = tlas.new_traversal(Vec3A::from(ray.d));
+        let mut node;
+        let mut hit = false;
+        'search: {
+            obvhs::traverse!(tlas, node, state, node_hits(node, &node_ray, t_max, state.oct_inv4), {
+                let k = self.moving_slot[state.primitive_id as usize];
+                let inst = self.moving_at(n_static + k, ray.time);
+                let (o, d) = inst.to_instance(ray.o, ray.d);
+                if self.objects[inst.object as usize].any(o, d, t_max) {
+                    hit = true;
+                    break 'search;
+                }
+            });
+        }
+        hit
     }
 
     /// The closest hit with `0 < t < t_max`, as [`Accel::intersect`] finds it, with the surface's first derivatives
@@ -640,7 +793,7 @@ impl GeometryScene {
     /// [`Accel::intersect`] itself never computes derivatives.
     pub fn intersect_with_derivatives(&self, ray: &Ray, t_max: f32) -> Option<(Hit, Option<SurfaceDerivatives>)> {
         let c = self.closest_hit(ray, t_max)?;
-        let inst = &self.instances[c.instance as usize];
+        let inst = self.instance_at(c.instance, ray.time);
         let blas = &self.objects[inst.object as usize];
         let (shape, element) = blas.locate(c.prim);
         let shape = &blas.shapes[shape as usize];
@@ -661,6 +814,9 @@ impl Accel for GeometryScene {
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         if !Self::valid_ray(ray, t_max) {
             return false;
+        }
+        if !self.moving.is_empty() && self.occluded_moving(ray, t_max) {
+            return true;
         }
         if self.tlas_slot_instance.len() == 1 {
             let inst = &self.instances[self.tlas_slot_instance[0] as usize];
@@ -710,7 +866,8 @@ impl GeometryScene {
             return None;
         }
         let mut best = Closest::none(t_max);
-        for (i, inst) in self.instances.iter().enumerate() {
+        for i in 0..self.instances.len() + self.moving.len() {
+            let inst = self.instance_at(i as u32, ray.time);
             let (o, d) = inst.to_instance(ray.o, ray.d);
             let blas = &self.objects[inst.object as usize];
             let ray = ShapeRay::new(o, d);

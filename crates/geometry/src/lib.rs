@@ -11,11 +11,14 @@
 //!   every kind of shape ([`Sphere`], [`Disk`], triangles, bilinear patches), one file per kind.
 //! - [`accel`]: the [`Accel`] trait and [`GeometryScene`], a two-level BVH (compressed wide BVH from `obvhs`) with
 //!   instancing.
+//! - [`animated`]: [`AnimatedTransform`], transforms that move during the shutter (pbrt-v4's decomposition into
+//!   translation, rotation and stretch), and the bounds of what they move.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod accel;
+pub mod animated;
 pub mod bilinear;
 pub mod bounds;
 pub mod gzip;
@@ -26,7 +29,8 @@ pub mod shapes;
 pub mod subdiv;
 pub mod transform;
 
-pub use accel::{Accel, GeometryScene, Hit, Instance, Object, Shape};
+pub use accel::{Accel, GeometryScene, Hit, Instance, MovingInstance, Object, Shape};
+pub use animated::AnimatedTransform;
 pub use bilinear::BilinearMesh;
 pub use bounds::Bounds3;
 pub use glam::{DMat4, DVec3, Vec2, Vec3, Vec3A};

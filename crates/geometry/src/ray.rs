@@ -15,12 +15,20 @@ pub struct Ray {
     pub o: Vec3,
     /// Direction.
     pub d: Vec3,
+    /// The time the ray is traced at (within the camera's shutter interval): moving geometry is intersected where
+    /// it is at that time. Static geometry ignores it.
+    pub time: f32,
 }
 
 impl Ray {
-    /// A ray from `o` along `d`.
+    /// A ray from `o` along `d` at time 0.
     pub fn new(o: Vec3, d: Vec3) -> Self {
-        Self { o, d }
+        Self { o, d, time: 0.0 }
+    }
+
+    /// A ray from `o` along `d` at time `time`.
+    pub fn at_time(o: Vec3, d: Vec3, time: f32) -> Self {
+        Self { o, d, time }
     }
 
     /// The point at parameter `t`.
@@ -101,7 +109,7 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 /// re-hits the surface it leaves, to whichever side `w` points.
 #[inline]
 pub fn spawn_ray(sp: &SurfacePoint, w: Vec3) -> Ray {
-    Ray { o: offset_ray_origin(sp.p, sp.p_error, sp.n, w), d: w.normalize_or_zero() }
+    Ray { o: offset_ray_origin(sp.p, sp.p_error, sp.n, w), d: w.normalize_or_zero(), time: 0.0 }
 }
 
 /// A ray from the surface point `sp` towards the point `p_to` (not on a surface, e.g. a point light): returns the
@@ -112,9 +120,9 @@ pub fn spawn_ray_to_point(sp: &SurfacePoint, p_to: Vec3) -> (Ray, f32) {
     let d = p_to - o;
     let len = d.length();
     if len == 0.0 || !len.is_finite() {
-        return (Ray { o, d: Vec3::Z }, 0.0);
+        return (Ray { o, d: Vec3::Z, time: 0.0 }, 0.0);
     }
-    (Ray { o, d: d / len }, len * (1.0 - SHADOW_EPSILON))
+    (Ray { o, d: d / len, time: 0.0 }, len * (1.0 - SHADOW_EPSILON))
 }
 
 /// A shadow ray between two surface points (pbrt-v4's `SpawnRayTo`): both ends are offset off their surfaces towards
@@ -135,9 +143,9 @@ pub fn spawn_ray_to(from: &SurfacePoint, to: &SurfacePoint) -> (Ray, f32) {
     }
     let len = d.length();
     if len == 0.0 || !len.is_finite() {
-        return (Ray { o: pf, d: Vec3::Z }, 0.0);
+        return (Ray { o: pf, d: Vec3::Z, time: 0.0 }, 0.0);
     }
-    (Ray { o: pf, d: d / len }, len * (1.0 - SHADOW_EPSILON))
+    (Ray { o: pf, d: d / len, time: 0.0 }, len * (1.0 - SHADOW_EPSILON))
 }
 
 #[cfg(test)]

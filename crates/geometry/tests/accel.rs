@@ -464,3 +464,94 @@ fn surface_derivatives_match_finite_differences() {
         }
     }
 }
+
+#[test]
+fn moving_instances_are_hit_where_they_are_at_the_ray_time() {
+    use geometry::{AnimatedTransform, MovingInstance};
+    let mut rng = Pcg32::seed_from_u64(11);
+    let object = || {
+        let mut rng = Pcg32::seed_from_u64(5);
+        Object::new(vec![
+            mesh(soup(&mut rng, 200)),
+            Shape::Sphere(Sphere::new(2.0, Transform::translate(DVec3::new(3.0, 0.0, 0.0)), false).unwrap()),
+        ])
+    };
+    let outer = AnimatedTransform::new(
+        Transform::translate(DVec3::new(-5.0, 0.0, 0.0)),
+        0.0,
+        Transform::translate(DVec3::new(5.0, 2.0, 0.0))
+            * Transform::rotate(120.0, DVec3::new(0.0, 1.0, 1.0)).unwrap()
+            * Transform::scale(DVec3::new(1.0, 0.5, 1.5)).unwrap(),
+        1.0,
+    )
+    .unwrap();
+    let inner =
+        AnimatedTransform::new(Transform::IDENTITY, 0.0, Transform::rotate(-45.0, DVec3::Z).unwrap(), 1.0).unwrap();
+    let moving = MovingInstance { object: 1, outer, inner };
+    // A static object next to it, so both top-level structures are searched.
+    let scene = GeometryScene::build_with_motion(
+        vec![Object::new(vec![mesh(soup(&mut rng, 100))]), object()],
+        vec![identity(0)],
+        vec![moving.clone()],
+    )
+    .unwrap();
+    assert_eq!(scene.moving_instance_count(), 1);
+    let mut hits = 0;
+    for i in 0..400 {
+        let time = i as f32 / 399.0;
+        let o = vec3(&mut rng, -25.0, 25.0);
+        let d = (vec3(&mut rng, -8.0, 8.0) - o).normalize();
+        let ray = Ray::at_time(o, d, time);
+        // The same object, fixed where the moving one is at this time.
+        let frozen = GeometryScene::build(
+            vec![Object::new(vec![mesh(soup(&mut Pcg32::seed_from_u64(11), 100))]), object()],
+            vec![identity(0), Instance { object: 1, render_from_instance: moving.render_from_instance(time) }],
+        );
+        let frozen = frozen.unwrap();
+        let (a, b) = (scene.intersect(&ray, f32::INFINITY), frozen.intersect(&ray, f32::INFINITY));
+        assert_eq!(a.map(|h| (h.t, h.p, h.n, h.object)), b.map(|h| (h.t, h.p, h.n, h.object)), "ray {i}");
+        assert_eq!(a.map(|h| h.t), scene.intersect_brute_force(&ray, f32::INFINITY).map(|h| h.t), "ray {i}");
+        assert_eq!(scene.occluded(&ray, f32::INFINITY), a.is_some());
+        hits += a.is_some_and(|h| h.object == 1) as u32;
+    }
+    assert!(hits > 20, "{hits}");
+}
+
+#[test]
+fn an_instance_turning_a_quarter_turn_is_halfway_round_at_half_time() {
+    use geometry::{AnimatedTransform, MovingInstance};
+    // A thin bar along +x from 1 to 3, turning 90° about z between t = 0 and t = 1.
+    let bar = MeshData {
+        positions: vec![
+            Vec3::new(1.0, -0.05, 0.0),
+            Vec3::new(3.0, -0.05, 0.0),
+            Vec3::new(3.0, 0.05, 0.0),
+            Vec3::new(1.0, 0.05, 0.0),
+        ],
+        indices: vec![0, 1, 2, 0, 2, 3],
+        ..Default::default()
+    };
+    let turn = AnimatedTransform::new(Transform::IDENTITY, 0.0, Transform::rotate(90.0, DVec3::Z).unwrap(), 1.0);
+    let scene = GeometryScene::build_with_motion(
+        vec![Object::new(vec![mesh(bar)])],
+        vec![],
+        vec![MovingInstance { object: 0, outer: turn.unwrap(), inner: AnimatedTransform::fixed(Transform::IDENTITY) }],
+    )
+    .unwrap();
+    let down = |x: f32, y: f32, time: f32| scene.intersect(&Ray::at_time(Vec3::new(x, y, 1.0), -Vec3::Z, time), 10.0);
+    let at = |deg: f32| {
+        let a = deg.to_radians();
+        (2.0 * a.cos(), 2.0 * a.sin())
+    };
+    for (time, deg) in [(0.0, 0.0), (0.25, 22.5), (0.5, 45.0), (1.0, 90.0)] {
+        let (x, y) = at(deg);
+        let hit = down(x, y, time).unwrap_or_else(|| panic!("bar at {deg}° at t = {time}"));
+        assert!((hit.t - 1.0).abs() < 1e-6 && (hit.p - Vec3::new(x, y, 0.0)).length() < 1e-5);
+        // 10° away from where it is, the bar is not there.
+        let (x, y) = at(deg + 10.0);
+        assert!(down(x, y, time).is_none(), "{deg}");
+    }
+    // Outside the interval the motion is clamped to its ends.
+    let (x, y) = at(90.0);
+    assert!(down(x, y, 7.0).is_some() && down(2.0, 0.0, -1.0).is_some());
+}

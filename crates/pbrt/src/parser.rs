@@ -9,6 +9,7 @@ use glam::DVec3;
 use scene::{
     CameraEntity, Diagnostic, Entity, InstanceUse, LightEntity, Loc, MaterialRef, MediumEntity, ObjectDefinition,
     OptionEntry, Param, ParamSet, ParamType, SceneDescription, ShapeEntity, TextureEntity, TextureValueType,
+    TransformMotion,
 };
 use spectral::spectrum::PiecewiseLinear;
 use spectral::Spectrum;
@@ -45,9 +46,12 @@ const KNOWN_OPTIONS: [&str; 11] = [
 /// What `AttributeBegin` saves and `AttributeEnd` restores.
 #[derive(Clone, Debug)]
 struct GraphicsState {
+    /// The current transform at the start time.
     ctm: Transform,
-    /// False after `ActiveTransform EndTime`: transforms then only touch the (unsupported) end-time transform.
-    start_active: bool,
+    /// The current transform at the end time (pbrt-v4 keeps two; they differ only after `ActiveTransform`).
+    ctm_end: Transform,
+    /// Which of the two transform directives change (`ActiveTransform StartTime|EndTime|All`).
+    active: [bool; 2],
     reverse_orientation: bool,
     material: MaterialRef,
     area_light: Option<Entity>,
@@ -60,7 +64,8 @@ impl Default for GraphicsState {
     fn default() -> Self {
         Self {
             ctm: Transform::IDENTITY,
-            start_active: true,
+            ctm_end: Transform::IDENTITY,
+            active: [true, true],
             reverse_orientation: false,
             material: MaterialRef::Anonymous(0),
             area_light: None,
@@ -98,7 +103,10 @@ pub(crate) struct Parser {
     scene: SceneDescription,
     gs: GraphicsState,
     stack: Vec<(GraphicsState, Block, Loc)>,
-    named_coordinate_systems: HashMap<String, Transform>,
+    /// Named coordinate systems: the start- and end-time transforms.
+    named_coordinate_systems: HashMap<String, (Transform, Transform)>,
+    /// `TransformTimes` (default 0 1).
+    transform_times: (f64, f64),
     world_begin: Option<Loc>,
     named_materials: HashMap<String, Loc>,
     named_material_uses: Vec<(String, Loc)>,
@@ -174,6 +182,7 @@ impl Parser {
             gs: GraphicsState::default(),
             stack: Vec::new(),
             named_coordinate_systems: HashMap::new(),
+            transform_times: (0.0, 1.0),
             world_begin: None,
             named_materials: HashMap::new(),
             named_material_uses: Vec::new(),
@@ -326,7 +335,7 @@ impl Parser {
     /// Under a singular CTM, pbrt-v4's inverse is NaN: things that need it (rays into an analytic shape's or an
     /// instance's space, a light's directions) never contribute. They are left out with a warning; true if so.
     fn skip_under_singular_ctm(&mut self, what: &str, loc: &Loc) -> bool {
-        if self.gs.ctm.is_invertible() {
+        if self.gs.ctm.is_invertible() && self.gs.ctm_end.is_invertible() {
             return false;
         }
         self.warn(loc, format!("{what} under a singular transform is left out (it needs the transform's inverse, which does not exist; pbrt-v4 renders nothing of it either)"));
@@ -569,12 +578,31 @@ impl Parser {
         Ok(())
     }
 
-    fn apply(&mut self, t: Transform, replace: bool, loc: &Loc) {
-        if !self.gs.start_active {
-            self.warn(loc, "transform applies only to the end time (ActiveTransform EndTime), which is ignored: motion blur is not supported");
-            return;
+    /// Applies a transform directive to the active transforms (pbrt-v4's `ForActiveTransforms`).
+    fn apply(&mut self, t: Transform, replace: bool) {
+        let [start, end] = self.gs.active;
+        if start {
+            self.gs.ctm = if replace { t } else { self.gs.ctm * t };
         }
-        self.gs.ctm = if replace { t } else { self.gs.ctm * t };
+        if end {
+            self.gs.ctm_end = if replace { t } else { self.gs.ctm_end * t };
+        }
+    }
+
+    /// The end of the current transform if it differs from the start (pbrt-v4's `CTMIsAnimated`).
+    fn motion(&self, start: &Transform, end: Transform) -> Option<TransformMotion> {
+        let (start_time, end_time) = self.transform_times;
+        (end.matrix() != start.matrix()).then_some(TransformMotion { end, start_time, end_time })
+    }
+
+    /// pbrt-v4 uses only the start transform of lights, textures and media: say so when the end differs.
+    fn warn_start_only(&mut self, what: &str, loc: &Loc) {
+        if self.gs.ctm.matrix() != self.gs.ctm_end.matrix() {
+            self.warn(
+                loc,
+                format!("{what} under a moving transform: only the start-time transform is used (as in pbrt-v4)"),
+            );
+        }
     }
 
     fn parse_all(&mut self) -> Result<()> {
@@ -599,10 +627,10 @@ impl Parser {
     fn directive(&mut self, word: &str, loc: Loc) -> Result<()> {
         match word {
             // Transforms
-            "Identity" => self.apply(Transform::IDENTITY, true, &loc),
+            "Identity" => self.apply(Transform::IDENTITY, true),
             "Translate" => {
                 let [x, y, z] = self.numbers::<3>(word)?;
-                self.apply(Transform::translate(DVec3::new(x, y, z)), false, &loc);
+                self.apply(Transform::translate(DVec3::new(x, y, z)), false);
             }
             "Scale" => {
                 let [x, y, z] = self.numbers::<3>(word)?;
@@ -614,13 +642,13 @@ impl Parser {
                             .ok_or_else(|| ParseError::new(loc.clone(), "Scale: the factors are not finite"))?
                     }
                 };
-                self.apply(t, false, &loc);
+                self.apply(t, false);
             }
             "Rotate" => {
                 let [a, x, y, z] = self.numbers::<4>(word)?;
                 let t = Transform::rotate(a, DVec3::new(x, y, z))
                     .ok_or_else(|| ParseError::new(loc.clone(), "Rotate: the rotation axis is the zero vector"))?;
-                self.apply(t, false, &loc);
+                self.apply(t, false);
             }
             "LookAt" => {
                 let v = self.numbers::<9>(word)?;
@@ -632,7 +660,7 @@ impl Parser {
                         "LookAt: degenerate (eye equals look, or up is zero or parallel to the viewing direction)",
                     )
                 })?;
-                self.apply(t, false, &loc);
+                self.apply(t, false);
             }
             "Transform" | "ConcatTransform" => {
                 let m = self.numbers::<16>(word)?;
@@ -644,18 +672,19 @@ impl Parser {
                             .ok_or_else(|| ParseError::new(loc.clone(), format!("{word}: the matrix is not finite")))?
                     }
                 };
-                self.apply(t, word == "Transform", &loc);
+                self.apply(t, word == "Transform");
             }
             "CoordinateSystem" => {
                 let (name, _) = self.expect_string("a coordinate system name")?;
-                self.named_coordinate_systems.insert(name, self.gs.ctm);
+                self.named_coordinate_systems.insert(name, (self.gs.ctm, self.gs.ctm_end));
             }
             "CoordSysTransform" => {
                 let (name, nloc) = self.expect_string("a coordinate system name")?;
                 match self.named_coordinate_systems.get(&name) {
-                    Some(t) => {
-                        let t = *t;
-                        self.apply(t, true, &loc);
+                    // Both transforms, whatever is active (pbrt-v4 assigns the whole pair).
+                    Some(&(start, end)) => {
+                        self.gs.ctm = start;
+                        self.gs.ctm_end = end;
                     }
                     None => {
                         self.warn(&nloc, format!("CoordSysTransform: no coordinate system named '{name}'; ignored"))
@@ -677,17 +706,22 @@ impl Parser {
                     }
                     None => return Err(self.eof_error("All, StartTime or EndTime")),
                 };
-                self.warn_once(
-                    "motion",
-                    &loc,
-                    "ActiveTransform: motion blur is not supported; only the start-time transform is used",
-                );
-                self.gs.start_active = which != "EndTime";
+                self.gs.active = match which.as_str() {
+                    "StartTime" => [true, false],
+                    "EndTime" => [false, true],
+                    _ => [true, true],
+                };
             }
             "TransformTimes" => {
                 self.require_options(word, &loc)?;
-                self.numbers::<2>(word)?;
-                self.warn(&loc, "TransformTimes: motion blur is not supported; ignored");
+                let [start, end] = self.numbers::<2>(word)?;
+                if end < start {
+                    return Err(ParseError::new(
+                        loc,
+                        format!("TransformTimes: the end time ({end}) is before the start time ({start})"),
+                    ));
+                }
+                self.transform_times = (start, end);
             }
             "ReverseOrientation" => {
                 self.require_world(word, &loc)?;
@@ -703,14 +737,16 @@ impl Parser {
                     self.warn(&loc, format!("a second Camera replaces the one at {}", self.scene.camera.entity.loc));
                 }
                 let camera_from_world = self.gs.ctm;
-                if !camera_from_world.is_invertible() {
+                let camera_from_world_end = self.gs.ctm_end;
+                if !camera_from_world.is_invertible() || !camera_from_world_end.is_invertible() {
                     return Err(ParseError::new(
                         loc,
                         "the camera transform is singular (some direction is scaled to zero), so the camera has no \
                          position and orientation in the world",
                     ));
                 }
-                self.named_coordinate_systems.insert("camera".to_owned(), camera_from_world.inverse());
+                self.named_coordinate_systems
+                    .insert("camera".to_owned(), (camera_from_world.inverse(), camera_from_world_end.inverse()));
                 let medium = self.gs.outside_medium.clone();
                 if let Some(m) = &medium {
                     self.medium_uses.push((m.clone(), loc.clone()));
@@ -719,6 +755,7 @@ impl Parser {
                     entity: Entity::new(name, ParamSet::from_params(params), loc),
                     camera_from_world,
                     medium,
+                    motion: self.motion(&camera_from_world, camera_from_world_end),
                 };
             }
             "Film" | "Sampler" | "Integrator" | "PixelFilter" | "Accelerator" => {
@@ -789,6 +826,7 @@ impl Parser {
                     ));
                 }
                 self.media.insert(name.clone(), loc.clone());
+                self.warn_start_only("MakeNamedMedium", &loc);
                 self.scene.media.push(MediumEntity {
                     entity: Entity::new(ty, params, loc),
                     medium_name: name,
@@ -814,8 +852,9 @@ impl Parser {
                 }
                 self.world_begin = Some(loc);
                 self.gs.ctm = Transform::IDENTITY;
-                self.gs.start_active = true;
-                self.named_coordinate_systems.insert("world".to_owned(), Transform::IDENTITY);
+                self.gs.ctm_end = Transform::IDENTITY;
+                self.gs.active = [true, true];
+                self.named_coordinate_systems.insert("world".to_owned(), (Transform::IDENTITY, Transform::IDENTITY));
             }
             "WorldEnd" => {
                 self.require_world(word, &loc)?;
@@ -941,6 +980,7 @@ impl Parser {
                 }
                 names.insert(name.clone(), loc.clone());
                 let params = self.param_set(Some(TEXTURE), own);
+                self.warn_start_only("Texture", &loc);
                 self.scene.textures.push(TextureEntity {
                     entity: Entity::new(class, params, loc),
                     texture_name: name,
@@ -959,6 +999,7 @@ impl Parser {
                     return Ok(());
                 }
                 let params = self.param_set(Some(LIGHT), own);
+                self.warn_start_only("LightSource", &loc);
                 self.scene.lights.push(LightEntity {
                     entity: Entity::new(name, params, loc),
                     render_from_light: self.gs.ctm,
@@ -994,6 +1035,7 @@ impl Parser {
                     area_light,
                     inside_medium: self.gs.inside_medium.clone(),
                     outside_medium: self.gs.outside_medium.clone(),
+                    motion: self.motion(&self.gs.ctm, self.gs.ctm_end),
                 };
                 match &mut self.active_object {
                     Some(o) => o.shapes.push(shape),
@@ -1047,10 +1089,8 @@ impl Parser {
                 if self.skip_under_singular_ctm(&format!("ObjectInstance \"{name}\""), &loc) {
                     return Ok(());
                 }
-                if !self.gs.start_active {
-                    self.warn(&loc, "ObjectInstance under ActiveTransform EndTime: motion is not supported; the start transform is used");
-                }
-                self.scene.instances.push(InstanceUse { name, render_from_instance: self.gs.ctm, loc });
+                let motion = self.motion(&self.gs.ctm, self.gs.ctm_end);
+                self.scene.instances.push(InstanceUse { name, render_from_instance: self.gs.ctm, loc, motion });
             }
 
             // Files

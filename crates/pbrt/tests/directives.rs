@@ -2,7 +2,6 @@
 
 use std::path::{Path, PathBuf};
 
-use geometry::Transform;
 use glam::DVec3;
 use scene::{FloatParam, MaterialRef, ParamType, SceneDescription, Spectrum, SpectrumKind, SpectrumParam};
 
@@ -293,14 +292,93 @@ fn spectrum_files_and_file_parameters_are_input_files() {
 }
 
 #[test]
-fn motion_is_accepted_with_a_warning() {
+fn active_transforms_record_both_ends_as_killeroo_moving_does() {
+    // The directive pattern of pbrt-v4's killeroos/killeroo-moving.pbrt (spheres in place of the killeroos).
     let s = parse(
-        "TransformTimes 0 1 ActiveTransform EndTime Translate 5 0 0 ActiveTransform All
-         WorldBegin Shape \"sphere\"",
+        "TransformTimes 0 1
+         WorldBegin
+         AttributeBegin
+           Translate 100 200 -140
+           ActiveTransform StartTime
+           Translate 35 35 35
+           AttributeBegin Shape \"sphere\" AttributeEnd
+           AttributeBegin
+             ActiveTransform StartTime
+             Translate 30 0 0
+             ActiveTransform All
+             Translate -200 0 0
+             Shape \"sphere\"
+           AttributeEnd
+           Translate 1 0 0
+           Shape \"sphere\"
+         AttributeEnd
+         Shape \"sphere\"",
     );
-    assert!(s.shapes[0].render_from_object.is_identity());
-    assert!(s.warnings.len() >= 2, "{:?}", s.warnings);
-    assert_eq!(Transform::IDENTITY, s.camera.camera_from_world);
+    let at = |i: usize| {
+        let sh = &s.shapes[i];
+        let m = sh.motion.expect("moving");
+        assert_eq!((m.start_time, m.end_time), (0.0, 1.0));
+        (sh.render_from_object.point(DVec3::ZERO), m.end.point(DVec3::ZERO))
+    };
+    let (a0, a1) = at(0);
+    assert!(close(a0, DVec3::new(135.0, 235.0, -105.0)) && close(a1, DVec3::new(100.0, 200.0, -140.0)));
+    let (b0, b1) = at(1);
+    assert!(close(b0, DVec3::new(-35.0, 235.0, -105.0)) && close(b1, DVec3::new(-100.0, 200.0, -140.0)));
+    // AttributeEnd restored StartTime as the active transform: the last Translate moved only the start.
+    let (c0, c1) = at(2);
+    assert!(close(c0, DVec3::new(136.0, 235.0, -105.0)) && close(c1, DVec3::new(100.0, 200.0, -140.0)));
+    assert!(s.shapes[3].motion.is_none() && s.shapes[3].render_from_object.is_identity());
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}
+
+#[test]
+fn camera_instances_and_named_systems_move() {
+    let s = parse(
+        "TransformTimes 0.5 2
+         ActiveTransform EndTime Translate -1 0 0 ActiveTransform All
+         Camera \"orthographic\" \"float shutteropen\" 0.5 \"float shutterclose\" 2
+         WorldBegin
+         ObjectBegin \"o\" Shape \"sphere\" ObjectEnd
+         AttributeBegin ActiveTransform EndTime Rotate 90 0 0 1 ObjectInstance \"o\" AttributeEnd
+         ObjectInstance \"o\"
+         AttributeBegin ActiveTransform EndTime Identity Translate 0 3 0 ActiveTransform StartTime
+           Translate 0 0 1 ObjectInstance \"o\" LightSource \"point\" AttributeEnd
+         AttributeBegin CoordSysTransform \"camera\" Shape \"sphere\" AttributeEnd",
+    );
+    let cam = s.camera.motion.expect("the camera moves");
+    assert_eq!((cam.start_time, cam.end_time), (0.5, 2.0));
+    assert!(s.camera.camera_from_world.is_identity());
+    assert!(close(cam.end.point(DVec3::ZERO), DVec3::new(-1.0, 0.0, 0.0)));
+    let i0 = s.instances[0].motion.expect("moving instance");
+    assert!(close(i0.end.vector(DVec3::X), DVec3::Y));
+    assert!(s.instances[1].motion.is_none());
+    let i2 = s.instances[2].motion.expect("moving instance");
+    assert!(close(s.instances[2].render_from_instance.point(DVec3::ZERO), DVec3::new(0.0, 0.0, 1.0)));
+    assert!(close(i2.end.point(DVec3::ZERO), DVec3::new(0.0, 3.0, 0.0)));
+    // Lights keep the start transform, with a warning, as in pbrt-v4.
+    assert!(close(s.lights[0].render_from_light.point(DVec3::ZERO), DVec3::new(0.0, 0.0, 1.0)));
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(s.warnings[0].message.contains("LightSource under a moving transform"));
+    // "camera" is world-from-camera at both times.
+    let sh = &s.shapes[0];
+    assert!(sh.render_from_object.is_identity());
+    assert!(close(sh.motion.expect("moves with the camera").end.point(DVec3::ZERO), DVec3::new(1.0, 0.0, 0.0)));
+}
+
+#[test]
+fn bad_transform_times_are_errors() {
+    for (text, want) in [
+        ("TransformTimes 1 0 WorldBegin", "t.pbrt:1:1: error: TransformTimes: the end time (0) is before"),
+        ("WorldBegin TransformTimes 0 1", "t.pbrt:1:12: error: TransformTimes is not allowed after WorldBegin"),
+        ("TransformTimes 0 WorldBegin", "t.pbrt:1:18"),
+        (
+            "ActiveTransform EndTime Scale 0 1 1 ActiveTransform All Camera \"perspective\" WorldBegin",
+            "the camera transform is singular",
+        ),
+    ] {
+        let e = pbrt::parse_str(text, Path::new("t.pbrt")).unwrap_err().to_string();
+        assert!(e.contains(want), "{text}: {e}");
+    }
 }
 
 #[test]

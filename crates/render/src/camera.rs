@@ -1,6 +1,8 @@
 //! Cameras: pbrt-v4's perspective (with a thin lens) and orthographic projections.
 
-use geometry::Transform;
+use std::borrow::Cow;
+
+use geometry::{AnimatedTransform, Transform};
 use glam::{DVec3, Vec2, Vec3};
 
 use crate::sampling::sample_uniform_disk_concentric;
@@ -51,6 +53,8 @@ pub struct Camera {
     window: ScreenWindow,
     lens_radius: f32,
     focal_distance: f32,
+    /// World-from-camera over the shutter, if the camera moves (pbrt-v4 interpolates this one, not its inverse).
+    motion: Option<AnimatedTransform>,
 }
 
 /// A generated camera ray in world space.
@@ -60,6 +64,8 @@ pub struct CameraRay {
     pub origin: Vec3,
     /// Unit direction.
     pub direction: Vec3,
+    /// The time it is traced at.
+    pub time: f32,
 }
 
 impl Camera {
@@ -81,6 +87,36 @@ impl Camera {
             window,
             lens_radius,
             focal_distance,
+            motion: None,
+        }
+    }
+
+    /// This camera moving with `world_from_camera` over the shutter (pbrt-v4's animated `CameraTransform`); its
+    /// start must be the inverse of the transform it was made with.
+    pub fn with_motion(mut self, world_from_camera: AnimatedTransform) -> Self {
+        self.motion = world_from_camera.is_animated().then_some(world_from_camera);
+        self
+    }
+
+    /// True if the camera moves while the shutter is open.
+    pub fn moves(&self) -> bool {
+        self.motion.is_some()
+    }
+
+    /// The camera as it is at `time` (itself when it does not move): for light paths, which connect to the lens
+    /// where it is at their time.
+    pub fn at_time(&self, time: f32) -> Cow<'_, Camera> {
+        match &self.motion {
+            None => Cow::Borrowed(self),
+            Some(m) => {
+                let world_from_camera = m.at(time as f64);
+                Cow::Owned(Camera {
+                    world_from_camera,
+                    camera_from_world: world_from_camera.inverse(),
+                    motion: None,
+                    ..self.clone()
+                })
+            }
         }
     }
 
@@ -94,8 +130,9 @@ impl Camera {
         self.world_from_camera.point(DVec3::ZERO).as_vec3()
     }
 
-    /// The ray through raster position `film` (pixels, y down) and lens sample `lens ∈ [0,1)²`.
-    pub fn generate_ray(&self, film: Vec2, lens: Vec2) -> CameraRay {
+    /// The ray through raster position `film` (pixels, y down) and lens sample `lens ∈ [0,1)²`, at `time` (where
+    /// a moving camera is then).
+    pub fn generate_ray(&self, film: Vec2, lens: Vec2, time: f32) -> CameraRay {
         let w = &self.window;
         let sx = w.x_min + film.x / self.resolution.0 as f32 * (w.x_max - w.x_min);
         let sy = w.y_max - film.y / self.resolution.1 as f32 * (w.y_max - w.y_min);
@@ -113,9 +150,17 @@ impl Camera {
             origin += Vec3::new(p_lens.x, p_lens.y, 0.0);
             dir = (p_focus - origin).normalize();
         }
-        let o = self.world_from_camera.point(origin.as_dvec3()).as_vec3();
-        let d = self.world_from_camera.vector(dir.as_dvec3()).normalize().as_vec3();
-        CameraRay { origin: o, direction: d }
+        let moved;
+        let world_from_camera = match &self.motion {
+            None => &self.world_from_camera,
+            Some(m) => {
+                moved = m.at(time as f64);
+                &moved
+            }
+        };
+        let o = world_from_camera.point(origin.as_dvec3()).as_vec3();
+        let d = world_from_camera.vector(dir.as_dvec3()).normalize().as_vec3();
+        CameraRay { origin: o, direction: d, time }
     }
 }
 
@@ -258,12 +303,12 @@ mod tests {
             1.0,
         );
         // Top edge centre of a 2:1 image: the shorter (vertical) axis spans the fov.
-        let top = cam.generate_ray(Vec2::new(100.0, 0.0), Vec2::ZERO).direction;
+        let top = cam.generate_ray(Vec2::new(100.0, 0.0), Vec2::ZERO, 0.0).direction;
         assert!((top.y.atan2(top.z).to_degrees() - 30.0).abs() < 1e-4);
-        let centre = cam.generate_ray(Vec2::new(100.0, 50.0), Vec2::ZERO).direction;
+        let centre = cam.generate_ray(Vec2::new(100.0, 50.0), Vec2::ZERO, 0.0).direction;
         assert!((centre - Vec3::Z).length() < 1e-6);
         // Raster x to the right is world +x for this LookAt (pbrt's left-handed camera space).
-        assert!(cam.generate_ray(Vec2::new(150.0, 50.0), Vec2::ZERO).direction.x > 0.0);
+        assert!(cam.generate_ray(Vec2::new(150.0, 50.0), Vec2::ZERO, 0.0).direction.x > 0.0);
     }
 
     #[test]
@@ -278,10 +323,10 @@ mod tests {
             5.0,
         );
         let film = Vec2::new(40.0, 20.0);
-        let pinhole = cam.generate_ray(film, Vec2::splat(0.5));
+        let pinhole = cam.generate_ray(film, Vec2::splat(0.5), 0.0);
         let target = pinhole.origin + pinhole.direction * (5.0 / pinhole.direction.z);
         for lens in [Vec2::new(0.1, 0.9), Vec2::new(0.8, 0.2), Vec2::new(0.0, 0.0)] {
-            let r = cam.generate_ray(film, lens);
+            let r = cam.generate_ray(film, lens, 0.0);
             let hit = r.origin + r.direction * ((5.0 - r.origin.z) / r.direction.z);
             assert!((hit - target).length() < 1e-4, "{hit} vs {target}");
         }
@@ -309,7 +354,7 @@ mod tests {
                 (Vec2::new(40.1, 30.5), Vec2::new(0.9, 0.1)),
                 (Vec2::new(24.0, 16.0), Vec2::new(0.5, 0.5)),
             ] {
-                let r = cam.generate_ray(film, lens);
+                let r = cam.generate_ray(film, lens, 0.0);
                 let (we, raster) = cam.we(r.origin, r.direction).expect("on the film");
                 assert!((raster - film).length() < 2e-3, "{raster} vs {film}");
                 assert!(we > 0.0);
@@ -341,7 +386,7 @@ mod tests {
     fn sample_wi_agrees_with_we_and_pdf_we() {
         for lens_radius in [0.0, 0.05] {
             let cam = test_camera(lens_radius);
-            let r = cam.generate_ray(Vec2::new(10.5, 20.25), Vec2::new(0.3, 0.6));
+            let r = cam.generate_ray(Vec2::new(10.5, 20.25), Vec2::new(0.3, 0.6), 0.0);
             let p_ref = r.origin + 5.0 * r.direction;
             let s = cam.sample_wi(p_ref, Vec2::new(0.3, 0.6)).expect("visible");
             assert!((s.raster - Vec2::new(10.5, 20.25)).length() < 5e-3, "{}", s.raster);
@@ -363,8 +408,8 @@ mod tests {
         let cam_from_world = Transform::look_at(DVec3::new(0.0, 0.0, -10.0), DVec3::ZERO, DVec3::Y).unwrap();
         let cam =
             Camera::new(Projection::Orthographic, &cam_from_world, (10, 10), ScreenWindow::for_aspect(1.0), 0.0, 1.0);
-        let a = cam.generate_ray(Vec2::new(0.0, 0.0), Vec2::ZERO);
-        let b = cam.generate_ray(Vec2::new(10.0, 10.0), Vec2::ZERO);
+        let a = cam.generate_ray(Vec2::new(0.0, 0.0), Vec2::ZERO, 0.0);
+        let b = cam.generate_ray(Vec2::new(10.0, 10.0), Vec2::ZERO, 0.0);
         assert!((a.direction - b.direction).length() < 1e-6);
         assert!(((a.origin - b.origin).length() - 8f32.sqrt()).abs() < 1e-5);
     }

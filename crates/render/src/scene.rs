@@ -74,6 +74,8 @@ pub struct SurfaceHit {
     pub area_light: Option<u32>,
     /// Media on either side, if the surface separates media.
     pub media: Option<MediumInterface>,
+    /// The time of the ray that found the hit: rays leaving the surface are traced at the same time.
+    pub time: f32,
 }
 
 impl SurfaceHit {
@@ -94,18 +96,19 @@ pub struct DifferentialHit {
     pub derivatives: Option<SurfaceDerivatives>,
 }
 
-/// Ray queries against the scene's geometry.
+/// Ray queries against the scene's geometry. Every query is made at a `time` within the camera's shutter interval,
+/// where moving geometry is found (static geometry ignores it).
 pub trait Geometry: Send + Sync {
-    /// Closest hit along `o + t·d` with `0 < t < t_max`.
-    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit>;
+    /// Closest hit along `o + t·d` with `0 < t < t_max`, at `time`.
+    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> Option<SurfaceHit>;
     /// The closest hit as [`Geometry::intersect`] finds it, with its surface and derivatives (a geometry that
     /// cannot tell surfaces apart or give derivatives answers with the hit alone).
-    fn intersect_differential(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<DifferentialHit> {
-        let hit = self.intersect(o, d, t_max)?;
+    fn intersect_differential(&self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> Option<DifferentialHit> {
+        let hit = self.intersect(o, d, t_max, time)?;
         Some(DifferentialHit { hit, surface: [u32::MAX; 2], derivatives: None })
     }
-    /// True if anything lies along `o + t·d` with `0 < t < t_max`.
-    fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool;
+    /// True if anything lies along `o + t·d` with `0 < t < t_max`, at `time`.
+    fn occluded(&self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> bool;
     /// A sphere (centre, radius) enclosing all geometry.
     fn bounding_sphere(&self) -> (Vec3, f32);
 }
@@ -157,7 +160,7 @@ impl SceneGeometry {
 
     /// What a hit of the BVH means for rendering.
     #[inline]
-    fn surface_hit(&self, hit: &geometry::Hit) -> SurfaceHit {
+    fn surface_hit(&self, hit: &geometry::Hit, time: f32) -> SurfaceHit {
         let info = self.info[hit.object as usize][hit.shape as usize];
         SurfaceHit {
             t: hit.t,
@@ -172,6 +175,7 @@ impl SceneGeometry {
             material: info.material,
             area_light: info.area_light_base.map(|b| b + hit.element),
             media: info.media,
+            time,
         }
     }
 
@@ -207,19 +211,19 @@ fn hash_ray(o: Vec3, d: Vec3) -> f32 {
 }
 
 impl Geometry for SceneGeometry {
-    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit> {
+    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> Option<SurfaceHit> {
         use geometry::Accel;
         if self.alphas.is_empty() {
-            let hit = self.accel.intersect(&geometry::Ray::new(o, d), t_max)?;
-            return Some(self.surface_hit(&hit));
+            let hit = self.accel.intersect(&geometry::Ray::at_time(o, d, time), t_max)?;
+            return Some(self.surface_hit(&hit, time));
         }
         // Past each cut-out hit the ray goes on from just beyond it (pbrt-v4's GeometricPrimitive::Intersect).
         let (mut origin, mut remaining) = (o, t_max);
         let d2 = d.length_squared();
         for _ in 0..MAX_ALPHA_SKIPS {
-            let hit = self.accel.intersect(&geometry::Ray::new(origin, d), remaining)?;
+            let hit = self.accel.intersect(&geometry::Ray::at_time(origin, d, time), remaining)?;
             if !self.cut_out(&hit, origin, d) {
-                let mut sh = self.surface_hit(&hit);
+                let mut sh = self.surface_hit(&hit, time);
                 if origin != o {
                     sh.t = (hit.p - o).dot(d) / d2;
                 }
@@ -234,18 +238,19 @@ impl Geometry for SceneGeometry {
         None
     }
 
-    fn intersect_differential(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<DifferentialHit> {
-        let (hit, derivatives) = self.accel.intersect_with_derivatives(&geometry::Ray::new(o, d), t_max)?;
-        Some(DifferentialHit { hit: self.surface_hit(&hit), surface: [hit.instance, hit.shape], derivatives })
+    fn intersect_differential(&self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> Option<DifferentialHit> {
+        let ray = geometry::Ray::at_time(o, d, time);
+        let (hit, derivatives) = self.accel.intersect_with_derivatives(&ray, t_max)?;
+        Some(DifferentialHit { hit: self.surface_hit(&hit, time), surface: [hit.instance, hit.shape], derivatives })
     }
 
-    fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
+    fn occluded(&self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> bool {
         use geometry::Accel;
         if self.alphas.is_empty() {
-            return self.accel.occluded(&geometry::Ray::new(o, d), t_max);
+            return self.accel.occluded(&geometry::Ray::at_time(o, d, time), t_max);
         }
         // Shadow rays take the same alpha tests as other rays (pbrt-v4's IntersectP runs Intersect on cut-outs).
-        self.intersect(o, d, t_max).is_some()
+        self.intersect(o, d, t_max, time).is_some()
     }
 
     fn bounding_sphere(&self) -> (Vec3, f32) {
@@ -281,6 +286,9 @@ pub struct RenderScene {
     pub camera: Camera,
     /// A sphere (centre, radius > 0) enclosing the geometry: where lights at infinity emit light paths from.
     pub bounding_sphere: (Vec3, f32),
+    /// The shutter interval `[open, close]` when something moves (the camera or some geometry), `None` when
+    /// nothing does: then no time is drawn and every ray is traced at time 0.
+    pub motion: Option<[f32; 2]>,
 }
 
 impl RenderScene {
@@ -317,6 +325,21 @@ impl RenderScene {
             light_media: vec![],
             camera,
             bounding_sphere,
+            motion: None,
+        }
+    }
+
+    /// The time of a camera ray or a light path: uniform over the shutter interval (pbrt-v4's
+    /// `CameraBase::SampleTime`), drawing one dimension of `sampler` — only when something moves, so that scenes
+    /// without motion draw the random numbers they always did.
+    #[inline]
+    pub fn sample_time(&self, sampler: &mut crate::sampler::Sampler) -> f32 {
+        match self.motion {
+            None => 0.0,
+            Some([open, close]) => {
+                let u = sampler.next_1d();
+                (1.0 - u) * open + u * close
+            }
         }
     }
 

@@ -37,7 +37,7 @@ impl OneSphere {
 }
 
 impl Geometry for OneSphere {
-    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<SurfaceHit> {
+    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> Option<SurfaceHit> {
         let t = self.hit_t(o, d, t_max)?;
         let p = o + d * t;
         let n = p.normalize();
@@ -54,9 +54,10 @@ impl Geometry for OneSphere {
             material: 0,
             area_light: None,
             media: None,
+            time,
         })
     }
-    fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
+    fn occluded(&self, o: Vec3, d: Vec3, t_max: f32, _time: f32) -> bool {
         self.hit_t(o, d, t_max).is_some()
     }
     fn bounding_sphere(&self) -> (Vec3, f32) {

@@ -33,6 +33,19 @@ impl Entity {
     }
 }
 
+/// The far end of a transform that moves while the shutter is open (pbrt-v4's `ActiveTransform` and
+/// `TransformTimes`): the entity's ordinary transform holds at `start_time`, `end` at `end_time`, and the renderer
+/// interpolates in between. Recorded only when the two ends differ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TransformMotion {
+    /// The transform at `end_time` (same meaning as the entity's transform at `start_time`).
+    pub end: Transform,
+    /// When the entity's ordinary transform holds (`TransformTimes`' first value, default 0).
+    pub start_time: f64,
+    /// When `end` holds (`TransformTimes`' second value, default 1).
+    pub end_time: f64,
+}
+
 /// The camera: its entity, where it sits, and the medium it sees through.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CameraEntity {
@@ -42,6 +55,8 @@ pub struct CameraEntity {
     pub camera_from_world: Transform,
     /// The exterior medium in effect at the `Camera` directive.
     pub medium: Option<String>,
+    /// The camera-from-world transform at the end time, if the camera moves.
+    pub motion: Option<TransformMotion>,
 }
 
 /// Which material a shape uses.
@@ -71,6 +86,8 @@ pub struct ShapeEntity {
     pub inside_medium: Option<String>,
     /// The exterior medium (`MediumInterface` second name), if any.
     pub outside_medium: Option<String>,
+    /// `render_from_object` at the end time, if the shape moves.
+    pub motion: Option<TransformMotion>,
 }
 
 /// What a texture evaluates to.
@@ -138,6 +155,8 @@ pub struct InstanceUse {
     pub render_from_instance: Transform,
     /// Where `ObjectInstance` was written.
     pub loc: Loc,
+    /// `render_from_instance` at the end time, if the instance moves.
+    pub motion: Option<TransformMotion>,
 }
 
 /// A global rendering option (`Option "name" value`).
@@ -202,7 +221,12 @@ impl SceneDescription {
     pub fn new(file: Arc<Path>) -> Self {
         let b = |n: &str| Entity::builtin(n, file.clone());
         Self {
-            camera: CameraEntity { entity: b("perspective"), camera_from_world: Transform::IDENTITY, medium: None },
+            camera: CameraEntity {
+                entity: b("perspective"),
+                camera_from_world: Transform::IDENTITY,
+                medium: None,
+                motion: None,
+            },
             film: b("rgb"),
             sampler: b("zsobol"),
             integrator: b("volpath"),

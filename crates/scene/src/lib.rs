@@ -32,7 +32,7 @@ mod params;
 
 pub use entities::{
     CameraEntity, Entity, InstanceUse, LightEntity, MaterialRef, MediumEntity, ObjectDefinition, OptionEntry,
-    SceneDescription, ShapeEntity, TextureEntity, TextureValueType,
+    SceneDescription, ShapeEntity, TextureEntity, TextureValueType, TransformMotion,
 };
 pub use loc::{Diagnostic, Loc, SceneError};
 pub use params::{FloatParam, Param, ParamSet, ParamType, SpectrumKind, SpectrumParam};

@@ -45,6 +45,7 @@ impl Placement {
     }
 
     /// Object-space ray (f64), same `t` parametrization.
+    #[inline]
     pub(super) fn ray_to_object(&self, ray: &Ray) -> (DVec3, DVec3) {
         let inv = self.render_from_object.inverse();
         (inv.point(ray.o.as_dvec3()), inv.vector(ray.d.as_dvec3()))

@@ -1,8 +1,11 @@
 //! The camera: pbrt-v4's `Camera "perspective"|"orthographic"` directive with `fov`, `frameaspectratio`,
-//! `screenwindow`, `lensradius` and `focaldistance`. (Its `shutteropen`/`shutterclose` set the exposure time, read
-//! with the film's sensor.)
+//! `screenwindow`, `lensradius` and `focaldistance`, and its motion (`ActiveTransform` before `Camera`). (Its
+//! `shutteropen`/`shutterclose` set the exposure time, read with the film's sensor, and the interval rays' times
+//! are drawn from when something moves.)
 
 use scene::SceneDescription;
+
+use geometry::AnimatedTransform;
 
 use super::{err, unsupported, Result};
 use crate::camera::{Camera, Projection, ScreenWindow};
@@ -35,5 +38,16 @@ pub(super) fn make_camera(desc: &SceneDescription, res: (u32, u32)) -> Result<Ca
         "orthographic" => Projection::Orthographic,
         other => return err(&e.loc, unsupported("camera", other, &["perspective", "orthographic"])),
     };
-    Ok(Camera::new(projection, &desc.camera.camera_from_world, res, window, lens_radius as f32, focal as f32))
+    let cfw = &desc.camera.camera_from_world;
+    let camera = Camera::new(projection, cfw, res, window, lens_radius as f32, focal as f32);
+    let Some(m) = &desc.camera.motion else { return Ok(camera) };
+    // pbrt-v4 interpolates world-from-camera (not its inverse) between the two times.
+    let Some(motion) = AnimatedTransform::new(cfw.inverse(), m.start_time, m.end.inverse(), m.end_time) else {
+        return err(
+            &e.loc,
+            "the camera's moving transform cannot be interpolated: both ends must be affine to be split into \
+             translation, rotation and scale",
+        );
+    };
+    Ok(camera.with_motion(motion))
 }

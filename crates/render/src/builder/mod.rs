@@ -137,8 +137,16 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
         light_media.push(crate::scene::LightMedium::Fixed(media.of(&le.medium, &le.entity.loc)?));
     }
 
+    // Rays get times within the shutter only when something moves (the film has checked that close > open).
+    let motion = if camera.moves() || shapes.moving {
+        let cp = &desc.camera.entity.params;
+        Some([cp.get_float("shutteropen", 0.0)? as f32, cp.get_float("shutterclose", 1.0)? as f32])
+    } else {
+        None
+    };
     let mut scene =
         RenderScene::new(Box::new(shapes.geometry), materials.list, lights, media.list, camera_medium, camera);
+    scene.motion = motion;
     scene.light_media = light_media;
     scene.normal_perturbations = materials.perturbations;
     warnings.extend(desc.warnings.iter().map(|d| d.to_string()));

@@ -2,16 +2,25 @@
 //! `disk`), and the two-level BVH over the world's shapes and the `ObjectBegin`/`ObjectEnd` definitions placed by
 //! `ObjectInstance`. Each shape's material, `MediumInterface`, `AreaLightSource` and alpha (cut-outs) are resolved
 //! here, so the geometry a ray hits knows what it is made of.
+//!
+//! Motion (pbrt-v4's `ActiveTransform`): a moving shape is built in its own object space (a mesh is not moved to
+//! render space) as an object of its own, placed by a moving instance whose transform is interpolated at each ray's
+//! time; a moving `ObjectInstance` is a moving instance of its object; a moving shape inside an object definition
+//! becomes, for every instance of the definition, a moving instance placed by the instance's transform times the
+//! shape's. Static shapes and instances are built exactly as without motion.
 
 use std::collections::HashMap;
 use std::sync::Arc;
 
 use geometry::mesh::BilinearMeshData;
 use geometry::subdiv::loop_subdivide;
-use geometry::{BilinearMesh, GeometryScene, Instance, MeshData, Object, Shape, Transform, TriangleMesh};
+use geometry::{
+    AnimatedTransform, BilinearMesh, GeometryScene, Instance, MeshData, MovingInstance, Object, Shape, Transform,
+    TriangleMesh,
+};
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
-use scene::{Loc, ParamSet, SceneDescription, SceneError, ShapeEntity};
+use scene::{Loc, ParamSet, SceneDescription, SceneError, ShapeEntity, TransformMotion};
 
 use super::lights::area_lights;
 use super::materials::Materials;
@@ -30,6 +39,23 @@ pub(super) struct BuiltGeometry {
     pub(super) triangles: usize,
     /// Radius of a sphere enclosing the geometry (1 for an empty scene), which lights at infinity need.
     pub(super) scene_radius: f32,
+    /// True if some shape or instance moves during the shutter.
+    pub(super) moving: bool,
+}
+
+/// pbrt-v4's `AnimatedTransform` of an entity placed by `start` that moves as `motion` says: an error at `loc` if the
+/// transform cannot be interpolated (projective, or singular at an end).
+fn animated(start: Transform, motion: &Option<TransformMotion>, loc: &Loc, what: &str) -> Result<AnimatedTransform> {
+    let Some(m) = motion else { return Ok(AnimatedTransform::fixed(start)) };
+    AnimatedTransform::new(start, m.start_time, m.end, m.end_time).ok_or_else(|| {
+        SceneError::at(
+            loc.clone(),
+            format!(
+                "{what}'s moving transform cannot be interpolated: both ends must be affine and invertible to be split \
+                 into translation, rotation and scale"
+            ),
+        )
+    })
 }
 
 /// An object's shapes, what a hit on each means, and each one's alpha texture (an index into the scene's list).
@@ -76,12 +102,12 @@ pub(super) fn make_geometry(
     let mut triangles = 0usize;
     let mut alphas: Vec<FloatTexture> = vec![];
     let mut object_shapes =
-        |shapes: &[ShapeEntity], lights: Option<(&mut Vec<Light>, &mut Vec<LightMedium>)>| -> Result<ObjectShapes> {
+        |shapes: &[&ShapeEntity], lights: Option<(&mut Vec<Light>, &mut Vec<LightMedium>)>| -> Result<ObjectShapes> {
             let mut lights = lights;
             let (mut out, mut out_info, mut out_alpha) = (vec![], vec![], vec![]);
             // The geometry of every shape (PLY files read and decoded, vertices transformed) is made on all
             // cores; the results are then taken in file order, so the first error in the file is the one reported.
-            let built: Vec<Result<Option<Shape>>> = shapes.par_iter().map(make_shape).collect();
+            let built: Vec<Result<Option<Shape>>> = shapes.par_iter().map(|se| make_shape(se)).collect();
             for (se, shape) in shapes.iter().zip(built) {
                 let alpha = shape_alpha(textures, &se.entity.params, &se.entity.loc)?;
                 let Some(shape) = shape? else { continue };
@@ -119,14 +145,47 @@ pub(super) fn make_geometry(
             }
             Ok((out, out_info, out_alpha))
         };
-    let (world_shapes, world_info, world_alpha) = object_shapes(&desc.shapes, Some((lights, light_media)))?;
+    // Moving shapes are left out of their object (world or definition) and get objects of their own below.
+    for se in desc.shapes.iter().chain(desc.objects.iter().flat_map(|o| o.shapes.iter())) {
+        if se.motion.is_some() && se.area_light.is_some() {
+            return err(
+                &se.entity.loc,
+                "a moving shape cannot be an area light (pbrt-v4: animated area lights are not supported)",
+            );
+        }
+    }
+    let (world_still, world_moving) = split_moving(&desc.shapes);
+    let (world_shapes, world_info, world_alpha) = object_shapes(&world_still, Some((lights, light_media)))?;
     let mut objects = vec![Object::new(world_shapes)];
     let mut info = vec![world_info];
     let mut alpha_of = vec![world_alpha];
     let mut object_index: HashMap<&str, u32> = HashMap::new();
+    // Per object definition, its moving shapes: (object, instance-from-shape motion).
+    let mut moving_parts: HashMap<&str, Vec<(u32, AnimatedTransform)>> = HashMap::new();
+    let mut moving: Vec<MovingInstance> = vec![];
     for od in &desc.objects {
-        let (shapes, oinfo, oalpha) = object_shapes(&od.shapes, None)?;
+        let (od_still, od_moving) = split_moving(&od.shapes);
+        let (shapes, oinfo, oalpha) = object_shapes(&od_still, None)?;
         object_index.insert(od.name.as_str(), objects.len() as u32);
+        objects.push(Object::new(shapes));
+        info.push(oinfo);
+        alpha_of.push(oalpha);
+        let mut parts = vec![];
+        for se in od_moving {
+            let motion = animated(se.render_from_object, &se.motion, &se.entity.loc, "the shape")?;
+            let (shapes, oinfo, oalpha) = object_shapes(&[se], None)?;
+            parts.push((objects.len() as u32, motion));
+            objects.push(Object::new(shapes));
+            info.push(oinfo);
+            alpha_of.push(oalpha);
+        }
+        moving_parts.insert(od.name.as_str(), parts);
+    }
+    for se in world_moving {
+        let motion = animated(se.render_from_object, &se.motion, &se.entity.loc, "the shape")?;
+        let (shapes, oinfo, oalpha) = object_shapes(&[se], None)?;
+        let inner = AnimatedTransform::fixed(Transform::IDENTITY);
+        moving.push(MovingInstance { object: objects.len() as u32, outer: motion, inner });
         objects.push(Object::new(shapes));
         info.push(oinfo);
         alpha_of.push(oalpha);
@@ -136,17 +195,31 @@ pub(super) fn make_geometry(
         let Some(&o) = object_index.get(iu.name.as_str()) else {
             return err(&iu.loc, format!("no object named '{}'", iu.name));
         };
-        instances.push(Instance { object: o, render_from_instance: iu.render_from_instance });
+        let outer = animated(iu.render_from_instance, &iu.motion, &iu.loc, "the instance")?;
+        if iu.motion.is_none() {
+            instances.push(Instance { object: o, render_from_instance: iu.render_from_instance });
+        } else {
+            moving.push(MovingInstance { object: o, outer, inner: AnimatedTransform::fixed(Transform::IDENTITY) });
+        }
+        for &(object, inner) in moving_parts.get(iu.name.as_str()).into_iter().flatten() {
+            moving.push(MovingInstance { object, outer, inner });
+        }
     }
-    let accel =
-        GeometryScene::build(objects, instances).map_err(|e| SceneError::at(desc.film.loc.clone(), e.to_string()))?;
+    let any_moving = !moving.is_empty();
+    let accel = GeometryScene::build_with_motion(objects, instances, moving)
+        .map_err(|e| SceneError::at(desc.film.loc.clone(), e.to_string()))?;
     let bounds = {
         use geometry::Accel;
         accel.bounds()
     };
     let (_, scene_radius) = if bounds.is_empty() { (Vec3::ZERO, 1.0) } else { bounds.bounding_sphere() };
     let geometry = SceneGeometry::with_alpha(accel, info, alphas, alpha_of);
-    Ok(BuiltGeometry { geometry, triangles, scene_radius })
+    Ok(BuiltGeometry { geometry, triangles, scene_radius, moving: any_moving })
+}
+
+/// The shapes that stay where they are, and those that move.
+fn split_moving(shapes: &[ShapeEntity]) -> (Vec<&ShapeEntity>, Vec<&ShapeEntity>) {
+    shapes.iter().partition(|s| s.motion.is_none())
 }
 
 fn shape_triangles(s: &Shape) -> usize {
@@ -180,7 +253,8 @@ fn make_shape(se: &ShapeEntity) -> Result<Option<Shape>> {
     let e = &se.entity;
     let p = &e.params;
     let loc = &e.loc;
-    let rfo = se.render_from_object;
+    // A moving shape is built in its own space; its instance moves it.
+    let rfo = if se.motion.is_some() { Transform::IDENTITY } else { se.render_from_object };
     let ro = se.reverse_orientation;
     let mesh = |data: MeshData| -> Result<Option<Shape>> {
         if data.indices.is_empty() {

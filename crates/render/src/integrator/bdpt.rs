@@ -40,6 +40,7 @@ use super::transport::{
 };
 use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
+use crate::camera::Camera;
 use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
@@ -221,14 +222,22 @@ impl Vertex {
 
     /// Area density at `next` of sampling it from this vertex, having come from `prev` (leaving out the
     /// distance-sampling factors σs·T of media, see the module's documentation).
-    fn pdf(&self, scene: &RenderScene, prev: Option<&Vertex>, next: &Vertex, wl: &SampledWavelengths) -> f32 {
+    /// `camera` is the camera where it is at the path's time.
+    fn pdf(
+        &self,
+        scene: &RenderScene,
+        camera: &Camera,
+        prev: Option<&Vertex>,
+        next: &Vertex,
+        wl: &SampledWavelengths,
+    ) -> f32 {
         if matches!(self.kind, Kind::Light(_) | Kind::Escape) {
             return self.pdf_light(scene, next);
         }
         let wn = if next.kind == Kind::Escape { next.w_escape } else { next.p - self.p };
         let Some(wn) = wn.try_normalize() else { return 0.0 };
         let pdf = match self.kind {
-            Kind::Camera => scene.camera.pdf_we(self.p, wn).1,
+            Kind::Camera => camera.pdf_we(self.p, wn).1,
             Kind::Medium => {
                 let (Some(phase), Some(prev)) = (&self.phase, prev) else { return 0.0 };
                 let Some(wp) = (prev.p - self.p).try_normalize() else { return 0.0 };
@@ -325,6 +334,7 @@ fn connection_transmittance(
     origin: Vec3,
     target: ShadowTarget,
     medium: Option<u32>,
+    time: f32,
     wl: &SampledWavelengths,
     mis: &SpectralMis,
     salt: u32,
@@ -335,13 +345,13 @@ fn connection_transmittance(
         let (o, d, t_max) = vacuum;
         counts.shadow += 1;
         let ones = SampledSpectrum::splat(1.0);
-        return (!scene.geometry.occluded(o, d, t_max)).then_some(ShadowTransmittance {
+        return (!scene.geometry.occluded(o, d, t_max, time)).then_some(ShadowTransmittance {
             t: ones,
             r_l: ones,
             r_u: ones,
         });
     }
-    shadow_transmittance(scene, origin, target, medium, wl, mis, salt, u, counts)
+    shadow_transmittance(scene, origin, target, medium, time, wl, mis, salt, u, counts)
 }
 
 /// The transmittance between two vertices (both ends offset off their surfaces, pbrt-v4's `SpawnRayTo`).
@@ -350,6 +360,7 @@ fn transmittance(
     scene: &RenderScene,
     a: &Vertex,
     b: &Vertex,
+    time: f32,
     wl: &SampledWavelengths,
     mis: &SpectralMis,
     salt: u32,
@@ -360,7 +371,8 @@ fn transmittance(
     let target = geometry::offset_ray_origin(b.p, b.p_error, b.ng, ray.o - b.p);
     let medium = a.medium_towards(b.p - a.p);
     let vacuum = (ray.o, ray.d, t_max);
-    connection_transmittance(scene, vacuum, ray.o, ShadowTarget::Point(target), medium, wl, mis, salt, u, counts)
+    let target = ShadowTarget::Point(target);
+    connection_transmittance(scene, vacuum, ray.o, target, medium, time, wl, mis, salt, u, counts)
 }
 
 /// The geometry term without visibility: |cos|·|cos|/d² with shading normals, no cosine at a vertex that is not on
@@ -385,13 +397,16 @@ fn geometry_term(a: &Vertex, b: &Vertex) -> f32 {
 impl BdptIntegrator {
     /// One pixel sample: the camera ray `(o, d)` from raster position `film`, subpaths drawn from the three
     /// samplers (camera subpath, light subpath, connections), at wavelengths `wl`. Returns the radiance for the
-    /// pixel; connections to the lens (t = 1) go to `splat(raster, contribution, wavelengths)` instead.
+    /// pixel; connections to the lens (t = 1) go to `splat(raster, contribution, wavelengths)` instead. Both
+    /// subpaths and every connection are traced at the camera ray's `time` (pbrt-v4's light subpath takes the camera
+    /// vertex's time), with the camera where it is then.
     #[allow(clippy::too_many_arguments)]
     pub fn li(
         &self,
         scene: &RenderScene,
         o: Vec3,
         d: Vec3,
+        time: f32,
         wl: &mut SampledWavelengths,
         samplers: [&mut Sampler; 3],
         counts: &mut RayCounts,
@@ -405,8 +420,9 @@ impl BdptIntegrator {
         if !scene.media.is_empty() {
             mis.choose(connect_sampler.next_1d());
         }
-        let camera = self.camera_subpath(scene, o, d, wl, &mut mis, camera_sampler, counts);
-        let light = self.light_subpath(scene, wl, &mut mis, light_sampler, counts);
+        let cam = scene.camera.at_time(time);
+        let camera = self.camera_subpath(scene, &cam, o, d, time, wl, &mut mis, camera_sampler, counts);
+        let light = self.light_subpath(scene, time, wl, &mut mis, light_sampler, counts);
         let mut l = SampledSpectrum::zero();
         for t in 1..=camera.len() {
             // s = 1 samples its own light point, so it runs even when the light subpath is empty (a light path
@@ -417,7 +433,7 @@ impl BdptIntegrator {
                     continue;
                 }
                 let u = [connect_sampler.next_1d(), connect_sampler.next_1d(), connect_sampler.next_1d()];
-                let (c, raster) = self.connect(scene, &light, &camera, s, t, wl, &mis, u, counts);
+                let (c, raster) = self.connect(scene, (&cam, time), &light, &camera, s, t, wl, &mis, u, counts);
                 if c.is_black() || !c.0.iter().all(|v| v.is_finite()) {
                     continue;
                 }
@@ -434,15 +450,17 @@ impl BdptIntegrator {
     fn camera_subpath(
         &self,
         scene: &RenderScene,
+        cam: &Camera,
         o: Vec3,
         d: Vec3,
+        time: f32,
         wl: &mut SampledWavelengths,
         mis: &mut SpectralMis,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
     ) -> Vec<Vertex> {
         let mut path = Vec::with_capacity(self.max_depth as usize + 2);
-        let (pdf_pos, pdf_dir) = scene.camera.pdf_we(o, d);
+        let (pdf_pos, pdf_dir) = cam.pdf_we(o, d);
         let cam =
             Vertex::endpoint(Kind::Camera, o, Vec3::ZERO, SampledSpectrum::splat(1.0), pdf_pos, scene.camera_medium);
         path.push(cam);
@@ -458,6 +476,7 @@ impl BdptIntegrator {
             self.max_depth as usize + 1,
             TransportMode::Radiance,
             scene.camera_medium,
+            time,
             wl,
             mis,
             sampler,
@@ -470,6 +489,7 @@ impl BdptIntegrator {
     fn light_subpath(
         &self,
         scene: &RenderScene,
+        time: f32,
         wl: &mut SampledWavelengths,
         mis: &mut SpectralMis,
         sampler: &mut Sampler,
@@ -504,6 +524,7 @@ impl BdptIntegrator {
             self.max_depth as usize,
             TransportMode::Importance,
             light_medium,
+            time,
             wl,
             mis,
             sampler,
@@ -544,6 +565,7 @@ impl BdptIntegrator {
         max_vertices: usize,
         mode: TransportMode,
         medium: Option<u32>,
+        time: f32,
         wl: &mut SampledWavelengths,
         mis: &mut SpectralMis,
         sampler: &mut Sampler,
@@ -556,7 +578,7 @@ impl BdptIntegrator {
         let mut pdf_fwd = pdf_dir;
         let mut added = 0usize;
         let mut r = SampledSpectrum::splat(1.0);
-        let mut ray = PathRay::new(o, d, medium);
+        let mut ray = PathRay::new(o, d, medium, time);
         loop {
             let d = ray.d;
             let hit = ray.intersect(scene, counts);
@@ -628,7 +650,7 @@ impl BdptIntegrator {
                     break;
                 }
                 if let Some((p, wi)) = scattered {
-                    ray = PathRay::new(p, wi, Some(m));
+                    ray = PathRay::new(p, wi, Some(m), time);
                     continue;
                 }
                 // No collision before the surface: probability T_maj at the hero.
@@ -717,6 +739,7 @@ impl BdptIntegrator {
     fn connect(
         &self,
         scene: &RenderScene,
+        (cam, time): (&Camera, f32),
         light: &[Vertex],
         camera: &[Vertex],
         s: usize,
@@ -746,8 +769,8 @@ impl BdptIntegrator {
             if !qs.is_connectible(scene) {
                 return zero;
             }
-            let Some(cs) = scene.camera.sample_wi(qs.p, Vec2::new(u[0], u[1])) else { return zero };
-            let cam_n = if scene.camera.lens_area_is_finite() { scene.camera.forward() } else { Vec3::ZERO };
+            let Some(cs) = cam.sample_wi(qs.p, Vec2::new(u[0], u[1])) else { return zero };
+            let cam_n = if cam.lens_area_is_finite() { cam.forward() } else { Vec3::ZERO };
             let mut v = Vertex::endpoint(
                 Kind::Camera,
                 cs.p_lens,
@@ -764,7 +787,7 @@ impl BdptIntegrator {
             if c.is_black() {
                 return zero;
             }
-            let Some(tr) = transmittance(scene, qs, &v, wl, mis, salt, u[2], counts) else { return zero };
+            let Some(tr) = transmittance(scene, qs, &v, time, wl, mis, salt, u[2], counts) else { return zero };
             raster = Some(cs.raster);
             sampled = Some(v);
             c * tr.t / mis.average(qs.r * tr.r_l)
@@ -805,10 +828,8 @@ impl BdptIntegrator {
             let target = if far { ShadowTarget::Direction(ls.wi) } else { ShadowTarget::Point(ls.p) };
             let medium = pt.medium_towards(ls.wi);
             let vacuum = (origin, ls.wi, t_max);
-            let Some(tr) = connection_transmittance(scene, vacuum, origin, target, medium, wl, mis, salt, u[2], counts)
-            else {
-                return zero;
-            };
+            let tr = connection_transmittance(scene, vacuum, origin, target, medium, time, wl, mis, salt, u[2], counts);
+            let Some(tr) = tr else { return zero };
             sampled = Some(v);
             c * tr.t / mis.average(pt.r * tr.r_l)
         } else {
@@ -824,13 +845,13 @@ impl BdptIntegrator {
             if g == 0.0 {
                 return zero;
             }
-            let Some(tr) = transmittance(scene, qs, pt, wl, mis, salt, u[2], counts) else { return zero };
+            let Some(tr) = transmittance(scene, qs, pt, time, wl, mis, salt, u[2], counts) else { return zero };
             c * g * tr.t / mis.average(qs.r * pt.r * tr.r_l)
         };
         if l.is_black() {
             return zero;
         }
-        let w = self.mis_weight(scene, light, camera, sampled.as_ref(), s, t, wl);
+        let w = self.mis_weight(scene, cam, light, camera, sampled.as_ref(), s, t, wl);
         (l * w, raster)
     }
 
@@ -841,6 +862,7 @@ impl BdptIntegrator {
     fn mis_weight(
         &self,
         scene: &RenderScene,
+        view: &Camera,
         light: &[Vertex],
         camera: &[Vertex],
         sampled: Option<&Vertex>,
@@ -881,19 +903,19 @@ impl BdptIntegrator {
         }
         // pt's reverse density: sampled from qs (or as the origin of a light subpath when s = 0).
         cam[t - 1].1 = match qs {
-            Some(q) => q.pdf(scene, qs_minus, pt, wl),
+            Some(q) => q.pdf(scene, view, qs_minus, pt, wl),
             None => pt.pdf_light_origin(scene, pt_minus.expect("s = 0 needs t ≥ 2")),
         };
         if let Some(pm) = pt_minus {
             cam[t - 2].1 = match qs {
-                Some(q) => pt.pdf(scene, Some(q), pm, wl),
+                Some(q) => pt.pdf(scene, view, Some(q), pm, wl),
                 None => pt.pdf_light(scene, pm),
             };
         }
         if let Some(q) = qs {
-            lig[s - 1].1 = pt.pdf(scene, pt_minus, q, wl);
+            lig[s - 1].1 = pt.pdf(scene, view, pt_minus, q, wl);
             if let Some(qm) = qs_minus {
-                lig[s - 2].1 = q.pdf(scene, Some(pt), qm, wl);
+                lig[s - 2].1 = q.pdf(scene, view, Some(pt), qm, wl);
             }
         }
         // The connection's endpoints are not delta events for this strategy.
@@ -977,6 +999,7 @@ impl RenderJob for BdptRender<'_> {
                 scene,
                 cs.ray.origin,
                 cs.ray.direction,
+                cs.ray.time,
                 &mut wl,
                 [&mut sampler, &mut light_sampler, &mut connect_sampler],
                 counts,

@@ -54,15 +54,18 @@ impl CameraSampler {
     }
 
     /// The camera sample of pixel (`x`, `y`), drawing the first five dimensions of `sampler`: wavelengths (1),
-    /// film offset from the filter (2), lens (2).
+    /// film offset from the filter (2), lens (2); in a scene where something moves, six: the ray's time (1, uniform
+    /// over the shutter) comes between the film offset and the lens, as in pbrt-v4's `GetCameraSample`.
+    #[inline]
     pub fn sample(&self, scene: &RenderScene, x: u32, y: u32, sampler: &mut Sampler) -> CameraSample {
         let wl = self.wavelengths.sample(sampler.next_1d() as f64);
         let [u0, u1] = sampler.next_2d();
         let f = self.filter.sample([u0 as f64, u1 as f64]);
         let offset = Vec2::new(f.offset[0] as f32, f.offset[1] as f32);
+        let time = scene.sample_time(sampler);
         let lens = Vec2::from(sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-        CameraSample { wl, weight: f.weight as f32, ray: scene.camera.generate_ray(film, lens) }
+        CameraSample { wl, weight: f.weight as f32, ray: scene.camera.generate_ray(film, lens, time) }
     }
 
     /// The wavelength strategy.

@@ -83,10 +83,12 @@ impl LightVertex<'_> {
 /// specular. The path's wavelengths `wl` are reduced to one by a dispersive refraction. With `media`, media that
 /// scatter are tracked (delta tracking against the majorant with spectral MIS, as in `volpath`) and their
 /// scattering points are vertices too; without, they are treated as vacuum (integrators that do not render them).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn walk_light_path(
     scene: &RenderScene,
     max_depth: u32,
     media: bool,
+    time: f32,
     wl: &mut SampledWavelengths,
     sampler: &mut Sampler,
     counts: &mut RayCounts,
@@ -107,7 +109,7 @@ pub(crate) fn walk_light_path(
         mis.choose(sampler.next_1d());
     }
     let medium = scene.light_medium(start.light, start.le.d, start.le.surface.map(|s| s.n));
-    let mut ray = PathRay::new(start.origin(), start.le.d, medium);
+    let mut ray = PathRay::new(start.origin(), start.le.d, medium, time);
     let mut depth = 0u32;
     while depth < max_depth {
         let hit = ray.intersect(scene, counts);
@@ -171,7 +173,7 @@ pub(crate) fn walk_light_path(
                     break;
                 }
                 if let Some((p, wi)) = scattered {
-                    ray = PathRay::new(p, wi, Some(m));
+                    ray = PathRay::new(p, wi, Some(m), time);
                     continue;
                 }
                 // No collision before the surface: probability T_maj at the hero.
@@ -228,18 +230,22 @@ pub(crate) fn walk_light_path(
 
 impl LightPathIntegrator {
     /// Traces one light path with `sampler` at the wavelengths `wl` (which a dispersive refraction reduces to one)
-    /// and calls `splat(raster, contribution, wavelengths)` for every connection to the camera. The contributions
-    /// are per light path: the film divides their sum by the number of light paths per pixel.
+    /// and at `time`, and calls `splat(raster, contribution, wavelengths)` for every connection to the camera (where
+    /// the camera is at that time). The contributions are per light path: the film divides their sum by the number
+    /// of light paths per pixel.
+    #[allow(clippy::too_many_arguments)]
     pub fn trace(
         &self,
         scene: &RenderScene,
+        time: f32,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
         mut splat: impl FnMut(Vec2, SampledSpectrum, &SampledWavelengths),
     ) {
-        walk_light_path(scene, self.max_depth, true, wl, sampler, counts, |v, wl, counts| {
-            let Some(cs) = scene.camera.sample_wi(v.p(), v.u) else { return };
+        let camera = scene.camera.at_time(time);
+        walk_light_path(scene, self.max_depth, true, time, wl, sampler, counts, |v, wl, counts| {
+            let Some(cs) = camera.sample_wi(v.p(), v.u) else { return };
             // The scattering function towards the lens (with the adjoint shading-normal correction at surfaces),
             // and where the connection starts.
             let (f, origin, medium) = match v.at {
@@ -255,7 +261,8 @@ impl LightPathIntegrator {
             }
             let salt = LIGHT_PATH_SEED_SALT ^ v.depth;
             let target = ShadowTarget::Point(cs.p_lens);
-            let Some(tr) = shadow_transmittance(scene, origin, target, medium, wl, &v.mis, salt, v.u.x, counts) else {
+            let Some(tr) = shadow_transmittance(scene, origin, target, medium, time, wl, &v.mis, salt, v.u.x, counts)
+            else {
                 return;
             };
             // One strategy: the tracking decisions of the path and of the connection, averaged over the
@@ -305,7 +312,11 @@ impl RenderJob for LightPaths<'_> {
         let per_sample = |x: u32, y: u32, s: u32, counts: &mut RayCounts, records: &mut SampleRecords| {
             let mut sampler = Sampler::new(x, y, s, light_seed);
             let mut wl = wavelengths.sample(sampler.next_1d() as f64);
-            self.integrator.trace(scene, &mut wl, &mut sampler, counts, |raster, l, wl| records.splat(raster, l, *wl));
+            // A light path's time, uniform over the shutter as a camera ray's is (a dimension of its own sampler,
+            // drawn only when something moves); the whole path and its connections to the lens use it.
+            let time = scene.sample_time(&mut sampler);
+            let splat = |raster, l, wl: &SampledWavelengths| records.splat(raster, l, *wl);
+            self.integrator.trace(scene, time, &mut wl, &mut sampler, counts, splat);
         };
         let light = render_splatting(film, passes, progress, &per_sample);
         stats.rays += light.rays;

@@ -97,7 +97,7 @@ fn trace_seed(scene: &RenderScene, x0: &SurfaceHit, y: Vec3, max_len: usize, cou
         }
         let d = to / dist;
         counts.intersect += 1;
-        let Some(dh) = scene.geometry.intersect_differential(origin, d, dist * (1.0 - 1e-4)) else {
+        let Some(dh) = scene.geometry.intersect_differential(origin, d, dist * (1.0 - 1e-4), x0.time) else {
             return seed;
         };
         let len = seed.map_or(0, |s| s.len);
@@ -309,7 +309,7 @@ fn reproject(
             return None;
         }
         counts.intersect += 1;
-        let dh = scene.geometry.intersect_differential(from.spawn_origin(d), d, f32::INFINITY)?;
+        let dh = scene.geometry.intersect_differential(from.spawn_origin(d), d, f32::INFINITY, from.time)?;
         if dh.surface != old[i].surface {
             return None;
         }
@@ -444,7 +444,7 @@ fn solve(
     let to = end.p.as_vec3() - origin;
     let dist = to.length();
     counts.shadow += 1;
-    if dist.is_nan() || dist <= 0.0 || scene.geometry.occluded(origin, to / dist, dist * (1.0 - 1e-4)) {
+    if dist.is_nan() || dist <= 0.0 || scene.geometry.occluded(origin, to / dist, dist * (1.0 - 1e-4), last.time) {
         return None;
     }
     if point_light {
@@ -797,7 +797,7 @@ mod tests {
         wl: &SampledWavelengths,
     ) -> Vec<(usize, Solution)> {
         let mut counts = RayCounts::default();
-        let x0 = scene.geometry.intersect(x + Vec3::Y * 0.5, -Vec3::Y, f32::INFINITY).unwrap();
+        let x0 = scene.geometry.intersect(x + Vec3::Y * 0.5, -Vec3::Y, f32::INFINITY, 0.0).unwrap();
         let seed = trace_seed(scene, &x0, y, MAX_CHAIN, &mut counts).unwrap();
         let idx = indices(scene, &seed, wl);
         let end = LightEnd { p: y.as_dvec3(), t1: DVec3::X, t2: DVec3::Z };
@@ -995,7 +995,7 @@ mod brute {
     fn estimate_equals_the_integral_of_the_paths_it_covers() {
         let (scene, x) = sphere_lamp_scene();
         let mut counts = RayCounts::default();
-        let x0 = scene.geometry.intersect(x + Vec3::Y * 0.3, -Vec3::Y, f32::INFINITY).unwrap();
+        let x0 = scene.geometry.intersect(x + Vec3::Y * 0.3, -Vec3::Y, f32::INFINITY, 0.0).unwrap();
         let wl = SampledWavelengths::new([450.0, 520.0, 600.0, 680.0], [1.0; 4]);
         let bxdf = Bxdf::Diffuse { r: SampledSpectrum::splat(1.0) };
         let nz = if x0.n.y < 0.0 { -x0.n } else { x0.n };
@@ -1031,7 +1031,7 @@ mod brute {
                     let mut track = ChainTrack::start(&x0, 4);
                     let mut w = 1.0f32;
                     for _ in 0..4 {
-                        let Some(h) = scene.geometry.intersect(o, d, f32::INFINITY) else { break };
+                        let Some(h) = scene.geometry.intersect(o, d, f32::INFINITY, 0.0) else { break };
                         if h.area_light.is_some() {
                             if covers(&scene, &track, 0, h.p, h.n, &wl1, &mut counts)[slot] {
                                 sum_c[slot] += w * scene.lights[0].l_area(h.p, h.uv, h.n, -d, &wl)[slot];

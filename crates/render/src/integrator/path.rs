@@ -48,14 +48,15 @@ pub struct PathIntegrator {
 
 /// A camera-side estimator of radiance: what [`CameraPaths`] traces into each pixel.
 pub trait Radiance: Copy + Send + Sync {
-    /// Radiance arriving at the camera along `o + t·d`, at the wavelengths of `wl` (which a dispersive surface may
-    /// reduce to one); `first_hit` hears the first surface the path scatters at, for AOVs.
+    /// Radiance arriving at the camera along `o + t·d` at `time`, at the wavelengths of `wl` (which a dispersive
+    /// surface may reduce to one); `first_hit` hears the first surface the path scatters at, for AOVs.
     #[allow(clippy::too_many_arguments)]
     fn li(
         &self,
         scene: &RenderScene,
         o: Vec3,
         d: Vec3,
+        time: f32,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
@@ -242,13 +243,14 @@ impl Radiance for PathIntegrator {
         scene: &RenderScene,
         o: Vec3,
         d: Vec3,
+        time: f32,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
         first_hit: Option<&mut Option<FirstHit>>,
     ) -> SampledSpectrum {
         let mut st = PathState {
-            ray: PathRay::new(o, d, scene.camera_medium),
+            ray: PathRay::new(o, d, scene.camera_medium, time),
             beta: SampledSpectrum::splat(1.0),
             specular_bounce: false,
             eta_scale: 1.0,
@@ -312,8 +314,8 @@ impl<'a, R: Radiance> CameraPaths<'a, R> {
                 let mut wl = cs.wl;
                 let mut first_hit = None;
                 let fh = aovs.then_some(&mut first_hit);
-                let (o, d) = (cs.ray.origin, cs.ray.direction);
-                let l = finite_or_zero(self.integrator.li(self.scene, o, d, &mut wl, &mut sampler, counts, fh));
+                let (o, d, t) = (cs.ray.origin, cs.ray.direction, cs.ray.time);
+                let l = finite_or_zero(self.integrator.li(self.scene, o, d, t, &mut wl, &mut sampler, counts, fh));
                 row.add_sample(x, &l, &wl, cs.weight as f64);
                 // The albedo is seen at the wavelengths the camera ray started with.
                 if let Some(h) = first_hit {

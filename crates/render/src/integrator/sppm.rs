@@ -502,7 +502,7 @@ impl SppmIntegrator {
         sampler: &mut Sampler,
         counts: &mut RayCounts,
     ) -> (Option<VisiblePoint<'static>>, SampledSpectrum) {
-        let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium);
+        let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
         // The camera sample's filter weight, as a camera sample of the other integrators carries it into the film.
         let mut beta = SampledSpectrum::splat(cs.weight);
         let mut ld = SampledSpectrum::zero();
@@ -555,7 +555,7 @@ impl SppmIntegrator {
         sampler: &mut Sampler,
         counts: &mut RayCounts,
     ) -> (Option<VisiblePoint<'s>>, SampledSpectrum) {
-        let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium);
+        let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
         let mut beta = SampledSpectrum::splat(cs.weight);
         let mut r_u = SampledSpectrum::splat(1.0);
         let mut mis = SpectralMis::new(wl);
@@ -606,7 +606,7 @@ impl SppmIntegrator {
                 if let Some((p, sigma_s)) = scattered {
                     let phase = medium.phase();
                     let u = BounceSamples::draw(sampler);
-                    let v = Vertex::Medium { p, d_in: d, phase, medium: Some(m) };
+                    let v = Vertex::Medium { p, d_in: d, phase, medium: Some(m), time: ray.time };
                     ld += beta * sample_ld(scene, v, wl, &u, &mis, r_u, true, counts);
                     let weight = (beta / mis.average(r_u)).safe_div(sigma_s);
                     let vp = VisiblePoint { p, at: VisibleAt::Medium { phase, d_in: d }, beta: weight, wl: *wl };
@@ -673,7 +673,10 @@ impl SppmIntegrator {
     ) {
         let mut sampler = Sampler::new(k as u32, (k >> 32) as u32, it, seed);
         let mut wl = *wl_iter;
-        walk_light_path(scene, self.max_depth, media, &mut wl, &mut sampler, counts, |v, wl, _| {
+        // Each photon has its own time, uniform over the shutter (pbrt-v4's photons too): the photon map is the
+        // shutter's average, gathered by visible points at their camera rays' times.
+        let time = scene.sample_time(&mut sampler);
+        walk_light_path(scene, self.max_depth, media, time, &mut wl, &mut sampler, counts, |v, wl, _| {
             // Direct light is the visible points' next-event estimation: photons count from their second vertex.
             if v.depth == 1 {
                 return;

@@ -71,14 +71,14 @@ pub(crate) fn sample_direct_light(
         counts.shadow += 1;
         // Stop just short of the light's surface (pbrt's ShadowEpsilon, relative).
         let t_max = if ls.dist.is_finite() { (ls.p - origin).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-        if scene.geometry.occluded(origin, ls.wi, t_max) {
+        if scene.geometry.occluded(origin, ls.wi, t_max, hit.time) {
             return SampledSpectrum::zero();
         }
         f
     } else {
         let target = if ls.dist.is_finite() { ShadowTarget::Point(ls.p) } else { ShadowTarget::Direction(ls.wi) };
         let medium = next_medium(hit, ls.wi, medium);
-        let Some(tr) = absorbing_transmittance(scene, origin, target, medium, wl, counts) else {
+        let Some(tr) = absorbing_transmittance(scene, origin, target, medium, hit.time, wl, counts) else {
             return SampledSpectrum::zero();
         };
         f * tr
@@ -96,12 +96,13 @@ pub(crate) fn sample_direct_light(
 /// media that absorb (`path`, and photon mapping's camera paths where no medium scatters): `None` if a surface with
 /// a material blocks it, otherwise the product of exp(−σa·d) over the absorbing media it crosses, through
 /// material-less boundaries. Media that scatter count as vacuum, as they do along these integrators' paths
-/// ([`PathRay::attenuate`]).
+/// ([`PathRay::attenuate`]). The ray is traced at `time`.
 fn absorbing_transmittance(
     scene: &RenderScene,
     mut origin: Vec3,
     target: ShadowTarget,
     mut medium: Option<u32>,
+    time: f32,
     wl: &SampledWavelengths,
     counts: &mut RayCounts,
 ) -> Option<SampledSpectrum> {
@@ -120,7 +121,7 @@ fn absorbing_transmittance(
             return Some(tr);
         }
         counts.shadow += 1;
-        let hit = scene.geometry.intersect(origin, d, t_max);
+        let hit = scene.geometry.intersect(origin, d, t_max, time);
         if hit.is_some_and(|h| h.material != NO_MATERIAL) {
             return None;
         }
@@ -220,22 +221,24 @@ pub(crate) struct PathRay {
     pub d: Vec3,
     /// The medium along the ray (`None` for vacuum).
     pub medium: Option<u32>,
+    /// The path's time (within the shutter interval): every ray of a path is traced at the time of its first.
+    pub time: f32,
     /// Material-less boundaries crossed in a row.
     crossings: u32,
 }
 
 impl PathRay {
-    /// A ray from `o` along `d` in `medium`.
+    /// A ray from `o` along `d` in `medium`, at `time`.
     #[inline]
-    pub fn new(o: Vec3, d: Vec3, medium: Option<u32>) -> Self {
-        Self { o, d, medium, crossings: 0 }
+    pub fn new(o: Vec3, d: Vec3, medium: Option<u32>, time: f32) -> Self {
+        Self { o, d, medium, time, crossings: 0 }
     }
 
     /// The closest surface along the ray, counted in `counts`.
     #[inline]
     pub fn intersect(&self, scene: &RenderScene, counts: &mut RayCounts) -> Option<SurfaceHit> {
         counts.intersect += 1;
-        scene.geometry.intersect(self.o, self.d, f32::INFINITY)
+        scene.geometry.intersect(self.o, self.d, f32::INFINITY, self.time)
     }
 
     /// Multiplies `beta` by the medium's transmittance over the segment to `hit` (Beer–Lambert).
@@ -547,13 +550,14 @@ const MAX_SHADOW_CROSSINGS: u32 = 256;
 /// Traces a shadow ray from `origin` (in `medium`) to `target` through material-less boundaries: `None` if a
 /// surface with a material blocks it; otherwise the transmittance: Beer–Lambert in closed form for homogeneous media
 /// and ratio tracking against the majorant for heterogeneous ones (pbrt-v4 §14.2.3, with its Russian roulette once the
-/// estimate falls below 0.05). `salt` and `u` seed the tracking decisions.
+/// estimate falls below 0.05). `salt` and `u` seed the tracking decisions. The ray is traced at `time`.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn shadow_transmittance(
     scene: &RenderScene,
     mut origin: Vec3,
     target: ShadowTarget,
     mut medium: Option<u32>,
+    time: f32,
     wl: &SampledWavelengths,
     mis: &SpectralMis,
     salt: u32,
@@ -574,7 +578,7 @@ pub(crate) fn shadow_transmittance(
     if scene.media.is_empty() {
         let (d, t_max) = segment(origin);
         counts.shadow += 1;
-        return (!scene.geometry.occluded(origin, d, t_max)).then_some(out);
+        return (!scene.geometry.occluded(origin, d, t_max, time)).then_some(out);
     }
     let mut rng = TrackingRng::new(u, salt);
     let mut crossings = 0;
@@ -584,7 +588,7 @@ pub(crate) fn shadow_transmittance(
             return Some(out);
         }
         counts.shadow += 1;
-        let hit = scene.geometry.intersect(origin, d, t_max);
+        let hit = scene.geometry.intersect(origin, d, t_max, time);
         if hit.is_some_and(|h| h.material != NO_MATERIAL) {
             return None;
         }

@@ -40,8 +40,8 @@ pub struct VolPathIntegrator {
 pub(crate) enum Vertex<'a> {
     /// A surface with its BxDF in its shading frame, reached through `medium`.
     Surface { hit: &'a crate::scene::SurfaceHit, frame: &'a Frame, bxdf: &'a Bxdf, wo: Vec3, medium: Option<u32> },
-    /// A point in a medium, reached travelling along `d_in`.
-    Medium { p: Vec3, d_in: Vec3, phase: &'a PhaseFunction, medium: Option<u32> },
+    /// A point in a medium, reached travelling along `d_in` at `time`.
+    Medium { p: Vec3, d_in: Vec3, phase: &'a PhaseFunction, medium: Option<u32>, time: f32 },
 }
 
 impl VolPathIntegrator {
@@ -89,6 +89,10 @@ pub(crate) fn sample_ld(
         return SampledSpectrum::zero();
     }
     let p_l = p_sel * ls.pdf;
+    let time = match v {
+        Vertex::Surface { hit, .. } => hit.time,
+        Vertex::Medium { time, .. } => time,
+    };
     let (f_hat, scatter_pdf, origin, medium) = match v {
         Vertex::Surface { hit, frame, bxdf, wo, medium } => {
             let wi = frame.to_local(ls.wi);
@@ -98,13 +102,15 @@ pub(crate) fn sample_ld(
             // interface).
             (f, pdf, hit.spawn_origin(ls.wi), next_medium(hit, ls.wi, medium))
         }
-        Vertex::Medium { p, d_in, phase, medium } => (phase.p(d_in, ls.wi, wl), phase.pdf(d_in, ls.wi, wl), p, medium),
+        Vertex::Medium { p, d_in, phase, medium, .. } => {
+            (phase.p(d_in, ls.wi, wl), phase.pdf(d_in, ls.wi, wl), p, medium)
+        }
     };
     if f_hat.is_black() {
         return SampledSpectrum::zero();
     }
     let target = if ls.dist.is_finite() { ShadowTarget::Point(ls.p) } else { ShadowTarget::Direction(ls.wi) };
-    let Some(tr) = shadow_transmittance(scene, origin, target, medium, wl, mis, li ^ 0x5eed, u0, counts) else {
+    let Some(tr) = shadow_transmittance(scene, origin, target, medium, time, wl, mis, li ^ 0x5eed, u0, counts) else {
         return SampledSpectrum::zero();
     };
     let (t_ray, r_l, r_u) = (tr.t, tr.r_l, tr.r_u);
@@ -221,7 +227,7 @@ impl VolPathIntegrator {
                                 return false;
                             }
                             let u = BounceSamples::draw(sampler);
-                            let v = Vertex::Medium { p, d_in: rd, phase: mp.phase, medium: Some(m) };
+                            let v = Vertex::Medium { p, d_in: rd, phase: mp.phase, medium: Some(m), time: st.ray.time };
                             l += st.beta * self.sample_ld(scene, v, wl, &u, &st.mis, st.r_u, counts);
                             let Some(ps) = mp.phase.sample(rd, u.dir, u.lobe, wl) else {
                                 terminated = true;
@@ -257,7 +263,7 @@ impl VolPathIntegrator {
                     if let Some((p, wi)) = scattered {
                         st.specular_bounce = false;
                         st.prev_p = p;
-                        st.ray = PathRay::new(p, wi, st.ray.medium);
+                        st.ray = PathRay::new(p, wi, st.ray.medium, st.ray.time);
                         continue;
                     }
                     // No collision before the surface: probability T_maj at the hero.
@@ -368,6 +374,7 @@ impl Radiance for VolPathIntegrator {
         scene: &RenderScene,
         o: Vec3,
         d: Vec3,
+        time: f32,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
@@ -380,7 +387,7 @@ impl Radiance for VolPathIntegrator {
             mis.choose(sampler.next_1d());
         }
         let mut st = VolPathState {
-            ray: PathRay::new(o, d, scene.camera_medium),
+            ray: PathRay::new(o, d, scene.camera_medium, time),
             beta: SampledSpectrum::splat(1.0),
             r_u: SampledSpectrum::splat(1.0),
             r_l: SampledSpectrum::splat(1.0),
