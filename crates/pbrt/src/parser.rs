@@ -131,8 +131,9 @@ fn canonical(path: &Path) -> PathBuf {
 pub(crate) fn read_text(path: &Path, at: Option<&Loc>) -> Result<String> {
     let file: Arc<Path> = Arc::from(path);
     let here = || at.cloned().unwrap_or_else(|| Loc::new(file.clone(), 1, 1));
-    let bytes =
-        std::fs::read(path).map_err(|e| ParseError::new(here(), format!("cannot read '{}': {e}", path.display())))?;
+    // Bounded, so that `Include "/dev/zero"` is an error rather than a read without end.
+    let bytes = geometry::gzip::read_bounded(path, geometry::gzip::MAX_DECOMPRESSED_BYTES)
+        .map_err(|e| ParseError::new(here(), format!("cannot read '{}': {e}", path.display())))?;
     decode_text(bytes, path, at)
 }
 
