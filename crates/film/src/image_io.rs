@@ -750,6 +750,26 @@ struct PngSamples {
 /// technical notes give the same 1032:1.
 const DEFLATE_MAX_RATIO: u64 = 1032;
 
+/// Refuses a `PLTE` chunk whose length is not a whole number of RGB entries (PNG spec. §11.2.3), which the png
+/// crate (0.17) lets through to a panic when it expands the palette (image-rs/image-png issue 694). Walks the
+/// chunks up to `IEND`; anything else malformed is left to the decoder.
+fn check_png_palette(bytes: &[u8]) -> Result<(), String> {
+    let mut rest = bytes.get(8..).unwrap_or_default();
+    while let Some(head) = rest.get(..8) {
+        let len = u32::from_be_bytes([head[0], head[1], head[2], head[3]]) as usize;
+        let kind = &head[4..8];
+        if kind == b"PLTE" && len % 3 != 0 {
+            return Err(format!("PLTE chunk of {len} bytes: not a whole number of 3-byte palette entries"));
+        }
+        if kind == b"IEND" {
+            break;
+        }
+        // Length, type, data and CRC.
+        rest = rest.get(len.saturating_add(12)..).unwrap_or_default();
+    }
+    Ok(())
+}
+
 /// Decodes a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette) without touching the samples' values.
 ///
 /// The size in the header is checked against the file's bytes before the image is allocated: its filtered rows
@@ -757,6 +777,7 @@ const DEFLATE_MAX_RATIO: u64 = 1032;
 fn read_png_samples(path: &Path) -> Result<PngSamples, ImageError> {
     let png_err = |e: png::DecodingError| ImageError::Png { path: path.to_path_buf(), message: e.to_string() };
     let bytes = open_read(path)?;
+    check_png_palette(&bytes).map_err(|message| ImageError::Png { path: path.to_path_buf(), message })?;
     let mut decoder = png::Decoder::new(bytes.as_slice());
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info().map_err(png_err)?;

@@ -73,3 +73,14 @@ fn exr_of_a_constant_image_is_read() {
     assert_eq!((rw, rh), (w, h));
     assert!(px.iter().all(|p| *p == [0.25, 0.5, 2.0]));
 }
+
+/// Found by the fuzzer: an indexed PNG whose `PLTE` chunk holds 26 bytes (8⅔ entries); the png crate panicked
+/// expanding it (CRCs recomputed so that a normal build, which checks them, reaches the palette).
+#[test]
+fn png_palette_of_a_fractional_number_of_entries() {
+    let path = scratch("palette.png", include_bytes!("hostile/png-palette-of-26-bytes.png"));
+    match read_png_linear(&path) {
+        Err(ImageError::Png { message, .. }) => assert!(message.contains("PLTE chunk of 26 bytes"), "{message}"),
+        r => panic!("expected a PNG error, got {:?}", r.map(|(w, h, _)| (w, h))),
+    }
+}
