@@ -54,6 +54,10 @@ check_target() {
 }
 
 export AFL_SKIP_CPUFREQ=1 AFL_NO_AFFINITY=1 AFL_I_DONT_CARE_ABOUT_MISSING_CRASHES=1 AFL_NO_UI=1
+# The EXR decoder starts a thread pool per file and each thread may get its own 64 MiB glibc arena: in a long
+# persistent loop under the 1 GiB address-space limit that can run out, which would explain the EXR "crashes"
+# that never reproduced outside the loop (docs/robustness.md). Two arenas keep the address space small.
+export MALLOC_ARENA_MAX=2
 
 [ $# -ge 1 ] || usage
 case "$1" in

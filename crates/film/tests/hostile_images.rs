@@ -84,3 +84,23 @@ fn png_palette_of_a_fractional_number_of_entries() {
         r => panic!("expected a PNG error, got {:?}", r.map(|(w, h, _)| (w, h))),
     }
 }
+
+/// Found by the fuzzer, all mutations of a tiled 5×3 B44 file: B44 blocks whose deltas wrap below zero (the decoder
+/// relies on wrapping arithmetic, as OpenEXR's C++ does, and panicked where overflow checks were on) and a tile
+/// whose level index the decoder asserted on. Each is read as a release build reads it, in every profile: an
+/// error, or an image of the header's size.
+#[test]
+fn exr_b44_and_tile_level_mutations() {
+    let cases: [(&str, &[u8], Option<&str>); 3] = [
+        ("b44-error.exr", include_bytes!("hostile/exr-b44-wrapping-error.exr"), Some("B44")),
+        ("b44-ok.exr", include_bytes!("hostile/exr-b44-wrapping-ok.exr"), None),
+        ("tile-level.exr", include_bytes!("hostile/exr-tile-level-assertion.exr"), None),
+    ];
+    for (name, bytes, error) in cases {
+        match (read_exr_rgb(&scratch(name, bytes)), error) {
+            (Err(ImageError::Exr { message, .. }), Some(e)) => assert!(message.contains(e), "{name}: {message}"),
+            (Ok((w, h, px)), None) => assert_eq!((w, h, px.len()), (5, 3, 15), "{name}"),
+            (r, _) => panic!("{name}: unexpected {:?}", r.map(|(w, h, _)| (w, h))),
+        }
+    }
+}
