@@ -8,6 +8,7 @@
 #                                      images) and minimise them into fuzz/corpus/*
 #   scripts/fuzz.sh cmin TARGET        minimise the corpus together with the run's queue into fuzz/corpus/TARGET
 #   scripts/fuzz.sh replay TARGET FILE...  run inputs through the target once, printing each reader's verdict
+#   scripts/fuzz.sh stats              a Markdown table of every target's run so far (for docs/robustness.md)
 #
 # Installs cargo-afl from crates.io when missing (it builds AFL++ from the source it ships; needs cc and make).
 # AFL++'s LLVM plugins are not built: they need nightly (-Z llvm-plugins) and an LLVM matching rustc's, so the
@@ -22,7 +23,7 @@ targets="pbrt ply png exr pfm tga"
 execs=${FUZZ_EXECS:-10000000}
 
 usage() {
-    sed -n '3,11p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '3,12p' "$0" | sed 's/^# \{0,1\}//'
     exit 2
 }
 
@@ -90,6 +91,18 @@ cmin)
     # Names without the fuzzer's colons, which some file systems and tools dislike.
     (cd "fuzz/corpus/$2" && for f in *; do case "$f" in *:*) mv "$f" "$(echo "$f" | tr ':,' '_-')" ;; esac; done)
     echo "$2: $(ls "fuzz/corpus/$2" | wc -l) inputs, $(du -sh "fuzz/corpus/$2" | cut -f1)"
+    ;;
+stats)
+    echo "| Target | Executions | Time | Executions/s | Edges found / instrumented | Corpus | Crashes saved | Hangs |"
+    echo "|---|---|---|---|---|---|---|---|"
+    for t in $targets; do
+        f=fuzz/out/$t/default/fuzzer_stats
+        [ -f "$f" ] || continue
+        awk -F' *: *' -v t="$t" '{ v[$1] = $2 } END {
+            printf "| %s | %\047d | %d min | %d | %d / %d | %d | %d | %d |\n", t, v["execs_done"], v["run_time"] / 60,
+                v["execs_done"] / v["run_time"], v["edges_found"], v["total_edges"], v["corpus_count"],
+                v["saved_crashes"], v["saved_hangs"] }' "$f"
+    done
     ;;
 replay)
     [ $# -ge 3 ] || usage
