@@ -120,7 +120,9 @@ fn exr_seeds(dir: &Path) {
     use exr::prelude::*;
     let (w, h) = (5usize, 3usize);
     let values = |k: usize| -> Vec<f32> { (0..w * h).map(|i| (i + k) as f32 * 0.25).collect() };
-    let cases: [(&str, Compression, Option<usize>, bool, &[&str]); 9] = [
+    /// (file name, compression, tile size, half floats, channels)
+    type Case<'a> = (&'a str, Compression, Option<usize>, bool, &'a [&'a str]);
+    let cases: [Case; 9] = [
         ("rgb-none", Compression::Uncompressed, None, false, &["R", "G", "B"]),
         ("rgb-zip-half", Compression::ZIP16, None, true, &["R", "G", "B"]),
         ("rgba-piz-tiled", Compression::PIZ, Some(4), true, &["A", "B", "G", "R"]),
