@@ -565,17 +565,64 @@ type ExrImage = Image<Layer<AnyChannels<FlatSamples>>>;
 
 fn read_exr(path: &Path) -> Result<ExrImage, ImageError> {
     use exr::prelude::*;
+    let exr_err = |e: exr::error::Error| match e {
+        exr::error::Error::Io(source) => ImageError::Io { path: path.to_path_buf(), source },
+        e => ImageError::Exr { path: path.to_path_buf(), message: e.to_string() },
+    };
+    let bytes = open_read(path)?;
+    let meta = exr::meta::MetaData::read_from_buffered(bytes.as_slice(), false).map_err(exr_err)?;
+    check_exr_sizes(path, &meta, bytes.len())?;
     read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .first_valid_layer()
         .all_attributes()
-        .from_file(path)
-        .map_err(|e| match e {
-            exr::error::Error::Io(source) => ImageError::Io { path: path.to_path_buf(), source },
-            e => ImageError::Exr { path: path.to_path_buf(), message: e.to_string() },
-        })
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(exr_err)
+}
+
+/// The most bytes one byte of an EXR chunk can decode to, by compression (a bound on what a file can hold, so that
+/// sizes in a header can be checked before the decoder allocates for them): none 1; RLE 64 (a count byte and a
+/// value byte for a run of up to 128); ZIP 1032 (deflate's limit, [`DEFLATE_MAX_RATIO`]); PXR24 4/3 of that (32-bit
+/// floats are cut to 24 bits before deflate); PIZ 1032 (Huffman codes of at least one bit with run-length codes of
+/// 8-bit counts stay below it); B44 11 (a 4×4 block of halves in 3 bytes at best); DWA 64 × 1032 (one deflated DC
+/// value per 8×8 block); the rest, which the decoder refuses anyway, the DWA bound.
+fn exr_max_ratio(compression: exr::compression::Compression) -> u128 {
+    use exr::compression::Compression as C;
+    let deflate = DEFLATE_MAX_RATIO as u128;
+    match compression {
+        C::Uncompressed => 1,
+        C::RLE => 64,
+        C::ZIP1 | C::ZIP16 | C::PIZ => deflate,
+        C::PXR24 => deflate * 4 / 3,
+        C::B44 | C::B44A => 11,
+        _ => 64 * deflate,
+    }
+}
+
+/// Refuses an EXR whose headers claim more than its `len` bytes can hold, before its pixels are allocated: every
+/// chunk has an 8-byte entry in the offset table, and the decoder allocates each channel at the layer's full size
+/// (subsampled channels included), which the chunks must decode to within [`exr_max_ratio`].
+fn check_exr_sizes(path: &Path, meta: &exr::meta::MetaData, len: usize) -> Result<(), ImageError> {
+    let len = len as u128;
+    for (i, header) in meta.headers.iter().enumerate() {
+        let (w, h) = (header.layer_size.0 as u128, header.layer_size.1 as u128);
+        let sample_bytes: u128 = header.channels.list.iter().map(|c| c.sample_type.bytes_per_sample() as u128).sum();
+        let pixel_bytes = w * h * sample_bytes;
+        let table_bytes = header.chunk_count as u128 * 8;
+        if table_bytes > len || (!header.deep && pixel_bytes > exr_max_ratio(header.compression) * len) {
+            return Err(ImageError::Malformed {
+                path: path.to_path_buf(),
+                message: format!(
+                    "part {i} claims {w}×{h} pixels of {sample_bytes} bytes in {} chunks ({}), more than the file's \
+                     {len} bytes can hold",
+                    header.chunk_count, header.compression
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The text attributes of an EXR file's header and first layer (name → value), such as those written by
@@ -824,13 +871,54 @@ struct PngSamples {
     samples: Vec<[u16; 3]>,
 }
 
+/// The most bytes one byte of a deflate stream can expand to (RFC 1951: a 258-byte match coded in two bits); zlib's
+/// technical notes give the same 1032:1.
+const DEFLATE_MAX_RATIO: u64 = 1032;
+
+/// Refuses a `PLTE` chunk whose length is not a whole number of RGB entries (PNG spec. §11.2.3), which the png
+/// crate (0.17) lets through to a panic when it expands the palette (image-rs/image-png issue 694). Walks the
+/// chunks up to `IEND`; anything else malformed is left to the decoder.
+fn check_png_palette(bytes: &[u8]) -> Result<(), String> {
+    let mut rest = bytes.get(8..).unwrap_or_default();
+    while let Some(head) = rest.get(..8) {
+        let len = u32::from_be_bytes([head[0], head[1], head[2], head[3]]) as usize;
+        let kind = &head[4..8];
+        if kind == b"PLTE" && len % 3 != 0 {
+            return Err(format!("PLTE chunk of {len} bytes: not a whole number of 3-byte palette entries"));
+        }
+        if kind == b"IEND" {
+            break;
+        }
+        // Length, type, data and CRC.
+        rest = rest.get(len.saturating_add(12)..).unwrap_or_default();
+    }
+    Ok(())
+}
+
 /// Decodes a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette) without touching the samples' values.
+///
+/// The size in the header is checked against the file's bytes before the image is allocated: its filtered rows
+/// come out of a deflate stream held in the file, so they cannot exceed [`DEFLATE_MAX_RATIO`] times its length.
 fn read_png_samples(path: &Path) -> Result<PngSamples, ImageError> {
     let png_err = |e: png::DecodingError| ImageError::Png { path: path.to_path_buf(), message: e.to_string() };
-    let file = File::open(path).map_err(io_err(path))?;
-    let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
+    let bytes = open_read(path)?;
+    check_png_palette(&bytes).map_err(|message| ImageError::Png { path: path.to_path_buf(), message })?;
+    let mut decoder = png::Decoder::new(bytes.as_slice());
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info().map_err(png_err)?;
+    let info = reader.info();
+    let raw = info.height as u128 * info.raw_row_length() as u128;
+    if raw > (DEFLATE_MAX_RATIO * bytes.len() as u64) as u128 {
+        return Err(ImageError::Malformed {
+            path: path.to_path_buf(),
+            message: format!(
+                "a {}×{} PNG needs {raw} bytes of image data, more than its {} bytes can hold",
+                info.width,
+                info.height,
+                bytes.len()
+            ),
+        });
+    }
     let mut buf = vec![0u8; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buf).map_err(png_err)?;
     let (w, h) = (info.width, info.height);

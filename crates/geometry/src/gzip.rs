@@ -13,7 +13,7 @@ use flate2::read::MultiGzDecoder;
 /// The first two bytes of every gzip member (RFC 1952 §2.3.1: ID1 = 31, ID2 = 139).
 pub const GZIP_MAGIC: [u8; 2] = [0x1f, 0x8b];
 
-/// The most bytes a compressed file may expand to: 2 GiB. Larger scenes or meshes should be split into several
+/// The most bytes a compressed file may expand to, and the largest file read: 2 GiB. Larger scenes or meshes should be split into several
 /// files (pbrt-v4's own collection stays far below this).
 pub const MAX_DECOMPRESSED_BYTES: u64 = 2 << 30;
 
@@ -37,10 +37,24 @@ pub fn gunzip(bytes: &[u8], limit: u64) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
-/// Reads a file, decompressing it if it is gzip data (at most [`MAX_DECOMPRESSED_BYTES`]). The error message
-/// does not repeat the path.
+/// Reads at most `limit` bytes of a file: a longer one is an error, so that a name such as `/dev/zero` or an endless
+/// pipe cannot make the reader allocate without end. The error message does not repeat the path.
+pub fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>, String> {
+    let mut bytes = Vec::new();
+    // Read one byte past the limit to tell "exactly the limit" from "more than the limit".
+    std::fs::File::open(path)
+        .and_then(|f| f.take(limit.saturating_add(1)).read_to_end(&mut bytes))
+        .map_err(|e| e.to_string())?;
+    if bytes.len() as u64 > limit {
+        return Err(format!("the file is larger than {limit} bytes, the limit; refusing it"));
+    }
+    Ok(bytes)
+}
+
+/// Reads a file of at most [`MAX_DECOMPRESSED_BYTES`] ([`read_bounded`]), decompressing it if it is gzip data (to
+/// at most as many bytes). The error message does not repeat the path.
 pub fn read_maybe_gzip(path: &Path) -> Result<Vec<u8>, String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let bytes = read_bounded(path, MAX_DECOMPRESSED_BYTES)?;
     if is_gzip(&bytes) {
         gunzip(&bytes, MAX_DECOMPRESSED_BYTES)
     } else {
@@ -72,6 +86,20 @@ mod tests {
         let mut two = gz(b"abc");
         two.extend(gz(b"def"));
         assert_eq!(gunzip(&two, 100).unwrap(), b"abcdef");
+    }
+
+    /// `Include "/dev/zero"` in a scene was read without end until memory ran out (found by review while fuzzing
+    /// the scene reader, docs/robustness.md); files are now read up to a limit.
+    #[test]
+    fn reads_stop_at_the_limit() {
+        let e = read_bounded(Path::new("/dev/zero"), 1 << 20).unwrap_err();
+        assert!(e.contains("larger than 1048576 bytes"), "{e}");
+        let path = std::env::temp_dir().join(format!("prismatic-gzip-bounded-{}", std::process::id()));
+        std::fs::write(&path, [7u8; 100]).unwrap();
+        assert_eq!(read_bounded(&path, 100).unwrap(), [7u8; 100]);
+        assert!(read_bounded(&path, 99).unwrap_err().contains("larger than 99 bytes"));
+        let _ = std::fs::remove_file(&path);
+        assert!(read_bounded(Path::new("/nonexistent/x"), 10).is_err());
     }
 
     #[test]

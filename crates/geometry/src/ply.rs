@@ -10,7 +10,9 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 use ply_rs_bw::parser::{Parser, Reader};
-use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult};
+use ply_rs_bw::ply::{
+    ElementDef, Encoding, Header, Property, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType,
+};
 
 use crate::mesh::MeshData;
 use crate::GeometryError;
@@ -102,10 +104,18 @@ pub fn read_ply_file(path: &Path) -> Result<MeshData, GeometryError> {
 }
 
 /// Loads PLY data from a reader; `name` is used in error messages.
+///
+/// The element counts of the header are checked against the bytes present before any element is read: every item
+/// takes at least one byte per property in ASCII (a digit or a separator, two in fact) and its properties' sizes in
+/// binary, so a short file cannot claim billions of items (and elements without properties, which would take no
+/// bytes at all, are refused).
 pub fn read_ply<R: Read>(source: &mut R, name: &str) -> Result<MeshData, GeometryError> {
     let err = |message: String| GeometryError::Ply { path: name.to_string(), message };
-    let mut reader = Reader::new(BufReader::new(source));
+    let mut bytes = Vec::new();
+    source.read_to_end(&mut bytes).map_err(|e| err(format!("cannot read: {e}")))?;
+    let mut reader = Reader::new(BufReader::new(bytes.as_slice()));
     let header = Parser::<Skip>::new().read_header(&mut reader).map_err(|e| err(format!("bad header: {e}")))?;
+    check_counts(&header, bytes.len()).map_err(err)?;
     let mut verts: Option<Vec<PlyVertex>> = None;
     let mut faces: Option<Vec<PlyFace>> = None;
     for (ename, element) in &header.elements {
@@ -157,6 +167,47 @@ pub fn read_ply<R: Read>(source: &mut R, name: &str) -> Result<MeshData, Geometr
     let data = MeshData { positions, normals, uvs, indices };
     data.validate().map_err(|e| err(e.to_string()))?;
     Ok(data)
+}
+
+/// The least number of bytes one item of `element` takes in a file of `encoding`.
+fn min_item_bytes(element: &ElementDef, encoding: Encoding) -> usize {
+    let size = |t: &ScalarType| match t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    };
+    element
+        .properties
+        .values()
+        .map(|p| match (encoding, &p.data_type) {
+            // A value and the space or newline after it (a list: its count, possibly 0).
+            (Encoding::Ascii, _) => 2,
+            (_, PropertyType::Scalar(t)) => size(t),
+            // The count; an empty list has no items.
+            (_, PropertyType::List(count, _)) => size(count),
+        })
+        .sum()
+}
+
+/// Refuses element counts the file cannot hold (`len` bytes in all), before anything is allocated for them.
+fn check_counts(header: &Header, len: usize) -> Result<(), String> {
+    for (ename, element) in &header.elements {
+        if element.count == 0 {
+            continue;
+        }
+        let each = min_item_bytes(element, header.encoding);
+        if each == 0 {
+            return Err(format!("element '{ename}' has {} items but no properties", element.count));
+        }
+        if element.count.saturating_mul(each) > len {
+            return Err(format!(
+                "element '{ename}' claims {} items (at least {each} bytes each) but the file has {len} bytes",
+                element.count
+            ));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -260,6 +311,47 @@ mod tests {
         std::fs::write(&path, &z[..z.len() / 2]).unwrap();
         let e = read_ply_file(&path).unwrap_err().to_string();
         assert!(e.contains("cut.ply.gz") && e.contains("corrupt or truncated gzip"), "{e}");
+    }
+
+    /// Headers that claim more items than the file holds: found by review while fuzzing (docs/robustness.md);
+    /// before the check, the first ran out of memory and the second looped for ever.
+    #[test]
+    fn counts_beyond_the_bytes_present_are_refused_before_reading() {
+        let cases: [(&[u8], &str); 4] = [
+            // 4·10⁹ vertices without properties: each took no bytes, so they were created until memory ran out.
+            (
+                b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nelement face 0\nend_header\n",
+                "no properties",
+            ),
+            // An element of 2⁶⁴ − 1 property-less items: read (and dropped) for ever.
+            (
+                b"ply\nformat binary_little_endian 1.0\nelement junk 18446744073709551615\nelement vertex 0\n\
+                  property float x\nelement face 0\nend_header\n",
+                "no properties",
+            ),
+            // 10⁹ binary vertices of 12 bytes in a file of about 120 bytes.
+            (
+                b"ply\nformat binary_big_endian 1.0\nelement vertex 1000000000\nproperty float x\nproperty float y\n\
+                  property float z\nelement face 0\nend_header\n\0\0\0\0",
+                "claims 1000000000 items (at least 12 bytes each)",
+            ),
+            // ASCII: two bytes per value at least.
+            (
+                b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+                  element face 100\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+                "element 'face' claims 100 items",
+            ),
+        ];
+        for (bytes, expected) in cases {
+            let e = read_ply(&mut &bytes[..], "mem").unwrap_err().to_string();
+            assert!(e.contains(expected), "{e}");
+        }
+        // The smallest ASCII file the bound allows is read: 3 vertices of 3 one-digit values and one triangle.
+        let s = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+                  element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2";
+        let m = read_ply(&mut &s[..], "mem").unwrap();
+        assert_eq!(m.indices, [0, 1, 2]);
+        assert_eq!(m.positions[1], Vec3::X);
     }
 
     #[test]

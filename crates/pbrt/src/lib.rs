@@ -48,6 +48,14 @@ pub fn parse_file(path: &Path) -> Result<SceneDescription, ParseError> {
     Ok(scene)
 }
 
+/// Parses the bytes of a scene file (plain UTF-8 text or gzip-compressed, as [`parse_file`] reads them) as if
+/// they were the file `virtual_path`: locations name that path, and `Include`, `Import` and file names resolve
+/// relative to its directory.
+pub fn parse_bytes(bytes: &[u8], virtual_path: &Path) -> Result<SceneDescription, ParseError> {
+    let text = parser::decode_text(bytes.to_vec(), virtual_path, None)?;
+    parser::Parser::new(virtual_path, text).run()
+}
+
 /// Parses scene text as if it were the file `virtual_path`: locations name that path, and `Include`, `Import`
 /// and file names resolve relative to its directory.
 pub fn parse_str(text: &str, virtual_path: &Path) -> Result<SceneDescription, ParseError> {

@@ -139,8 +139,17 @@ fn canonical(path: &Path) -> PathBuf {
 pub(crate) fn read_text(path: &Path, at: Option<&Loc>) -> Result<String> {
     let file: Arc<Path> = Arc::from(path);
     let here = || at.cloned().unwrap_or_else(|| Loc::new(file.clone(), 1, 1));
-    let mut bytes =
-        std::fs::read(path).map_err(|e| ParseError::new(here(), format!("cannot read '{}': {e}", path.display())))?;
+    // Bounded, so that `Include "/dev/zero"` is an error rather than a read without end.
+    let bytes = geometry::gzip::read_bounded(path, geometry::gzip::MAX_DECOMPRESSED_BYTES)
+        .map_err(|e| ParseError::new(here(), format!("cannot read '{}': {e}", path.display())))?;
+    decode_text(bytes, path, at)
+}
+
+/// A scene file's bytes as text: gzip data decompressed, UTF-16 refused, invalid UTF-8 reported at its line and
+/// column; errors about the file as a whole are at `at` (or at the file itself).
+pub(crate) fn decode_text(mut bytes: Vec<u8>, path: &Path, at: Option<&Loc>) -> Result<String> {
+    let file: Arc<Path> = Arc::from(path);
+    let here = || at.cloned().unwrap_or_else(|| Loc::new(file.clone(), 1, 1));
     // pbrt-v4 reads gzip-compressed scene files (`.pbrt.gz`); recognised by content, so a misnamed file works too.
     // Locations then name the compressed file and the line and column in its decompressed text.
     if geometry::gzip::is_gzip(&bytes) {

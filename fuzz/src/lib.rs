@@ -1,0 +1,89 @@
+//! The fuzz targets: each feeds arbitrary bytes to one of Prismatic's input readers the way a file would reach it,
+//! and ignores the result. A panic, an abort (an allocation beyond the memory limit) or a run beyond the time
+//! limit is a finding; an `Err` is the expected answer to bad input.
+
+use std::fmt::Debug;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// With `PRISMATIC_FUZZ_VERBOSE` set, prints each reader's verdict to stderr (to triage or check seeds by hand).
+fn report<T, E: Debug>(what: &str, r: Result<T, E>) {
+    static VERBOSE: OnceLock<bool> = OnceLock::new();
+    if *VERBOSE.get_or_init(|| std::env::var_os("PRISMATIC_FUZZ_VERBOSE").is_some()) {
+        match r {
+            Ok(_) => eprintln!("{what}: ok"),
+            Err(e) => eprintln!("{what}: error: {e:?}"),
+        }
+    }
+}
+
+/// The pbrt-v4 scene reader on a file's bytes (plain or gzip-compressed). The virtual file lies in a directory
+/// that does not exist, so relative `Include`s and spectrum files fail without touching the file system.
+pub fn pbrt(data: &[u8]) {
+    report("pbrt", pbrt::parse_bytes(data, Path::new("/nonexistent-fuzz-dir/scene.pbrt")));
+}
+
+/// The PLY reader as `read_ply_file` runs it: gzip data (by its magic bytes) decompressed first.
+pub fn ply(data: &[u8]) {
+    let plain;
+    let bytes = if geometry::gzip::is_gzip(data) {
+        match geometry::gzip::gunzip(data, geometry::gzip::MAX_DECOMPRESSED_BYTES) {
+            Ok(b) => {
+                plain = b;
+                &plain[..]
+            }
+            Err(e) => return report("gunzip", Err::<(), _>(e)),
+        }
+    } else {
+        data
+    };
+    report("ply", geometry::ply::read_ply(&mut &bytes[..], "fuzz.ply"));
+}
+
+/// The PNG reader (through a file as textures are read), with the linear encoding: the decoding is the same as
+/// with sRGB, whose per-sample curve for 16-bit images only slowed the fuzzer down.
+pub fn png(data: &[u8]) {
+    let file = Scratch::new("png", data);
+    report("png", film::read_rgb_encoded(&file.0, film::ColorEncoding::Linear));
+}
+
+/// The OpenEXR readers: RGB (textures, `compare`) and the spectral layout.
+pub fn exr(data: &[u8]) {
+    let file = Scratch::new("exr", data);
+    report("exr rgb", film::read_exr_rgb(&file.0));
+    report("exr spectral", film::read_exr_spectral(&file.0));
+}
+
+/// The PFM reader.
+pub fn pfm(data: &[u8]) {
+    let file = Scratch::new("pfm", data);
+    report("pfm", film::read_pfm(&file.0));
+}
+
+/// The TGA decoder and its conversion to linear RGB.
+pub fn tga(data: &[u8]) {
+    let r = film::tga::decode_tga(data);
+    if let Ok(image) = &r {
+        let _ = film::tga::srgb8_to_linear(image);
+    }
+    report("tga", r);
+}
+
+/// This process's scratch file holding one input (in memory-backed `/dev/shm` when there is one), removed when
+/// dropped: the image readers take paths.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(ext: &str, data: &[u8]) -> Self {
+        let dir = if Path::new("/dev/shm").is_dir() { PathBuf::from("/dev/shm") } else { std::env::temp_dir() };
+        let path = dir.join(format!("prismatic-fuzz-{}.{ext}", std::process::id()));
+        std::fs::write(&path, data).expect("the scratch file must be writable");
+        Scratch(path)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
