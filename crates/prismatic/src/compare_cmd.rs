@@ -48,6 +48,12 @@ pub struct Comparison {
     /// Mean over pixels and channels of (a − b)² / (b² + 0.01): the per-pixel relative MSE of a against the
     /// reference b (Rousselle et al. 2011's relMSE; the 0.01 keeps black pixels from dominating).
     pub pixel_relative_mse: f64,
+    /// Channel values (of `3 × pixels`) equal bit for bit in both images.
+    pub identical_values: usize,
+    /// Largest over pixels of max |a − b| over the channels divided by the pixel's largest |b|: the distance of a
+    /// merged or resumed render from the single-process one, in units of the pixel's scale (2⁻²³ is one f32 ulp).
+    /// 0 for identical images; infinite where b's pixel is black and a's is not.
+    pub max_difference_over_pixel_max: f64,
 }
 
 impl Comparison {
@@ -80,9 +86,12 @@ pub fn compare(w: u32, h: u32, a: &[[f32; 3]], b: &[[f32; 3]], region: Option<[u
         bail!("--region {x0},{y0},{x1},{y1} is outside the {w}x{h} image");
     }
     let (mut sa, mut sb, mut d2, mut rel, mut n) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
+    let (mut identical_values, mut max_scaled) = (0usize, 0.0f64);
     for y in y0..y1 {
         for x in x0..x1 {
             let i = (y * w + x) as usize;
+            let scale = b[i].iter().fold(0.0f64, |m, v| m.max((*v as f64).abs()));
+            let mut largest_difference = 0.0f64;
             for c in 0..3 {
                 let (va, vb) = (a[i][c] as f64, b[i][c] as f64);
                 if !(va.is_finite() && vb.is_finite()) {
@@ -92,12 +101,24 @@ pub fn compare(w: u32, h: u32, a: &[[f32; 3]], b: &[[f32; 3]], region: Option<[u
                 sb += vb;
                 d2 += (va - vb) * (va - vb);
                 rel += (va - vb) * (va - vb) / (vb * vb + 0.01);
+                identical_values += usize::from(a[i][c].to_bits() == b[i][c].to_bits());
+                largest_difference = largest_difference.max((va - vb).abs());
+            }
+            if largest_difference > 0.0 {
+                max_scaled = max_scaled.max(if scale > 0.0 { largest_difference / scale } else { f64::INFINITY });
             }
             n += 1;
         }
     }
     let k = (3 * n) as f64;
-    Ok(Comparison { pixels: n, mean: [sa / k, sb / k], rmse: (d2 / k).sqrt(), pixel_relative_mse: rel / k })
+    Ok(Comparison {
+        pixels: n,
+        mean: [sa / k, sb / k],
+        rmse: (d2 / k).sqrt(),
+        pixel_relative_mse: rel / k,
+        identical_values,
+        max_difference_over_pixel_max: max_scaled,
+    })
 }
 
 /// Runs the subcommand and returns what to print.
@@ -115,6 +136,8 @@ pub fn run(args: &CompareArgs) -> Result<String> {
     let _ = writeln!(out, "relative_rmse {:.6}", c.relative_rmse());
     let _ = writeln!(out, "relative_mse {:.6e}", c.relative_mse());
     let _ = writeln!(out, "pixel_relative_mse {:.6e}", c.pixel_relative_mse);
+    let _ = writeln!(out, "identical_values {} of {}", c.identical_values, 3 * c.pixels);
+    let _ = writeln!(out, "max_difference_over_pixel_max {:.6e}", c.max_difference_over_pixel_max);
     Ok(out)
 }
 
@@ -135,6 +158,13 @@ mod tests {
         // Against b (mean 1): MSE 2 / 1² = 2; per pixel, 0 for the first and 4 / 1.01 for the second.
         assert!((c.relative_mse() - 2.0).abs() < 1e-12);
         assert!((c.pixel_relative_mse - 0.5 * 4.0 / 1.01).abs() < 1e-12);
+        // The first pixel is equal bit for bit; the second differs by 2 on a scale of 1.
+        assert_eq!(c.identical_values, 3);
+        assert_eq!(c.max_difference_over_pixel_max, 2.0);
+        let same = compare(2, 1, &a, &a, None).unwrap();
+        assert_eq!((same.identical_values, same.max_difference_over_pixel_max), (6, 0.0));
+        let black = compare(1, 1, &[[0.0, 1e-9, 0.0]], &[[0.0; 3]], None).unwrap();
+        assert_eq!(black.max_difference_over_pixel_max, f64::INFINITY);
         let right = compare(2, 1, &a, &b, Some([1, 0, 2, 1])).unwrap();
         assert_eq!(right.mean, [3.0, 1.0]);
         assert!(compare(2, 1, &a, &b, Some([0, 0, 3, 1])).is_err());
