@@ -1,5 +1,8 @@
 //! BSDF sampling and evaluation throughput (`cargo bench -p render --bench bsdf`).
 
+#[path = "../tests/support/rgl.rs"]
+mod rgl;
+
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::{Vec2, Vec3};
 use render::bxdf::{Bxdf, TransportMode};
@@ -7,6 +10,7 @@ use render::layered::Layered;
 use render::microfacet::TrowbridgeReitz;
 use spectral::SampledSpectrum;
 use std::hint::black_box;
+use std::sync::Arc;
 
 fn bxdfs() -> Vec<(&'static str, Bxdf)> {
     let rough = TrowbridgeReitz::new(0.3, 0.3);
@@ -29,7 +33,24 @@ fn bxdfs() -> Vec<(&'static str, Bxdf)> {
                     .with_medium(SampledSpectrum::splat(0.8), 0.3),
             )),
         ),
+        ("measured (GGX file)", measured()),
     ]
+}
+
+/// A measured BRDF: a GGX conductor tabulated at the test's resolution (24 incident elevations, 64 × 96 VNDF,
+/// 48 × 48 sample space, 6 wavelengths).
+fn measured() -> Bxdf {
+    let model = rgl::Ggx {
+        alpha: 0.3,
+        wavelengths: vec![380.0, 450.0, 520.0, 600.0, 700.0, 830.0],
+        facet: rgl::Facet::Conductor {
+            eta: vec![1.5, 1.2, 0.9, 0.5, 0.3, 0.25],
+            k: vec![2.0, 2.3, 2.6, 3.0, 3.8, 5.0],
+        },
+    };
+    let t = render::measured::tensor::TensorFile::parse(model.file(rgl::Resolution::FINE)).unwrap();
+    let brdf = Arc::new(render::measured::MeasuredBrdf::from_tensor(&t).unwrap());
+    Bxdf::Measured { brdf, lambda: [420.0, 500.0, 580.0, 660.0] }
 }
 
 fn bench(c: &mut Criterion) {

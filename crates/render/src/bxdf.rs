@@ -6,8 +6,10 @@
 use glam::{Vec2, Vec3};
 use spectral::{SampledSpectrum, N_WAVELENGTHS};
 use std::f32::consts::FRAC_1_PI;
+use std::sync::Arc;
 
 use crate::layered::Layered;
+use crate::measured::MeasuredBrdf;
 use crate::microfacet::TrowbridgeReitz;
 use crate::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 
@@ -143,6 +145,14 @@ pub enum Bxdf {
         /// Relative index per wavelength.
         eta: SampledSpectrum,
     },
+    /// A measured BRDF (pbrt-v4's `MeasuredBxDF`): an RGL material's tables evaluated at the path's wavelengths.
+    /// The camera-side direction is the table's incident direction in both transport modes.
+    Measured {
+        /// The tables.
+        brdf: Arc<MeasuredBrdf>,
+        /// The path's wavelengths (nm), at which the reflectance table is interpolated.
+        lambda: [f32; N_WAVELENGTHS],
+    },
 }
 
 impl Bxdf {
@@ -154,7 +164,7 @@ impl Bxdf {
             // An index-matched interface passes light straight through whatever its roughness.
             Bxdf::Dielectric { eta, distrib } => *eta == 1.0 || distrib.effectively_smooth(),
             Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => true,
-            Bxdf::Layered(_) => false,
+            Bxdf::Layered(_) | Bxdf::Measured { .. } => false,
         }
     }
 
@@ -166,6 +176,7 @@ impl Bxdf {
             Bxdf::DiffuseTransmission { r, t } => (*r + *t).map(|v| v.min(1.0)),
             Bxdf::Conductor { eta, k, .. } => fresnel_conductor(1.0, eta, k),
             Bxdf::Layered(c) => c.base_albedo(),
+            Bxdf::Measured { brdf, lambda } => brdf.albedo_hint(lambda),
             Bxdf::Dielectric { .. } | Bxdf::DispersiveDielectric { .. } | Bxdf::ThinDielectric { .. } => {
                 SampledSpectrum::splat(1.0)
             }
@@ -211,6 +222,11 @@ impl Bxdf {
             }
             Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => SampledSpectrum::zero(),
             Bxdf::Layered(c) => c.f(wo, wi, mode),
+            Bxdf::Measured { brdf, lambda } => match mode {
+                TransportMode::Radiance => brdf.f(wo, wi, lambda),
+                // wo is the light side on a light path: the camera side, wi, is the table's incident direction.
+                TransportMode::Importance => brdf.f(wi, wo, lambda),
+            },
         }
     }
 
@@ -260,6 +276,8 @@ impl Bxdf {
             }
             Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => 0.0,
             Bxdf::Layered(c) => c.pdf(wo, wi, mode),
+            // Sampling always starts from wo, so its density is indexed by wo in both modes.
+            Bxdf::Measured { brdf, .. } => brdf.pdf(wo, wi),
         }
     }
 
@@ -271,7 +289,17 @@ impl Bxdf {
     /// [`Bxdf::sample_f`] restricted to reflection or transmission (used inside layered BxDFs).
     pub fn sample_f_lobes(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode, lobes: Lobes) -> Option<BsdfSample> {
         match self {
-            Bxdf::Diffuse { .. } | Bxdf::Conductor { .. } if lobes == Lobes::Transmission => None,
+            Bxdf::Diffuse { .. } | Bxdf::Conductor { .. } | Bxdf::Measured { .. } if lobes == Lobes::Transmission => {
+                None
+            }
+            Bxdf::Measured { brdf, lambda } => {
+                let (wi, f_cos, pdf) = brdf.sample(wo, u, lambda)?;
+                let f = match mode {
+                    TransportMode::Radiance => f_cos * (1.0 / wi.z.abs()),
+                    TransportMode::Importance => brdf.f(wi, wo, lambda),
+                };
+                Some(BsdfSample::reflection(f, wi, pdf, false))
+            }
             Bxdf::Diffuse { r } => {
                 let mut wi = sample_cosine_hemisphere(u);
                 if wo.z < 0.0 {

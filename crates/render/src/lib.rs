@@ -8,7 +8,7 @@
 //!   and reads the [`Integrator`].
 //! - [`Integrator`] ([`integrator`], one file per algorithm: `path`, `lightpath`, `bdpt`, `sppm`) starts a
 //!   [`RenderJob`] that renders ranges of passes into the film and finishes into it.
-//! - Underneath: [`bxdf`], [`layered`] and [`microfacet`] (scattering models), [`material`], [`texture`] and
+//! - Underneath: [`bxdf`], [`layered`], [`microfacet`] and [`measured`] (scattering models; RGL tensor files), [`material`], [`texture`] and
 //!   [`bump`] (what builds them at a hit), [`light`], [`camera`], [`sampler`] (the per-sample random numbers) and
 //!   [`sampling`] (warps and MIS heuristics).
 //!
@@ -33,6 +33,7 @@ pub mod integrator;
 pub mod layered;
 pub mod light;
 pub mod material;
+pub mod measured;
 pub mod medium;
 pub mod microfacet;
 pub mod sampler;

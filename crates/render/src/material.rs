@@ -1,10 +1,13 @@
 //! Materials: what a surface is made of, turned into a BxDF at the path's wavelengths.
 
+use std::sync::Arc;
+
 use optics::Ior;
 use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
 
 use crate::bxdf::Bxdf;
 use crate::layered::Layered;
+use crate::measured::MeasuredBrdf;
 use crate::microfacet::TrowbridgeReitz;
 use crate::texture::{FloatTexture, SpectrumTexture, TextureEvalContext};
 
@@ -184,6 +187,11 @@ pub enum Material {
         /// Probability of the second.
         amount: FloatTexture,
     },
+    /// A measured BRDF from an RGL tensor file (pbrt-v4's `measured`); not dispersive, so every wavelength is kept.
+    Measured {
+        /// The tables, shared by every hit.
+        brdf: Arc<MeasuredBrdf>,
+    },
     /// No surface: marks a boundary between media.
     Interface,
 }
@@ -267,6 +275,7 @@ impl Material {
                 );
                 Some(Bxdf::Layered(Box::new(medium.apply(layered, ctx, wl))))
             }
+            Material::Measured { brdf } => Some(Bxdf::Measured { brdf: brdf.clone(), lambda: wl.lambdas() }),
             Material::Mix { .. } | Material::Interface => None,
         }
     }

@@ -1,10 +1,13 @@
 //! Materials: pbrt-v4's `Material` and `MakeNamedMaterial` directives (`diffuse`, `diffusetransmission`,
 //! `conductor`, `dielectric`, `thindielectric`, `coateddiffuse`, `coatedconductor`, `mix`, `interface`,
-//! `subsurface`) with their
+//! `subsurface`, `measured`) with their
 //! roughness, conductor, index-of-refraction and layer parameters, and the index a shape's material reference
 //! resolves to.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
 
 use scene::{Entity, Loc, MaterialRef, ParamSet, ParamType, SceneDescription, SceneError, SpectrumKind};
 use spectral::Spectrum;
@@ -13,6 +16,7 @@ use super::textures::Textures;
 use super::{err, finite_positive, unsupported, Result};
 use crate::bump::NormalPerturbation;
 use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
+use crate::measured::MeasuredBrdf;
 use crate::medium::{HomogeneousMedium, Medium};
 use crate::scene::NO_MATERIAL;
 use crate::texture::{FloatTexture, SpectrumTexture};
@@ -43,12 +47,13 @@ impl Materials {
         let mut materials = Vec::with_capacity(n_anon + desc.named_materials.len());
         let mut perturbations = Vec::with_capacity(materials.capacity());
         let mut interiors = Vec::with_capacity(materials.capacity());
+        let measured = MeasuredFiles::default();
         for e in desc.materials.iter().chain(desc.named_materials.iter().map(|(_, e)| e)) {
             let (m, interior) = if e.name == "subsurface" {
                 let (m, medium) = super::subsurface::subsurface(e, roughness(textures, &e.params)?)?;
                 (m, Some(medium))
             } else {
-                (material(textures, e, &names)?, None)
+                (material(textures, e, &names, &measured)?, None)
             };
             interiors.push(interior);
             // A mix has none of its own (the material it picks brings its own), nor has an interface.
@@ -206,7 +211,31 @@ fn named_eta(p: &ParamSet, loc: &Loc, name: &str, default: f64) -> Result<Dielec
     }
 }
 
-fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>) -> Result<Material> {
+/// The measured BRDFs read so far, by path: each file is read once however many materials name it (as pbrt-v4
+/// caches them).
+#[derive(Default)]
+struct MeasuredFiles(RefCell<HashMap<PathBuf, Arc<MeasuredBrdf>>>);
+
+impl MeasuredFiles {
+    /// pbrt-v4's `measured` material: `string filename`, an RGL tensor file (resolved like every file name).
+    fn material(&self, e: &Entity) -> Result<Material> {
+        let p = &e.params;
+        let loc = p.loc_of("filename", &e.loc);
+        let Some(path) = p.get_filename("filename")? else {
+            return err(&e.loc, "the measured material needs 'string filename' (an RGL .bsdf tensor file)");
+        };
+        if let Some(brdf) = self.0.borrow().get(&path) {
+            return Ok(Material::Measured { brdf: brdf.clone() });
+        }
+        let brdf = MeasuredBrdf::read(&path)
+            .map_err(|m| SceneError::at(loc.clone(), format!("'filename': {}: {m}", path.display())))?;
+        let brdf = Arc::new(brdf);
+        self.0.borrow_mut().insert(path, brdf.clone());
+        Ok(Material::Measured { brdf })
+    }
+}
+
+fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &MeasuredFiles) -> Result<Material> {
     let p = &e.params;
     Ok(match e.name.as_str() {
         "diffuse" => Material::Diffuse { reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.5)? },
@@ -256,6 +285,7 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>) -> Result<Ma
             Material::Mix { materials: [idx(&m[0])?, idx(&m[1])?], amount: t.float_param(p, "amount", 0.5)? }
         }
         "interface" => Material::Interface,
+        "measured" => measured.material(e)?,
         other => {
             return err(
                 &e.loc,
@@ -273,6 +303,7 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>) -> Result<Ma
                         "mix",
                         "interface",
                         "subsurface",
+                        "measured",
                     ],
                 ),
             )

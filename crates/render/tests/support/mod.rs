@@ -1,0 +1,2 @@
+//! Helpers shared by the render crate's integration tests.
+pub mod rgl;
