@@ -142,9 +142,26 @@ fn decode_rle(mut src: &[u8], n: usize, bpp: usize) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
+/// The largest TGA file read (2 GiB, the bound of scene and mesh files): a name that leads to an endless stream
+/// such as `/dev/zero` is an error once this much is read, not a read until memory runs out.
+pub const MAX_TGA_BYTES: u64 = 2 << 30;
+
 /// Reads a TGA file's raw 8-bit samples ([`decode_tga`]).
 pub fn read_tga(path: &Path) -> Result<Image8, ImageError> {
-    let bytes = std::fs::read(path).map_err(|source| ImageError::Io { path: path.to_path_buf(), source })?;
+    read_tga_bounded(path, MAX_TGA_BYTES)
+}
+
+fn read_tga_bounded(path: &Path, limit: u64) -> Result<Image8, ImageError> {
+    use std::io::Read;
+    let io = |source| ImageError::Io { path: path.to_path_buf(), source };
+    let mut bytes = Vec::new();
+    std::fs::File::open(path).map_err(io)?.take(limit + 1).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > limit {
+        return Err(ImageError::Malformed {
+            path: path.to_path_buf(),
+            message: format!("larger than {limit} bytes, the most a TGA file is read to"),
+        });
+    }
     decode_tga(&bytes).map_err(|message| ImageError::Malformed { path: path.to_path_buf(), message })
 }
 
@@ -262,5 +279,24 @@ mod tests {
         assert!(decode_tga(&header(1, 1, 1, 8, 0, b"")).unwrap_err().contains("colour-mapped"));
         assert!(decode_tga(&header(2, 1, 1, 16, 0, b"")).unwrap_err().contains("16-bit"));
         assert!(decode_tga(&header(2, 0, 1, 24, 0, b"")).unwrap_err().contains("zero size"));
+    }
+
+    #[test]
+    fn endless_files_are_read_only_to_the_limit() {
+        // /dev/zero never ends: reading stops one byte past the limit and says so.
+        if Path::new("/dev/zero").exists() {
+            let e = read_tga_bounded(Path::new("/dev/zero"), 1 << 20).unwrap_err().to_string();
+            assert!(e.contains("larger than 1048576 bytes"), "{e}");
+        }
+        // A file of exactly the limit is read (and decoded: here a 1×1 grey image).
+        let dir = std::env::temp_dir().join(format!("prismatic-tga-limit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut f = header(3, 1, 1, 8, 0, b"");
+        f.push(77);
+        let path = dir.join("one.tga");
+        std::fs::write(&path, &f).unwrap();
+        assert_eq!(read_tga_bounded(&path, f.len() as u64).unwrap().data, vec![77]);
+        assert!(read_tga_bounded(&path, f.len() as u64 - 1).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -6,11 +6,16 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+// The measured-material tests' writer of RGL tensor files (an analytic GGX BRDF tabulated as pbrt-v4 reads it).
+#[allow(dead_code, clippy::all)]
+#[path = "../../../crates/render/tests/support/rgl.rs"]
+mod rgl;
+
 fn main() {
     let mut args = std::env::args().skip(1);
     let dir = PathBuf::from(args.next().expect("usage: seeds DIR [SCENE.pbrt ...]"));
     let scenes: Vec<PathBuf> = args.map(PathBuf::from).collect();
-    for t in ["pbrt", "ply", "png", "exr", "pfm", "tga"] {
+    for t in ["pbrt", "ply", "png", "exr", "pfm", "tga", "bsdf"] {
         std::fs::create_dir_all(dir.join(t)).unwrap();
     }
     ply_seeds(&dir.join("ply"));
@@ -18,11 +23,28 @@ fn main() {
     exr_seeds(&dir.join("exr"));
     pfm_seeds(&dir.join("pfm"));
     tga_seeds(&dir.join("tga"));
+    bsdf_seeds(&dir.join("bsdf"));
     // One scene compressed, so the gzip path of the scene reader has a seed.
     if let Some(first) = scenes.first() {
         let text = std::fs::read(first).unwrap();
         std::fs::write(dir.join("pbrt").join("scene.pbrt.gz"), gzip(&text)).unwrap();
     }
+}
+
+/// Tiny tensor files: a spectral conductor, a white anisotropic table (3 incident azimuths) and an `rgb` file.
+fn bsdf_seeds(dir: &Path) {
+    use rgl::{Facet, Ggx, Resolution};
+    let nodes = vec![400.0f32, 550.0, 700.0];
+    let conductor = Ggx {
+        alpha: 0.3,
+        wavelengths: nodes.clone(),
+        facet: Facet::Conductor { eta: vec![0.2, 0.9, 1.1], k: vec![2.0, 2.5, 3.5] },
+    };
+    std::fs::write(dir.join("conductor.bsdf"), conductor.file(Resolution::TINY)).unwrap();
+    let white = Ggx { alpha: 0.5, wavelengths: nodes, facet: Facet::White };
+    std::fs::write(dir.join("aniso.bsdf"), white.file(Resolution { phi_i: 3, ..Resolution::TINY })).unwrap();
+    let rgb = Ggx { alpha: 0.2, wavelengths: Vec::new(), facet: Facet::Rgb([0.9, 0.5, 0.1]) };
+    std::fs::write(dir.join("rgb.bsdf"), rgb.file(Resolution::TINY)).unwrap();
 }
 
 fn gzip(data: &[u8]) -> Vec<u8> {
