@@ -85,7 +85,9 @@ pub fn tga(data: &[u8]) {
 }
 
 /// The `measured` material's RGL tensor-file reader, then the BRDF built from what it read, evaluated, sampled and
-/// inverted at a few fixed directions (the warps index their tables with values the file provides).
+/// inverted at a few fixed directions (the warps index their tables with values the file provides). The albedo
+/// estimate of AOVs (1024 samples of the same functions per wavelength, computed on first use) is left out: it
+/// would cost more than everything else together.
 pub fn bsdf(data: &[u8]) {
     let tensor = match render::measured::tensor::TensorFile::parse(data.to_vec()) {
         Ok(t) => t,
@@ -106,7 +108,6 @@ pub fn bsdf(data: &[u8]) {
             let _ = brdf.sample(wi, glam::Vec2::from(u), &lambda);
         }
     }
-    let _ = brdf.albedo_hint(&lambda);
     report("measured", Ok::<(), String>(()));
 }
 

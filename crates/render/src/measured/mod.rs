@@ -31,6 +31,8 @@ pub mod warp;
 use std::f32::consts::PI;
 use std::path::Path;
 
+use std::sync::OnceLock;
+
 use glam::{Vec2, Vec3};
 use spectral::rgb_uplift::RgbUnboundedSpectrum;
 use spectral::{SampledSpectrum, N_WAVELENGTHS};
@@ -83,8 +85,11 @@ pub struct MeasuredBrdf {
     channels: Channels,
     isotropic: bool,
     jacobian: bool,
-    /// Directional albedo at normal incidence per tabulated wavelength or channel (for albedo AOVs).
-    albedo: Vec<f32>,
+    /// The tabulated wavelengths (nm) or RGB channel indices, the reflectance table's third parameter.
+    channel_values: Vec<f32>,
+    /// Directional albedo at normal incidence per tabulated wavelength or channel (for albedo AOVs), estimated on
+    /// first use: only renders that write an albedo pay for it (real files tabulate about 200 wavelengths).
+    albedo: OnceLock<Vec<f32>>,
 }
 
 impl std::fmt::Debug for MeasuredBrdf {
@@ -181,7 +186,7 @@ impl MeasuredBrdf {
             Channels::Spectral(w) => w.clone(),
             Channels::Rgb => vec![0.0, 1.0, 2.0],
         };
-        let mut brdf = MeasuredBrdf {
+        let brdf = MeasuredBrdf {
             description,
             ndf: Warp2D::new("ndf", &ndf, ndf_shape[1], ndf_shape[0], &[], false)?,
             sigma: Warp2D::new("sigma", &sigma, sigma_shape[1], sigma_shape[0], &[], false)?,
@@ -198,12 +203,12 @@ impl MeasuredBrdf {
             channels,
             isotropic,
             jacobian,
-            albedo: vec![],
+            channel_values,
+            albedo: OnceLock::new(),
         };
         if sigma.iter().any(|&v| v <= 0.0) || ndf.iter().any(|&v| v < 0.0) {
             return Err("'sigma' must be positive and 'ndf' not negative".into());
         }
-        brdf.albedo = brdf.normal_albedo(&channel_values);
         Ok(brdf)
     }
 
@@ -331,8 +336,8 @@ impl MeasuredBrdf {
         Some((if flip { -wo } else { wo }, f_cos, pdf))
     }
 
-    /// The directional albedo at normal incidence per tabulated channel, estimated at load time with 32 × 32
-    /// stratified samples of the BRDF's own sampling.
+    /// The directional albedo at normal incidence per tabulated channel, estimated with 32 × 32 stratified samples
+    /// of the BRDF's own sampling.
     fn normal_albedo(&self, channels: &[f32]) -> Vec<f32> {
         const N: usize = 32;
         let mut sum = vec![0.0f64; channels.len()];
@@ -365,17 +370,18 @@ impl MeasuredBrdf {
 
     /// The directional albedo at normal incidence at `lambda` (nm), for albedo AOVs.
     pub fn albedo_hint(&self, lambda: &[f32; N_WAVELENGTHS]) -> SampledSpectrum {
+        let albedo = self.albedo.get_or_init(|| self.normal_albedo(&self.channel_values));
         match &self.channels {
             Channels::Spectral(w) => SampledSpectrum(lambda.map(|l| {
                 let i = w.partition_point(|&x| x <= l).clamp(1, w.len().max(2) - 1);
                 if w.len() == 1 {
-                    return self.albedo[0];
+                    return albedo[0];
                 }
                 let t = ((l - w[i - 1]) / (w[i] - w[i - 1])).clamp(0.0, 1.0);
-                self.albedo[i - 1] + t * (self.albedo[i] - self.albedo[i - 1])
+                albedo[i - 1] + t * (albedo[i] - albedo[i - 1])
             })),
             Channels::Rgb => {
-                let rgb = [0, 1, 2].map(|k| self.albedo[k].max(0.0) as f64);
+                let rgb = [0, 1, 2].map(|k| albedo[k].max(0.0) as f64);
                 match RgbUnboundedSpectrum::new(rgb) {
                     Ok(s) => SampledSpectrum(lambda.map(|l| s.eval(l as f64) as f32)),
                     Err(_) => SampledSpectrum::zero(),
