@@ -239,7 +239,8 @@ struct CameraRecord {
     l: SampledSpectrum,
     wl: SampledWavelengths,
     weight: f32,
-    surface: Option<SurfaceRecord>,
+    /// Boxed: a batch holds many records, most films keep no AOVs.
+    surface: Option<Box<SurfaceRecord>>,
 }
 
 /// What the pixel samples of a splatting integrator produced: camera samples for their own pixels and splats.
@@ -260,7 +261,7 @@ impl SampleRecords {
         weight: f32,
         surface: Option<SurfaceRecord>,
     ) {
-        self.camera.push(CameraRecord { x, l, wl, weight, surface });
+        self.camera.push(CameraRecord { x, l, wl, weight, surface: surface.map(Box::new) });
     }
 
     /// Records a light-path contribution `l` at wavelengths `wl` landing at raster position `raster`.
