@@ -110,6 +110,32 @@ fn depth_and_its_change_per_pixel_on_planes_seen_by_a_perspective_camera() {
 }
 
 #[test]
+fn a_moving_cameras_space_is_the_one_at_each_samples_time() {
+    // The camera slides 2 along x while the shutter is open, in front of a plane facing it. In camera space each
+    // sample's point is where its ray meets the plane as seen from where the camera then was: 5·(k·sx, k·sy, 1),
+    // as for a still camera. In world space the points of a pixel spread over the slide: their mean is shifted by
+    // the camera's mean position, 1 (the start-time camera space would put them up to 2 off).
+    let k = (30f64).to_radians().tan();
+    let (w, h) = (6, 6);
+    let quad = "Shape \"bilinearmesh\" \"point3 P\" [ -20 -20 5  20 -20 5  -20 20 5  20 20 5 ]";
+    let moving = "ActiveTransform EndTime\nTranslate -2 0 0\nActiveTransform All\n".to_string() + PERSPECTIVE;
+    for (system, shift) in [("camera", 0.0), ("world", 1.0)] {
+        let film = render(&build(&scene(&moving, w, h, 64, system, "volpath", quad)));
+        for y in 0..h {
+            for x in 0..w {
+                let (sx, sy, _, _) = screen(x, y, w, h);
+                let px = pixel(&film, x, y);
+                let want = [5.0 * k * sx + shift, 5.0 * k * sy, 5.0];
+                for c in 0..3 {
+                    assert!((px.p[c] - want[c]).abs() < 0.02, "{system} ({x}, {y}): P {:?} vs {want:?}", px.p);
+                }
+                assert!(px.dz[0] < 1e-5 && px.dz[1] < 1e-5, "{system} ({x}, {y}): dz {:?}", px.dz);
+            }
+        }
+    }
+}
+
+#[test]
 fn an_orthographic_camera_sees_a_constant_slope_and_world_coordinates_are_the_scenes() {
     // z = 5 + a·x under an orthographic camera: x is the screen x, so dz/dx = a·Δ and dz/dy = 0 everywhere.
     let (w, h, a) = (6, 4, 0.75);
