@@ -725,9 +725,12 @@ pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError
     Ok((w, h, (0..n).map(|i| [channels[0][i], channels[1][i], channels[2][i]]).collect()))
 }
 
+/// Channels of an image by name: (name, one value per pixel, row-major from the top).
+pub type NamedChannels = Vec<(String, Vec<f32>)>;
+
 /// Reads every channel of an EXR (converted to `f32`), in the file's order (EXR sorts channels by name): width,
 /// height, and (name, values row-major from the top) per channel.
-pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Vec<(String, Vec<f32>)>), ImageError> {
+pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, NamedChannels), ImageError> {
     let image = read_exr(path)?;
     let (w, h) = exr_size(path, &image)?;
     let channels = image

@@ -50,5 +50,7 @@ pub use image_io::{
     parse_spectral_channel_name, read_exr_aovs, read_exr_layout, read_exr_rgb, read_exr_spectral, read_pfm,
     read_png_linear, read_rgb, spectral_channel_name, write_image, write_rgb, ExrLayout, ImageFormat, SpectralImage,
 };
-pub use image_io::{read_exr_channels, read_exr_text_attributes, read_rgb_encoded, write_image_with, ColorEncoding};
+pub use image_io::{
+    read_exr_channels, read_exr_text_attributes, read_rgb_encoded, write_image_with, ColorEncoding, NamedChannels,
+};
 pub use image_io::{read_part, write_file_atomic, write_part};

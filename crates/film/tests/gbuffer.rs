@@ -46,9 +46,8 @@ fn geometry_is_the_filter_weighted_mean_over_the_samples_that_saw_a_surface() {
             sp[c] += w * s.p[c];
             sn[c] += w * s.n[c];
         }
-        for c in 0..2 {
-            suv[c] += w * s.uv[c];
-        }
+        suv[0] += w * s.uv[0];
+        suv[1] += w * s.uv[1];
         sdz[0] += w * s.dzdx;
         sdz[1] += w * s.dzdy;
     }
@@ -105,10 +104,10 @@ fn variance_is_pbrt_v4s_sample_variance_of_the_samples_colour() {
     }
     let px = film.pixel_gbuffer(1, 0).unwrap();
     let (nf, kf) = (n as f64, k as f64);
-    for c in 0..3 {
-        let want = kf * (nf - kf) / (nf * (nf - 1.0)) * rgb[c] * rgb[c];
+    for (c, v) in rgb.iter().enumerate() {
+        let want = kf * (nf - kf) / (nf * (nf - 1.0)) * v * v;
         assert!((px.variance[c] - want).abs() <= 1e-12 * want, "{c}: {} vs {want}", px.variance[c]);
-        let rel = want / (kf * rgb[c] / nf);
+        let rel = want / (kf * v / nf);
         assert!((px.relative_variance[c] - rel).abs() <= 1e-12 * rel.abs(), "{c}: {px:?}");
     }
     // Pixel 2: random colours against a two-pass variance; one sample alone has variance 0; a record without a
