@@ -30,7 +30,9 @@ use spectral::{
 };
 use std::path::PathBuf;
 
+mod gbuffer;
 mod state;
+pub use gbuffer::{GBufferImages, GBufferPixel, VisibleSurface};
 pub use state::{FilmState, Plane};
 
 /// What a film records besides colour.
@@ -269,17 +271,28 @@ pub struct FilmSpec {
     pub pixel_bounds: Option<PixelBounds>,
     /// Write EXR channels as 16-bit half floats (pbrt-v4's `savefp16`; values above 65504 are clamped to it).
     pub write_fp16: bool,
-    /// pbrt-v4's `gbuffer` film: the AOVs are written under its channel names (`Albedo.R`, `Ns.X`, …), normals in
-    /// its output coordinate system. `None` for the `rgb` and `spectral` films.
+    /// pbrt-v4's `gbuffer` film: the AOVs are written under its channel names (`Albedo.R`, `Ns.X`, …) with its
+    /// geometry channels (`P.X`, `dzdx`, `N.X`, `u`, `Variance.R`, …; see [`VisibleSurface`]). `None` for the `rgb`
+    /// and `spectral` films.
     pub gbuffer: Option<GBuffer>,
 }
 
 /// What pbrt-v4's `gbuffer` film changes in the output.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GBuffer {
-    /// Rotation applied to world-space shading normals before they are written (`coordinatesystem "camera"`, the
-    /// default: world to camera space), or `None` for world space.
-    pub normal_from_world: Option<Mat3>,
+    /// The coordinate system of positions, normals (shading normals included) and depth derivatives. The
+    /// renderer transforms each sample's values before it adds them (so a moving camera's space is the one at
+    /// the sample's time, as in pbrt-v4).
+    pub coordinates: GBufferCoordinates,
+}
+
+/// pbrt-v4's `"string coordinatesystem"` of the gbuffer film.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GBufferCoordinates {
+    /// pbrt-v4's camera space (the default): the camera at the origin looking down +z.
+    Camera,
+    /// World space.
+    World,
 }
 
 impl Default for FilmSpec {
@@ -374,6 +387,8 @@ pub struct Film {
     normal: Vec<[f64; 3]>,
     /// Number of AOV records per pixel (empty without AOVs).
     aov_count: Vec<f64>,
+    /// The gbuffer's sums per pixel (empty without a gbuffer; see the `gbuffer` module).
+    surfaces: Vec<[f64; gbuffer::NSUMS]>,
     /// Samples dropped for non-finite values or out-of-range coordinates, per row.
     rejected: Vec<u64>,
     /// Splatted XYZ sums (empty until the first splat).
@@ -403,11 +418,15 @@ impl Film {
         let too_large = || FilmError::TooLarge {
             width: bounds.width(),
             height: bounds.height(),
-            channels: 4 + nbuckets + if spec.aovs { 7 } else { 0 },
+            channels: 4
+                + nbuckets
+                + if spec.aovs { 7 } else { 0 }
+                + if spec.gbuffer.is_some() { gbuffer::NSUMS } else { 0 },
         };
         let npix = (bounds.width() as usize).checked_mul(bounds.height() as usize).ok_or_else(too_large)?;
         let nb = npix.checked_mul(nbuckets).ok_or_else(too_large)?;
         let naov = if spec.aovs { npix } else { 0 };
+        let nsurf = if spec.gbuffer.is_some() { npix } else { 0 };
         Ok(Self {
             nbuckets,
             conversion: SampleConversion::new(&spec),
@@ -418,6 +437,7 @@ impl Film {
             albedo: zeroed(naov, [0.0; 3]).ok_or_else(too_large)?,
             normal: zeroed(naov, [0.0; 3]).ok_or_else(too_large)?,
             aov_count: zeroed(naov, 0.0).ok_or_else(too_large)?,
+            surfaces: zeroed(nsurf, [0.0; gbuffer::NSUMS]).ok_or_else(too_large)?,
             rejected: zeroed(bounds.height() as usize, 0).ok_or_else(too_large)?,
             splat_xyz: Vec::new(),
             splat_buckets: Vec::new(),
@@ -645,9 +665,11 @@ impl Film {
         let (x0, y0) = (self.bounds.x0, self.bounds.y0);
         let nb = self.nbuckets;
         let aov = self.spec.aovs;
-        let (conv, color_space) = (&self.conversion, &self.spec.color_space);
+        let gb = if self.spec.gbuffer.is_some() { w } else { 0 };
+        let (conv, color_space, output_matrix) = (&self.conversion, &self.spec.color_space, &self.output_matrix);
         let (mut xyz, mut weight, mut buckets) = (&mut self.xyz[..], &mut self.weight[..], &mut self.buckets[..]);
         let (mut albedo, mut normal, mut count) = (&mut self.albedo[..], &mut self.normal[..], &mut self.aov_count[..]);
+        let mut surfaces = &mut self.surfaces[..];
         let mut rows = Vec::with_capacity(self.bounds.height() as usize);
         for (row, rejected) in self.rejected.iter_mut().enumerate() {
             let (x_row, x_rest) = std::mem::take(&mut xyz).split_at_mut(w);
@@ -657,18 +679,22 @@ impl Film {
             let (a_row, a_rest) = std::mem::take(&mut albedo).split_at_mut(a);
             let (n_row, n_rest) = std::mem::take(&mut normal).split_at_mut(a);
             let (c_row, c_rest) = std::mem::take(&mut count).split_at_mut(a);
+            let (s_row, s_rest) = std::mem::take(&mut surfaces).split_at_mut(gb);
             (xyz, weight, buckets, albedo, normal, count) = (x_rest, w_rest, b_rest, a_rest, n_rest, c_rest);
+            surfaces = s_rest;
             rows.push(FilmRow {
                 y: y0 + row as u32,
                 x0,
                 conv,
                 color_space,
+                output_matrix,
                 xyz: x_row,
                 weight: w_row,
                 buckets: b_row,
                 albedo: a_row,
                 normal: n_row,
                 aov_count: c_row,
+                surfaces: s_row,
                 rejected,
             });
         }
@@ -727,6 +753,21 @@ impl Film {
         accumulate_aov(&mut self.albedo[i], &mut self.normal[i], &mut self.aov_count[i], albedo, normal)
     }
 
+    /// Adds one albedo and shading-normal record to pixel (x, y): see [`FilmRow::add_albedo`].
+    pub fn add_albedo(
+        &mut self,
+        x: u32,
+        y: u32,
+        albedo: &SampledSpectrum,
+        wl: &SampledWavelengths,
+        normal: [f64; 3],
+    ) -> bool {
+        match self.conversion.albedo_rgb(albedo, wl, &self.spec.color_space) {
+            Some(rgb) => self.add_aov(x, y, rgb, normal),
+            None => false,
+        }
+    }
+
     /// Adds `other`'s accumulators to this film's (for renders split across processes or sample ranges). The films
     /// must have the same size, kind and AOV setting.
     pub fn merge(&mut self, other: &Film) -> Result<(), FilmError> {
@@ -739,8 +780,8 @@ impl Film {
         if self.spec.kind != other.spec.kind {
             return Err(FilmError::Mismatch(format!("kinds differ: {:?} and {:?}", self.spec.kind, other.spec.kind)));
         }
-        if self.spec.aovs != other.spec.aovs {
-            return Err(FilmError::Mismatch("one film has AOVs and the other has not".into()));
+        if self.spec.aovs != other.spec.aovs || self.spec.gbuffer != other.spec.gbuffer {
+            return Err(FilmError::Mismatch("the films' AOVs or geometry buffers differ".into()));
         }
         if (&self.spec.sensor, self.spec.max_component_value) != (&other.spec.sensor, other.spec.max_component_value) {
             return Err(FilmError::Mismatch("the films' sensors or 'maxcomponentvalue' differ".into()));
@@ -756,6 +797,9 @@ impl Film {
         self.albedo.iter_mut().zip(&other.albedo).for_each(|(a, b)| add3(a, b));
         self.normal.iter_mut().zip(&other.normal).for_each(|(a, b)| add3(a, b));
         self.aov_count.iter_mut().zip(&other.aov_count).for_each(|(a, b)| *a += b);
+        for (a, b) in self.surfaces.iter_mut().zip(&other.surfaces) {
+            a.iter_mut().zip(b).for_each(|(a, b)| *a += b);
+        }
         self.rejected.iter_mut().zip(&other.rejected).for_each(|(a, b)| *a += b);
         if !other.splat_xyz.is_empty() {
             if self.splat_xyz.is_empty() {
@@ -852,15 +896,10 @@ impl Film {
             .zip(&self.aov_count)
             .map(|(a, &n)| if n > 0.0 { a.map(|c| (c / n) as f32) } else { [0.0; 3] })
             .collect();
-        let frame = self.spec.gbuffer.as_ref().and_then(|g| g.normal_from_world);
         let normal = self
             .normal
             .iter()
             .map(|v| {
-                let v = match &frame {
-                    Some(m) => mul_mat_vec(m, *v),
-                    None => *v,
-                };
                 let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
                 if len > 0.0 {
                     v.map(|c| (c / len) as f32)
@@ -1052,12 +1091,15 @@ pub struct FilmRow<'a> {
     x0: u32,
     conv: &'a SampleConversion,
     color_space: &'a RgbColorSpace,
+    /// The film's sensor-to-output XYZ matrix (for the colour of variance samples).
+    output_matrix: &'a Mat3,
     xyz: &'a mut [[f64; 3]],
     weight: &'a mut [f64],
     buckets: &'a mut [f64],
     albedo: &'a mut [[f64; 3]],
     normal: &'a mut [[f64; 3]],
     aov_count: &'a mut [f64],
+    surfaces: &'a mut [[f64; gbuffer::NSUMS]],
     rejected: &'a mut u64,
 }
 

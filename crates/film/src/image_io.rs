@@ -226,8 +226,9 @@ fn check_size(width: u32, height: u32, len: usize) -> Result<(), ImageError> {
 /// Writes the film to `path`, the format following the extension (`.exr`, `.png`, `.pfm`, any case).
 ///
 /// EXR: `R`, `G`, `B` in the film's colour space (with its `chromaticities` attribute), plus the spectral channels
-/// and attributes of the Fichet et al. layout for a spectral film, plus `albedo.R/G/B` and `N.X/Y/Z` with AOVs.
-/// PNG and PFM hold the RGB image only.
+/// and attributes of the Fichet et al. layout for a spectral film, plus `albedo.R/G/B` and `N.X/Y/Z` with AOVs,
+/// or for a gbuffer film pbrt-v4's channels (`Albedo.*`, `P.*`, `dzdx`, `dzdy`, `N.*`, `Ns.*`, `u`, `v`,
+/// `Variance.*`, `RelativeVariance.*`). PNG and PFM hold the RGB image only.
 pub fn write_image(film: &Film, path: &Path) -> Result<(), ImageError> {
     write_image_with(film, path, &[])
 }
@@ -271,17 +272,24 @@ fn film_exr(film: &Film, extra_attributes: &[(String, String)]) -> ExrContent {
         attributes.push(("emissiveUnits".to_string(), EMISSIVE_UNITS.to_string()));
     }
     if let Some(AovImages { albedo, normal }) = film.to_aov_images() {
-        // pbrt-v4's gbuffer film names them Albedo.* and Ns.* (shading normal); --aovs uses albedo.*, N.*.
-        let (albedo_names, normal_names) = if film.spec().gbuffer.is_some() {
-            (["Albedo.R", "Albedo.G", "Albedo.B"], ["Ns.X", "Ns.Y", "Ns.Z"])
-        } else {
-            (["albedo.R", "albedo.G", "albedo.B"], ["N.X", "N.Y", "N.Z"])
-        };
-        for (c, name) in albedo_names.iter().enumerate() {
-            channels.push((name.to_string(), albedo.iter().map(|p| p[c]).collect()));
-        }
-        for (c, name) in normal_names.iter().enumerate() {
-            channels.push((name.to_string(), normal.iter().map(|p| p[c]).collect()));
+        let c = &mut channels;
+        match film.to_gbuffer_images() {
+            // pbrt-v4's GBufferFilm::GetImage: its channel names, in its order.
+            Some(g) => {
+                push_channels(c, ["Albedo.R", "Albedo.G", "Albedo.B"], &albedo);
+                push_channels(c, ["P.X", "P.Y", "P.Z"], &g.p);
+                push_channels(c, ["dzdx", "dzdy"], &g.dz);
+                push_channels(c, ["N.X", "N.Y", "N.Z"], &g.n);
+                push_channels(c, ["Ns.X", "Ns.Y", "Ns.Z"], &normal);
+                push_channels(c, ["u", "v"], &g.uv);
+                push_channels(c, ["Variance.R", "Variance.G", "Variance.B"], &g.variance);
+                let relative = ["RelativeVariance.R", "RelativeVariance.G", "RelativeVariance.B"];
+                push_channels(c, relative, &g.relative_variance);
+            }
+            None => {
+                push_channels(c, ["albedo.R", "albedo.G", "albedo.B"], &albedo);
+                push_channels(c, ["N.X", "N.Y", "N.Z"], &normal);
+            }
         }
     }
     let cs = &film.spec().color_space;
@@ -298,6 +306,13 @@ fn film_exr(film: &Film, extra_attributes: &[(String, String)]) -> ExrContent {
         half: film.spec().write_fp16,
     };
     ExrContent { channels, bits: Vec::new(), attributes, chromaticities: Some(chroma), windows }
+}
+
+/// Appends one channel per component of `values`, named `names`.
+fn push_channels<const N: usize>(channels: &mut Vec<(String, Vec<f32>)>, names: [&str; N], values: &[[f32; N]]) {
+    for (c, name) in names.iter().enumerate() {
+        channels.push((name.to_string(), values.iter().map(|p| p[c]).collect()));
+    }
 }
 
 /// What an EXR file holds: float channels, 32-bit unsigned integer channels, text attributes, chromaticities and
@@ -708,6 +723,24 @@ pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError
         return Err(ImageError::Malformed { path: path.to_path_buf(), message: "channel sizes differ".into() });
     }
     Ok((w, h, (0..n).map(|i| [channels[0][i], channels[1][i], channels[2][i]]).collect()))
+}
+
+/// Channels of an image by name: (name, one value per pixel, row-major from the top).
+pub type NamedChannels = Vec<(String, Vec<f32>)>;
+
+/// Reads every channel of an EXR (converted to `f32`), in the file's order (EXR sorts channels by name): width,
+/// height, and (name, values row-major from the top) per channel.
+pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, NamedChannels), ImageError> {
+    let image = read_exr(path)?;
+    let (w, h) = exr_size(path, &image)?;
+    let channels = image
+        .layer_data
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect();
+    Ok((w, h, channels))
 }
 
 /// Reads the `albedo.R/G/B` and `N.X/Y/Z` layers of an EXR written with AOVs (or a gbuffer film's `Albedo.R/G/B`

@@ -3,7 +3,7 @@
 //! - [`Filter`] and [`FilterSampler`]: pbrt-v4's pixel filters, importance sampled so each camera sample lands in
 //!   its own pixel with weight f/pdf (lock-free, thread-count independent rendering).
 //! - [`Film`]: `f64` accumulators per pixel (XYZ, weight, and for a spectral film `nbuckets` wavelength buckets;
-//!   optionally albedo and normal AOVs), written row by row in parallel and mergeable across processes. The film
+//!   optionally albedo and normal AOVs and pbrt-v4's geometry buffer), written row by row in parallel and mergeable across processes. The film
 //!   draws the wavelengths paths carry ([`Film::sample_wavelengths`]) and takes their radiance at those
 //!   wavelengths: the conversion to XYZ, the bucket assignment and the sensor's response are its own
 //!   ([`SampleConversion`]), written once for camera samples, splats and photon-mapping estimates.
@@ -41,13 +41,16 @@ pub mod tga;
 
 pub use error::{FilmError, ImageError};
 pub use film::{
-    AovImages, CameraResponse, Film, FilmKind, FilmRow, FilmSpec, FilmState, GBuffer, PixelBounds, PixelSensor, Plane,
-    SampleConversion, SpectralEstimates, Splat,
+    AovImages, CameraResponse, Film, FilmKind, FilmRow, FilmSpec, FilmState, GBuffer, GBufferCoordinates,
+    GBufferImages, GBufferPixel, PixelBounds, PixelSensor, Plane, SampleConversion, SpectralEstimates, Splat,
+    VisibleSurface,
 };
 pub use filter::{Filter, FilterSample, FilterSampler};
 pub use image_io::{
     parse_spectral_channel_name, read_exr_aovs, read_exr_layout, read_exr_rgb, read_exr_spectral, read_pfm,
     read_png_linear, read_rgb, spectral_channel_name, write_image, write_rgb, ExrLayout, ImageFormat, SpectralImage,
 };
-pub use image_io::{read_exr_text_attributes, read_rgb_encoded, write_image_with, ColorEncoding};
+pub use image_io::{
+    read_exr_channels, read_exr_text_attributes, read_rgb_encoded, write_image_with, ColorEncoding, NamedChannels,
+};
 pub use image_io::{read_part, write_file_atomic, write_part};

@@ -1,12 +1,13 @@
 //! Checkpoints, resume, shards and merge, as a user runs them: the binary on small scenes in a temporary directory.
 //!
 //! - a render killed with SIGKILL between checkpoints resumes from the last complete checkpoint and writes the
-//!   image of an uninterrupted render bit for bit, for every integrator (RGB and spectral films in turn);
+//!   image of an uninterrupted render bit for bit, for every integrator (RGB, spectral and gbuffer films in turn:
+//!   every channel, the gbuffer's geometry and variance too);
 //! - resuming refuses changed scene files (the main file, an included file, a PLY mesh), other options, and
 //!   damaged, truncated or foreign checkpoint files, with a message and without a panic;
 //! - the shards of a render merge into the single-process image: within one f32 unit in the last place of the
-//!   pixel's largest value for sample shards, bit for bit for sppm's bands of rows; merge refuses parts of other
-//!   scenes, seeds or options, missing and repeated shards.
+//!   pixel's largest value for sample shards (the gbuffer's channels within two units of the value), bit for bit
+//!   for sppm's bands of rows; merge refuses parts of other scenes, seeds or options, missing and repeated shards.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -72,9 +73,8 @@ const FLOOR: &str = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n
                      element face 2\nproperty list uchar int vertex_indices\nend_header\n\
                      -4 0 -4\n4 0 -4\n4 0 4\n-4 0 4\n3 0 2 1\n3 0 3 2\n";
 
-/// Writes the scene (with `integrator` and an RGB or spectral film) and its files into `dir`.
-fn write_scene(dir: &Path, integrator: &str, spectral: bool) {
-    let film = if spectral { "spectral" } else { "rgb" };
+/// Writes the scene (with `integrator` and an `rgb`, `spectral` or `gbuffer` film) and its files into `dir`.
+fn write_scene(dir: &Path, integrator: &str, film: &str) {
     std::fs::write(dir.join("scene.pbrt"), SCENE.replace("INTEGRATOR", integrator).replace("FILM", film)).unwrap();
     std::fs::write(dir.join("light.pbrt"), LIGHT).unwrap();
     std::fs::write(dir.join("floor.ply"), FLOOR).unwrap();
@@ -89,9 +89,22 @@ fn values(path: &Path) -> (Vec<[f32; 3]>, Vec<f32>, usize) {
     }
 }
 
+/// The channels of an EXR other than R, G, B and the spectral ones: a gbuffer film's (albedo, geometry,
+/// variance), by name.
+fn other_channels(path: &Path) -> Vec<(String, Vec<f32>)> {
+    let (_, _, channels) = film::read_exr_channels(path).unwrap();
+    channels.into_iter().filter(|(n, _)| !["R", "G", "B"].contains(&n.as_str()) && !n.starts_with("S0.")).collect()
+}
+
 /// Asserts two EXRs hold the same bits in every channel.
 #[track_caller]
 fn assert_identical(a: &Path, b: &Path, what: &str) {
+    let (oa, ob) = (other_channels(a), other_channels(b));
+    assert_eq!(oa.len(), ob.len(), "{what}");
+    for ((na, va), (nb, vb)) in oa.iter().zip(&ob) {
+        assert_eq!(na, nb, "{what}");
+        assert!(va.iter().zip(vb).all(|(p, q)| p.to_bits() == q.to_bits()), "{what}: {na} differs");
+    }
     let (ra, sa, _) = values(a);
     let (rb, sb, _) = values(b);
     assert_eq!(ra.len(), rb.len(), "{what}");
@@ -135,21 +148,21 @@ fn render_and_kill(dir: &Path, args: &[&str]) {
 }
 
 /// SIGKILL between checkpoints, then `render --resume`: the image is bit for bit the uninterrupted render's, for
-/// every integrator (splats of lightpath and bdpt, sppm's progressive statistics), RGB and spectral films in
-/// turn. The checkpoint was really taken mid-render (fewer passes done than asked). (A kill during a write can
-/// leave a temporary file beside it; the checkpoint itself is always a complete one.)
+/// every integrator (splats of lightpath and bdpt, sppm's progressive statistics), RGB, spectral and gbuffer
+/// films in turn. The checkpoint was really taken mid-render (fewer passes done than asked). (A kill during a write
+/// can leave a temporary file beside it; the checkpoint itself is always a complete one.)
 #[cfg(unix)]
 #[test]
 fn a_killed_render_resumes_to_the_uninterrupted_image() {
-    for (integrator, spectral, spp) in [
-        ("path", true, 2048),
-        ("volpath", false, 2048),
-        ("bdpt", true, 1536),
-        ("lightpath", false, 2048),
-        ("sppm", true, 4096),
+    for (integrator, film, spp) in [
+        ("path", "spectral", 2048),
+        ("volpath", "gbuffer", 2048),
+        ("bdpt", "spectral", 1536),
+        ("lightpath", "rgb", 2048),
+        ("sppm", "gbuffer", 4096),
     ] {
         let dir = temp_dir(&format!("kill-{integrator}"));
-        write_scene(&dir, integrator, spectral);
+        write_scene(&dir, integrator, film);
         let spp = spp.to_string();
         render_and_kill(&dir, &["scene.pbrt", "--spp", &spp, "--seed", "3", "-o", "out.exr"]);
         let (start, end, done) = checkpoint_passes(&dir.join("c.ckpt"));
@@ -174,7 +187,7 @@ fn a_killed_render_resumes_to_the_uninterrupted_image() {
 #[test]
 fn resume_refuses_other_scenes_options_and_damaged_checkpoints() {
     let dir = temp_dir("refuse");
-    write_scene(&dir, "path", false);
+    write_scene(&dir, "path", "rgb");
     // `render` with the options of the checkpointed render (8 spp unless `extra` says otherwise).
     let render = |extra: &[&str]| {
         let mut args = vec!["render", "scene.pbrt", "--quiet"];
@@ -199,7 +212,7 @@ fn resume_refuses_other_scenes_options_and_damaged_checkpoints() {
         std::fs::write(dir.join(file), text).unwrap();
         let e = failure(&prismatic(&dir, &["render", "--resume", "c.ckpt"]));
         assert!(e.contains("scene's files changed"), "{file}: {e}");
-        write_scene(&dir, "path", false);
+        write_scene(&dir, "path", "rgb");
     }
     let main = std::fs::read_to_string(dir.join("scene.pbrt")).unwrap();
     std::fs::write(dir.join("scene.pbrt"), main.clone() + "# a comment\n").unwrap();
@@ -259,20 +272,34 @@ fn assert_within_rounding(merged: &Path, single: &Path, what: &str) -> (usize, u
         }
     }
     assert!(rb.iter().any(|p| p[1] > 0.0), "{what}: black image");
+    // The gbuffer's channels are ratios (sums over weight sums, normalised sums, variances from sums of squares):
+    // within two f32 units of the value, or of the channel's largest value times 10⁻⁹ where sums cancel to ~0.
+    let (oa, ob) = (other_channels(merged), other_channels(single));
+    assert_eq!(oa.len(), ob.len(), "{what}");
+    for ((na, va), (nb, vb)) in oa.iter().zip(&ob) {
+        assert_eq!(na, nb, "{what}");
+        let scale = vb.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        for (i, (a, b)) in va.iter().zip(vb).enumerate() {
+            let tol = 2.0 * f32::EPSILON * a.abs().max(b.abs()) + 1e-9 * scale;
+            assert!((a - b).abs() <= tol, "{what}: {na} pixel {i}: {a} vs {b}");
+            same += usize::from(a.to_bits() == b.to_bits());
+            count += 1;
+        }
+    }
     (same, count)
 }
 
 /// Three shards merged equal the single-process render: within one f32 unit of the pixel's largest value for the
 /// sample shards of path, volpath, bdpt and lightpath (sums regrouped, see the merge's bound), bit for bit for
-/// sppm's bands of rows, RGB and spectral films. A part alone is not the image (each holds a third of the
+/// sppm's bands of rows, RGB, spectral and gbuffer films. A part alone is not the image (each holds a third of the
 /// samples, or of the rows).
 #[test]
 fn shards_merge_into_the_single_process_image() {
-    for spectral in [false, true] {
+    for film in ["rgb", "spectral", "gbuffer"] {
         for integrator in ["path", "volpath", "bdpt", "lightpath", "sppm"] {
-            let what = format!("{integrator} ({})", if spectral { "spectral" } else { "rgb" });
-            let dir = temp_dir(&format!("shards-{integrator}-{spectral}"));
-            write_scene(&dir, integrator, spectral);
+            let what = format!("{integrator} ({film})");
+            let dir = temp_dir(&format!("shards-{integrator}-{film}"));
+            write_scene(&dir, integrator, film);
             let spp = "6";
             ok(prismatic(&dir, &["render", "scene.pbrt", "--spp", spp, "--seed", "4", "-o", "whole.exr", "--quiet"]));
             for k in 1..=3 {
@@ -288,6 +315,9 @@ fn shards_merge_into_the_single_process_image() {
             }
             // Given in any order.
             ok(prismatic(&dir, &["merge", "part-3.exr", "part-1.exr", "part-2.exr", "-o", "merged.exr"]));
+            let names: Vec<String> = other_channels(&dir.join("merged.exr")).into_iter().map(|(n, _)| n).collect();
+            let gbuffer = ["P.Z", "dzdx", "N.X", "Ns.Y", "u", "Variance.G", "RelativeVariance.B"];
+            assert_eq!(gbuffer.iter().all(|g| names.iter().any(|n| n == g)), film == "gbuffer", "{what}: {names:?}");
             if integrator == "sppm" {
                 assert_identical(&dir.join("merged.exr"), &dir.join("whole.exr"), &what);
                 let layout = film::read_exr_layout(&dir.join("part-2.exr")).unwrap();
@@ -312,7 +342,7 @@ fn shards_merge_into_the_single_process_image() {
 #[test]
 fn merge_refuses_parts_of_other_renders() {
     let dir = temp_dir("merge-refuse");
-    write_scene(&dir, "bdpt", false);
+    write_scene(&dir, "bdpt", "rgb");
     let part = |out: &str, shard: &str, extra: &[&str]| {
         let mut args = vec!["render", "scene.pbrt", "--spp", "4", "--shard", shard, "-o", out, "--quiet"];
         args.extend_from_slice(extra);

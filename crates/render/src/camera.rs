@@ -120,6 +120,12 @@ impl Camera {
         }
     }
 
+    /// pbrt-v4's camera space from world space, where the camera is at the start of the shutter (see
+    /// [`Camera::at_time`] for a moving camera).
+    pub fn camera_from_world(&self) -> &Transform {
+        &self.camera_from_world
+    }
+
     /// Film resolution in pixels.
     pub fn resolution(&self) -> (u32, u32) {
         self.resolution

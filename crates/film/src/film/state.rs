@@ -2,11 +2,13 @@
 //!
 //! The state is a list of named *planes*, one `f64` per pixel of the film's bounds (row-major from the top row),
 //! plus the counts that are not per pixel. Plane names: `X`, `Y`, `Z` (weighted XYZ sums), `W` (filter-weight
-//! sums), `S<b>` for spectral bucket `b` (weighted sums); with AOVs `albedo.R/G/B`, `N.X/Y/Z` and `aovCount`; after
-//! the first splat `splat.X/Y/Z` and `splat.S<b>`. A state put back with [`Film::paste`] gives a film whose every
+//! sums), `S<b>` for spectral bucket `b` (weighted sums); with AOVs `albedo.R/G/B`, `N.X/Y/Z` and `aovCount`; with
+//! a gbuffer its sums (`gbuffer.W`, `P.X/Y/Z`, `Ng.X/Y/Z`, `u`, `v`, `dzdx`, `dzdy`, `variance.n`,
+//! `variance.R/G/B` and `variance.R2/G2/B2`: see the `gbuffer` module); after the first splat `splat.X/Y/Z` and
+//! `splat.S<b>`. A state put back with [`Film::paste`] gives a film whose every
 //! accumulator has the same bits, so a render continued from it is the render that was never stopped.
 
-use super::{zeroed, Film, PixelBounds};
+use super::{gbuffer, zeroed, Film, PixelBounds};
 use crate::FilmError;
 use std::collections::BTreeMap;
 
@@ -56,6 +58,9 @@ impl Film {
                 names.push(n.to_string());
             }
         }
+        if self.spec.gbuffer.is_some() {
+            names.extend(gbuffer::PLANE_NAMES.iter().map(|s| s.to_string()));
+        }
         if splats {
             names.extend(["splat.X", "splat.Y", "splat.Z"].iter().map(|s| s.to_string()));
             names.extend((0..nb).map(|b| format!("splat.S{b}")));
@@ -87,6 +92,11 @@ impl Film {
                 push(n.to_string(), c3(&self.normal, c));
             }
             push("aovCount".into(), self.aov_count.clone());
+        }
+        if self.spec.gbuffer.is_some() {
+            for (k, n) in gbuffer::PLANE_NAMES.iter().enumerate() {
+                push(n.to_string(), self.surfaces.iter().map(|s| s[k]).collect());
+            }
         }
         if splats {
             for (c, n) in ["splat.X", "splat.Y", "splat.Z"].iter().enumerate() {
@@ -131,7 +141,7 @@ impl Film {
         want.sort_unstable();
         if found != want {
             return Err(mismatch(format!(
-                "the stored accumulators [{}] are not this film's [{}] (another film kind, bucket count or AOV setting)",
+                "the stored accumulators [{}] are not this film's [{}] (another film kind, bucket count, AOV or gbuffer setting)",
                 found.join(", "),
                 want.join(", ")
             )));
@@ -227,6 +237,11 @@ impl Film {
                 f(n, self.normal.as_flattened_mut(), 3, c);
             }
             f("aovCount", &mut self.aov_count, 1, 0);
+        }
+        if self.spec.gbuffer.is_some() {
+            for (k, n) in gbuffer::PLANE_NAMES.iter().enumerate() {
+                f(n, self.surfaces.as_flattened_mut(), gbuffer::NSUMS, k);
+            }
         }
         if !self.splat_xyz.is_empty() {
             for (c, n) in ["splat.X", "splat.Y", "splat.Z"].iter().enumerate() {

@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use film::{CameraResponse, FilmKind, FilmSpec, Filter, GBuffer, PixelBounds, PixelSensor};
+use film::{CameraResponse, FilmKind, FilmSpec, Filter, GBuffer, GBufferCoordinates, PixelBounds, PixelSensor};
 use scene::{Entity, SceneDescription, SceneError};
 use spectral::sensor::CameraSensor;
 
@@ -54,19 +54,15 @@ pub(super) fn make_film(
         );
     }
     if desc.film.name == "gbuffer" {
-        // pbrt-v4's GBufferFilm writes EXR only; its geometric channels are the AOVs Prismatic keeps.
+        // pbrt-v4's GBufferFilm writes EXR only.
         if film::ImageFormat::from_path(&film.filename).ok() != Some(film::ImageFormat::Exr) {
             return err(floc, format!("film \"gbuffer\" writes EXR only, not {}", film.filename.display()));
         }
         let system = fp.get_string("coordinatesystem", "camera")?;
         film.aovs = true;
         film.gbuffer = Some(match system.as_str() {
-            "camera" => {
-                let m = desc.camera.camera_from_world.matrix();
-                let (c0, c1, c2) = (m.x_axis, m.y_axis, m.z_axis);
-                GBuffer { normal_from_world: Some([[c0.x, c1.x, c2.x], [c0.y, c1.y, c2.y], [c0.z, c1.z, c2.z]]) }
-            }
-            "world" => GBuffer { normal_from_world: None },
+            "camera" => GBuffer { coordinates: GBufferCoordinates::Camera },
+            "world" => GBuffer { coordinates: GBufferCoordinates::World },
             other => {
                 return err(
                     &fp.loc_of("coordinatesystem", floc),

@@ -33,7 +33,10 @@ use glam::{Vec2, Vec3};
 use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
-use super::drive::{finite_or_zero, render_splatting, CameraSampler, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
+use super::drive::{
+    finite_or_zero, render_splatting, CameraSampler, RenderStats, SampleRecords, SurfaceRecords, LIGHT_PATH_SEED_SALT,
+};
+use super::path::FirstHit;
 use super::transport::{
     begin_bounce, sample_light_path, scatter, shadow_transmittance, weigh_tracking, Bounce, BounceSamples, PathRay,
     RayCounts, ShadowTarget, ShadowTransmittance, SpectralMis,
@@ -410,6 +413,7 @@ impl BdptIntegrator {
         wl: &mut SampledWavelengths,
         samplers: [&mut Sampler; 3],
         counts: &mut RayCounts,
+        first_hit: Option<&mut Option<FirstHit>>,
         mut splat: impl FnMut(Vec2, SampledSpectrum, &SampledWavelengths),
     ) -> SampledSpectrum {
         let [camera_sampler, light_sampler, connect_sampler] = samplers;
@@ -422,6 +426,13 @@ impl BdptIntegrator {
         }
         let cam = scene.camera.at_time(time);
         let camera = self.camera_subpath(scene, &cam, o, d, time, wl, &mut mis, camera_sampler, counts);
+        if let Some(fh) = first_hit {
+            // The camera ray's first vertex, if it is a surface that scatters (pbrt-v4's visible surface).
+            *fh = camera.get(1).filter(|v| v.kind == Kind::Surface).and_then(|v| {
+                let b = v.bxdf.as_ref()?;
+                Some(FirstHit { albedo: b.albedo_hint(), normal: v.ns, p: v.p, ng: v.ng, uv: v.uv })
+            });
+        }
         let light = self.light_subpath(scene, time, wl, &mut mis, light_sampler, counts);
         let mut l = SampledSpectrum::zero();
         for t in 1..=camera.len() {
@@ -989,9 +1000,11 @@ impl RenderJob for BdptRender<'_> {
         let (scene, seed) = (self.scene, self.seed);
         let light_seed = hash_words(&[seed, LIGHT_PATH_SEED_SALT]);
         let connect_seed = hash_words(&[seed, BDPT_CONNECT_SEED_SALT]);
+        let surfaces = SurfaceRecords::of(film);
         let per_sample = |x: u32, y: u32, s: u32, counts: &mut RayCounts, records: &mut SampleRecords| {
             let mut sampler = Sampler::new(x, y, s, seed);
             let cs = self.camera.sample(scene, x, y, &mut sampler);
+            let mut first_hit = None;
             let mut wl = cs.wl;
             let mut light_sampler = Sampler::new(x, y, s, light_seed);
             let mut connect_sampler = Sampler::new(x, y, s, connect_seed);
@@ -1003,11 +1016,13 @@ impl RenderJob for BdptRender<'_> {
                 &mut wl,
                 [&mut sampler, &mut light_sampler, &mut connect_sampler],
                 counts,
+                surfaces.wanted().then_some(&mut first_hit),
                 // Splats keep the wavelengths they were made at (a later dispersive event on the other subpath may
                 // have reduced the set since).
                 |raster, c, swl| records.splat(raster, c, *swl),
             );
-            records.camera(x, finite_or_zero(l), wl, cs.weight);
+            let surface = first_hit.map(|h| surfaces.record(scene, &cs, &h));
+            records.camera(x, finite_or_zero(l), wl, cs.weight, surface);
         };
         render_splatting(film, passes, progress, &per_sample)
     }

@@ -8,11 +8,12 @@
 
 use std::ops::Range;
 
-use film::{Film, FilmError, FilmRow, FilterSampler, Splat};
-use glam::Vec2;
+use film::{Film, FilmError, FilmRow, FilterSampler, GBufferCoordinates, Splat, VisibleSurface};
+use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use spectral::{SampledSpectrum, SampledWavelengths, WavelengthSampler};
 
+use super::path::FirstHit;
 use super::transport::RayCounts;
 use crate::camera::CameraRay;
 use crate::sampler::Sampler;
@@ -39,6 +40,10 @@ pub(crate) struct CameraSample {
     pub weight: f32,
     /// The ray leaving the lens.
     pub ray: CameraRay,
+    /// The film position the ray was generated for (raster pixels, y down).
+    pub film: Vec2,
+    /// The lens sample the ray was generated with.
+    pub lens: Vec2,
 }
 
 /// Makes camera samples for a film: its pixel filter, importance sampled, and its wavelength strategy.
@@ -65,12 +70,130 @@ impl CameraSampler {
         let time = scene.sample_time(sampler);
         let lens = Vec2::from(sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-        CameraSample { wl, weight: f.weight as f32, ray: scene.camera.generate_ray(film, lens, time) }
+        CameraSample { wl, weight: f.weight as f32, ray: scene.camera.generate_ray(film, lens, time), film, lens }
     }
 
     /// The wavelength strategy.
     pub fn wavelengths(&self) -> &WavelengthSampler {
         &self.wavelengths
+    }
+}
+
+/// What a film keeps of each camera sample's first visible surface: nothing, the AOVs (albedo and world-space
+/// shading normal), or pbrt-v4's geometry buffer besides. Integrators look for the first hit only when it is kept,
+/// so films without AOVs cost nothing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum SurfaceRecords {
+    /// No AOVs.
+    None,
+    /// The albedo and the world-space shading normal (the command line's `--aovs`).
+    Aovs,
+    /// pbrt-v4's `Film "gbuffer"`: the AOVs and the geometry, in its coordinate system.
+    GBuffer(GBufferCoordinates),
+}
+
+/// One camera sample's first visible surface as the film records it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SurfaceRecord {
+    albedo: SampledSpectrum,
+    /// The wavelengths the camera ray started with, at which the film sees the albedo.
+    wl: SampledWavelengths,
+    /// The shading normal in the film's coordinates.
+    normal: [f64; 3],
+    /// The gbuffer's geometry, if the film keeps it.
+    geometry: Option<VisibleSurface>,
+}
+
+impl SurfaceRecords {
+    /// What `film` keeps.
+    pub fn of(film: &Film) -> Self {
+        match (&film.spec().gbuffer, film.has_aovs()) {
+            (Some(g), _) => SurfaceRecords::GBuffer(g.coordinates),
+            (None, true) => SurfaceRecords::Aovs,
+            (None, false) => SurfaceRecords::None,
+        }
+    }
+
+    /// Whether the film keeps anything of the first hit.
+    pub fn wanted(self) -> bool {
+        self != SurfaceRecords::None
+    }
+
+    /// The record of the first surface `hit` camera sample `cs` found.
+    ///
+    /// For a gbuffer, as pbrt-v4's `VisibleSurface`: the geometric and shading normals face the camera ray's
+    /// origin, and dp/dx, dp/dy are where the camera rays through the film one pixel to the right and one pixel
+    /// down (same lens point and time) meet the surface's tangent plane at the hit, minus the hit (pbrt-v4's
+    /// `SurfaceInteraction::ComputeDifferentials` with unscaled camera ray differentials): the change of the point
+    /// per pixel. Positions, normals and dp/dx, dp/dy are then taken to the film's coordinate system at the
+    /// sample's time (pbrt-v4's `CameraFromRender(time)`), dz/dx and dz/dy being the z of the last two.
+    pub fn record(self, scene: &RenderScene, cs: &CameraSample, hit: &FirstHit) -> SurfaceRecord {
+        let v3 = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
+        let d3 = |v: DVec3| v.to_array();
+        let coordinates = match self {
+            SurfaceRecords::GBuffer(c) => c,
+            _ => return SurfaceRecord { albedo: hit.albedo, wl: cs.wl, normal: v3(hit.normal), geometry: None },
+        };
+        let wo = -cs.ray.direction;
+        let face = |v: Vec3| if v.dot(wo) < 0.0 { -v } else { v };
+        let (n, ns) = (face(hit.ng).as_dvec3(), face(hit.normal).as_dvec3());
+        let p = hit.p.as_dvec3();
+        let time = cs.ray.time;
+        let dp = |offset: Vec2| {
+            let r = scene.camera.generate_ray(cs.film + offset, cs.lens, time);
+            let (o, d) = (r.origin.as_dvec3(), r.direction.as_dvec3());
+            let t = n.dot(p - o) / n.dot(d);
+            let q = o + d * t;
+            // A ray parallel to the tangent plane never meets it: no finite change.
+            if q.is_finite() {
+                q - p
+            } else {
+                DVec3::ZERO
+            }
+        };
+        let (dpdx, dpdy) = (dp(Vec2::X), dp(Vec2::Y));
+        let camera = scene.camera.at_time(time);
+        let (p, n, ns, dpdx, dpdy) = match coordinates {
+            GBufferCoordinates::World => (p, n, ns, dpdx, dpdy),
+            GBufferCoordinates::Camera => {
+                let m = camera.camera_from_world();
+                (m.point(p), m.normal(n).normalize(), m.normal(ns).normalize(), m.vector(dpdx), m.vector(dpdy))
+            }
+        };
+        let uv = [hit.uv.x as f64, hit.uv.y as f64];
+        let geometry = VisibleSurface { p: d3(p), n: d3(n), uv, dzdx: dpdx.z, dzdy: dpdy.z };
+        SurfaceRecord { albedo: hit.albedo, wl: cs.wl, normal: d3(ns), geometry: Some(geometry) }
+    }
+}
+
+impl SurfaceRecord {
+    /// Adds the record to pixel `x` of `row` for a camera sample of filter weight `weight` that brought `sample`
+    /// (radiance and its wavelengths) to the pixel; `None` for an integrator whose pixels are not means of samples.
+    pub fn add_to_row(
+        &self,
+        row: &mut FilmRow,
+        x: u32,
+        weight: f64,
+        sample: Option<(&SampledSpectrum, &SampledWavelengths)>,
+    ) {
+        row.add_albedo(x, &self.albedo, &self.wl, self.normal);
+        if let Some(g) = &self.geometry {
+            row.add_visible_surface(x, g, weight, sample);
+        }
+    }
+
+    /// [`SurfaceRecord::add_to_row`] for pixel (x, y) of `film`.
+    pub fn add_to_film(
+        &self,
+        film: &mut Film,
+        (x, y): (u32, u32),
+        weight: f64,
+        sample: Option<(&SampledSpectrum, &SampledWavelengths)>,
+    ) {
+        film.add_albedo(x, y, &self.albedo, &self.wl, self.normal);
+        if let Some(g) = &self.geometry {
+            film.add_visible_surface(x, y, g, weight, sample);
+        }
     }
 }
 
@@ -116,6 +239,8 @@ struct CameraRecord {
     l: SampledSpectrum,
     wl: SampledWavelengths,
     weight: f32,
+    /// Boxed: a batch holds many records, most films keep no AOVs.
+    surface: Option<Box<SurfaceRecord>>,
 }
 
 /// What the pixel samples of a splatting integrator produced: camera samples for their own pixels and splats.
@@ -126,9 +251,17 @@ pub(crate) struct SampleRecords {
 }
 
 impl SampleRecords {
-    /// Records a camera sample of pixel `x` (of the row being rendered) with radiance `l` at wavelengths `wl`.
-    pub fn camera(&mut self, x: u32, l: SampledSpectrum, wl: SampledWavelengths, weight: f32) {
-        self.camera.push(CameraRecord { x, l, wl, weight });
+    /// Records a camera sample of pixel `x` (of the row being rendered) with radiance `l` at wavelengths `wl`, and
+    /// its first visible surface if the film keeps it.
+    pub fn camera(
+        &mut self,
+        x: u32,
+        l: SampledSpectrum,
+        wl: SampledWavelengths,
+        weight: f32,
+        surface: Option<SurfaceRecord>,
+    ) {
+        self.camera.push(CameraRecord { x, l, wl, weight, surface: surface.map(Box::new) });
     }
 
     /// Records a light-path contribution `l` at wavelengths `wl` landing at raster position `raster`.
@@ -195,6 +328,9 @@ pub(crate) fn render_splatting(
                 for (y, (records, _)) in (y0..y1).zip(&rows) {
                     for c in &records[pass].camera {
                         film.add_sample(c.x, y, &c.l, &c.wl, c.weight as f64);
+                        if let Some(s) = &c.surface {
+                            s.add_to_film(film, (c.x, y), c.weight as f64, Some((&c.l, &c.wl)));
+                        }
                     }
                     splats.extend_from_slice(&records[pass].splats);
                 }

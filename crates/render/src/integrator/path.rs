@@ -5,11 +5,11 @@
 use std::ops::Range;
 
 use film::{Film, FilmError};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
-use super::drive::{finite_or_zero, render_rows, CameraSampler, RenderStats};
+use super::drive::{finite_or_zero, render_rows, CameraSampler, RenderStats, SurfaceRecords};
 use super::manifold::{self, ChainTrack};
 use super::transport::{
     begin_bounce, russian_roulette, sample_direct_light, scatter, Bounce, BounceSamples, DirectLight, PathRay,
@@ -21,13 +21,26 @@ use crate::sampler::Sampler;
 use crate::sampling::{power_heuristic, Frame};
 use crate::scene::{RenderScene, SurfaceHit};
 
-/// What the camera ray hit first, for AOVs.
+/// What the camera ray hit first, for AOVs and the geometry buffer (pbrt-v4's `VisibleSurface`, in world space).
 #[derive(Clone, Copy, Debug)]
 pub struct FirstHit {
     /// Albedo hint of the surface's BxDF at the path's wavelengths.
     pub albedo: SampledSpectrum,
     /// World-space shading normal.
     pub normal: Vec3,
+    /// World-space point.
+    pub p: Vec3,
+    /// World-space geometric normal.
+    pub ng: Vec3,
+    /// Surface (u, v).
+    pub uv: Vec2,
+}
+
+impl FirstHit {
+    /// The first hit `hit`, scattering with `bxdf`.
+    pub(crate) fn at(hit: &SurfaceHit, bxdf: &Bxdf) -> Self {
+        FirstHit { albedo: bxdf.albedo_hint(), normal: hit.ns, p: hit.p, ng: hit.n, uv: hit.uv }
+    }
 }
 
 /// The `path` integrator.
@@ -177,7 +190,7 @@ impl PathIntegrator {
             };
             if st.depth == 0 {
                 if let Some(fh) = first_hit.take() {
-                    *fh = Some(FirstHit { albedo: bxdf.albedo_hint(), normal: hit.ns });
+                    *fh = Some(FirstHit::at(&hit, &bxdf));
                 }
             }
             if st.depth == self.max_depth {
@@ -303,9 +316,10 @@ impl<'a, R: Radiance> CameraPaths<'a, R> {
         Ok(Self { integrator, scene, camera: CameraSampler::new(film)?, seed })
     }
 
-    /// Renders samples `samples` of every pixel into `film`, with albedo and normal AOVs if the film keeps them.
+    /// Renders samples `samples` of every pixel into `film`, with albedo and normal AOVs and the geometry buffer if
+    /// the film keeps them.
     pub fn render(&self, film: &mut Film, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
-        let aovs = film.has_aovs();
+        let surfaces = SurfaceRecords::of(film);
         render_rows(film, samples, progress, &|row, x, samples, counts| {
             let y = row.y();
             for s in samples {
@@ -313,14 +327,13 @@ impl<'a, R: Radiance> CameraPaths<'a, R> {
                 let cs = self.camera.sample(self.scene, x, y, &mut sampler);
                 let mut wl = cs.wl;
                 let mut first_hit = None;
-                let fh = aovs.then_some(&mut first_hit);
+                let fh = surfaces.wanted().then_some(&mut first_hit);
                 let (o, d, t) = (cs.ray.origin, cs.ray.direction, cs.ray.time);
                 let l = finite_or_zero(self.integrator.li(self.scene, o, d, t, &mut wl, &mut sampler, counts, fh));
-                row.add_sample(x, &l, &wl, cs.weight as f64);
-                // The albedo is seen at the wavelengths the camera ray started with.
+                let weight = cs.weight as f64;
+                row.add_sample(x, &l, &wl, weight);
                 if let Some(h) = first_hit {
-                    let n = [h.normal.x as f64, h.normal.y as f64, h.normal.z as f64];
-                    row.add_albedo(x, &h.albedo, &cs.wl, n);
+                    surfaces.record(self.scene, &cs, &h).add_to_row(row, x, weight, Some((&l, &wl)));
                 }
             }
         })

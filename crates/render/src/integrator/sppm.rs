@@ -26,8 +26,9 @@ use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths, Xyz};
 
 use super::drive::RenderStats;
-use super::drive::{CameraSample, CameraSampler};
+use super::drive::{CameraSample, CameraSampler, SurfaceRecord, SurfaceRecords};
 use super::lightpath::{walk_light_path, LightVertexAt};
+use super::path::FirstHit;
 use super::transport::{
     begin_bounce, sample_direct_light, scatter, weigh_tracking, Bounce, BounceSamples, DirectLight, PathRay, RayCounts,
     SpectralMis,
@@ -345,8 +346,10 @@ impl VisibleGrid {
 }
 
 /// What a pixel's camera path gave in one iteration: its visible point, the direct light (times the filter
-/// weight), the wavelengths after it, ray counts, and the camera sample's filter weight.
-type CameraPass<'a> = (Option<VisiblePoint<'a>>, SampledSpectrum, SampledWavelengths, RayCounts, f32);
+/// weight), the wavelengths after it, ray counts, the camera sample's filter weight, and the first surface it
+/// saw if the film keeps AOVs.
+type CameraPass<'a> =
+    (Option<VisiblePoint<'a>>, SampledSpectrum, SampledWavelengths, RayCounts, f32, Option<SurfaceRecord>);
 
 /// A photon's contribution to one visible point.
 struct Gathered {
@@ -355,11 +358,15 @@ struct Gathered {
 }
 
 impl SppmIntegrator {
-    /// Runs iterations `iterations` (their indices seed the random numbers) on `state`; see the module docs.
+    /// Runs iterations `iterations` (their indices seed the random numbers) on `state`; see the module docs. The
+    /// camera paths' first surfaces go into `film`'s AOVs and geometry buffer, if it keeps them, as records of
+    /// filter weight 1 per iteration (the pixel's colour is written by [`SppmState::write_to`]; the gbuffer's
+    /// variance is left out: a pixel is a progressive estimate, not a mean of samples).
     pub fn run(
         &self,
         scene: &RenderScene,
         state: &mut SppmState,
+        film: &mut Film,
         iterations: std::ops::Range<u32>,
         seed: u32,
         progress: &(dyn Fn(u64) + Sync),
@@ -369,6 +376,7 @@ impl SppmIntegrator {
         let media = scene.has_scattering_media();
         let photons = self.photons_per_iteration.unwrap_or(npix).max(1);
         let mut stats = RenderStats::default();
+        let surfaces = SurfaceRecords::of(film);
         for it in iterations {
             // One wavelength set per iteration, stratified over iterations (van der Corput, Owen-scrambled).
             let u_wl = sobol_burley::sample(it, 0, hash_words(&[seed, WAVELENGTH_SEED_SALT]));
@@ -383,18 +391,25 @@ impl SppmIntegrator {
                     let mut counts = RayCounts::default();
                     let mut sampler = Sampler::new(x, y, it, seed);
                     // The camera sample's own wavelengths are replaced by the iteration's.
-                    let cs = camera_sampler.sample(scene, x, y, &mut sampler);
+                    let cs = CameraSample { wl: wl_iter, ..camera_sampler.sample(scene, x, y, &mut sampler) };
                     let mut wl = wl_iter;
+                    let mut first_hit = None;
+                    let fh = surfaces.wanted().then_some(&mut first_hit);
                     let (vp, ld) = if media {
-                        self.camera_path_in_media(scene, &cs, &mut wl, &mut sampler, &mut counts)
+                        self.camera_path_in_media(scene, &cs, &mut wl, &mut sampler, &mut counts, fh)
                     } else {
-                        self.camera_path(scene, &cs, &mut wl, &mut sampler, &mut counts)
+                        self.camera_path(scene, &cs, &mut wl, &mut sampler, &mut counts, fh)
                     };
-                    (vp, ld, wl, counts, cs.weight)
+                    let surface = first_hit.map(|h| surfaces.record(scene, &cs, &h));
+                    (vp, ld, wl, counts, cs.weight, surface)
                 })
                 .collect();
             let mut points = Vec::with_capacity(camera.len());
-            for (i, (vp, ld, wl, counts, weight)) in camera.into_iter().enumerate() {
+            for (i, (vp, ld, wl, counts, weight, surface)) in camera.into_iter().enumerate() {
+                if let Some(s) = surface {
+                    let (x, y) = (state.origin.0 + i as u32 % w, state.origin.1 + i as u32 / w);
+                    s.add_to_film(film, (x, y), 1.0, None);
+                }
                 stats.rays += counts.intersect + counts.shadow;
                 state.pixels[i].weight += weight as f64;
                 if !ld.is_black() {
@@ -501,6 +516,7 @@ impl SppmIntegrator {
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
+        mut first_hit: Option<&mut Option<FirstHit>>,
     ) -> (Option<VisiblePoint<'static>>, SampledSpectrum) {
         let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
         // The camera sample's filter weight, as a camera sample of the other integrators carries it into the film.
@@ -525,6 +541,11 @@ impl SppmIntegrator {
                 Bounce::Stop | Bounce::Absorb => return (None, ld),
                 Bounce::Scatter(bxdf, u) => (bxdf, u),
             };
+            if depth == 0 {
+                if let Some(fh) = first_hit.take() {
+                    *fh = Some(FirstHit::at(&hit, &bxdf));
+                }
+            }
             if depth == self.max_depth {
                 return (None, ld);
             }
@@ -554,6 +575,7 @@ impl SppmIntegrator {
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
+        mut first_hit: Option<&mut Option<FirstHit>>,
     ) -> (Option<VisiblePoint<'s>>, SampledSpectrum) {
         let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
         let mut beta = SampledSpectrum::splat(cs.weight);
@@ -635,6 +657,11 @@ impl SppmIntegrator {
                 Bounce::Scatter(bxdf, u) => (bxdf, u),
             };
             mis.update(wl);
+            if depth == 0 {
+                if let Some(fh) = first_hit.take() {
+                    *fh = Some(FirstHit::at(&hit, &bxdf));
+                }
+            }
             if depth == self.max_depth {
                 return (None, ld);
             }
@@ -766,8 +793,8 @@ struct SppmRender<'a> {
 }
 
 impl RenderJob for SppmRender<'_> {
-    fn run(&mut self, _film: &mut Film, passes: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
-        self.integrator.run(self.scene, &mut self.state, passes, self.seed, progress)
+    fn run(&mut self, film: &mut Film, passes: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
+        self.integrator.run(self.scene, &mut self.state, film, passes, self.seed, progress)
     }
 
     fn finish(self: Box<Self>, film: &mut Film) {

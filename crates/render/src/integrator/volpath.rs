@@ -319,7 +319,7 @@ impl VolPathIntegrator {
             st.mis.update(wl);
             if st.depth == 0 {
                 if let Some(fh) = first_hit.take() {
-                    *fh = Some(FirstHit { albedo: bxdf.albedo_hint(), normal: hit.ns });
+                    *fh = Some(FirstHit::at(&hit, &bxdf));
                 }
             }
             if st.depth == self.max_depth {
