@@ -184,9 +184,7 @@ impl Sphere {
             ((theta - self.theta_z_min) / (self.theta_z_max - self.theta_z_min)) as f32,
         );
         let dpdu = dpdu_or_frame(self.phi_max * DVec3::new(-p.y, p.x, 0.0), p);
-        // pbrt-v4's sphere: ∂p/∂v = (θ(zmax) − θ(zmin))·(z cos φ, z sin φ, −r sin θ).
-        let dpdv = (self.theta_z_max - self.theta_z_min)
-            * DVec3::new(p.z * phi.cos(), p.z * phi.sin(), -self.radius * theta.sin());
+        let dpdv = self.dpdv_at(p);
         let p_err_obj = gamma(5) * p.abs().as_vec3();
         let (pr, p_error, mut n, dpdu) = self.place.to_render(p, p_err_obj, p, dpdu);
         let dpdv = self.place.vector(dpdv);
@@ -196,16 +194,23 @@ impl Sphere {
         SurfaceGeom { p: pr, p_error, n, ns: n, uv, dpdu, shading_dpdu: dpdu, shading_dpdv: dpdv }
     }
 
+    /// pbrt-v4's ∂p/∂v = (θ(zmax) − θ(zmin))·(z cos φ, z sin φ, −r sin θ) at the object-space point `p` on the
+    /// sphere, without trigonometry: cos φ = x/ρ, sin φ = y/ρ and r sin θ = ρ with ρ = √(x² + y²); at the poles
+    /// (ρ = 0) φ is taken as 0, as `phi_of` does.
+    fn dpdv_at(&self, p: DVec3) -> DVec3 {
+        let rho = (p.x * p.x + p.y * p.y).sqrt();
+        let (cos_phi, sin_phi) = if rho > 0.0 { (p.x / rho, p.y / rho) } else { (1.0, 0.0) };
+        (self.theta_z_max - self.theta_z_min) * DVec3::new(p.z * cos_phi, p.z * sin_phi, -rho)
+    }
+
     /// Derivatives in pbrt-v4's parametrization u = φ/φmax, v = (θ − θ(zmin))/(θ(zmax) − θ(zmin)) at the
     /// object-space point `p` (pbrt-v4 §6.2.2): ∂p/∂u = φmax·(−y, x, 0), ∂p/∂v = Δθ·(z cos φ, z sin φ, −r sin θ),
     /// and, the normal being p/r, ∂n/∂u = (∂p/∂u)/r, ∂n/∂v = (∂p/∂v)/r (negated with the normal when reversed).
     /// Degenerate (∂p/∂u = 0) at the poles.
     pub(crate) fn derivatives_at(&self, p: DVec3) -> SurfaceDerivatives {
         let r = self.radius;
-        let phi = phi_of(p);
-        let rho = (p.x * p.x + p.y * p.y).sqrt();
         let dpdu = self.phi_max * DVec3::new(-p.y, p.x, 0.0);
-        let dpdv = (self.theta_z_max - self.theta_z_min) * DVec3::new(p.z * phi.cos(), p.z * phi.sin(), -rho);
+        let dpdv = self.dpdv_at(p);
         let sign = if self.reverse_orientation { -1.0 } else { 1.0 };
         self.place.derivatives_to_render(p / r, dpdu, dpdv, sign * dpdu / r, sign * dpdv / r)
     }
