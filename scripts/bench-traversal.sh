@@ -8,6 +8,7 @@
 #   RUNS=5 MEASURE=3 scripts/bench-traversal.sh
 #   scripts/bench-traversal.sh bounce           # only the benchmarks whose name matches (criterion's filter)
 #   TRAVERSAL_EMBREE_ROBUST=1 TRAVERSAL_EMBREE_QUALITY=high scripts/bench-traversal.sh   # Embree's other modes
+#   TRAVERSAL_CPU_TIME=1 scripts/bench-traversal.sh   # one thread, timed by the thread's CPU time (shared machines)
 #
 # Installs Embree (scripts/install-embree.sh) if it is missing. Numbers depend on the machine and its load.
 set -euo pipefail
@@ -39,7 +40,7 @@ for ((run = 1; run <= runs; run++)); do
   done >>"$out/results"
 done
 
-python3 - "$out/results" "$runs" <<'EOF'
+python3 - "$out/results" "$runs" "${TRAVERSAL_CPU_TIME:-0}" <<'EOF'
 import sys, statistics
 from collections import defaultdict
 rates = defaultdict(list)  # (group, who) -> Mrays/s per run
@@ -49,7 +50,8 @@ for line in open(sys.argv[1]):
 groups = sorted({g for g, _ in rates}, key=lambda g: (g.split('_')[0], ['camera', 'bounce', 'shadow'].index(g.split('_')[1]), g))
 def fmt(v):
     return f"{statistics.median(v):.2f} ({min(v):.2f}–{max(v):.2f})" if len(v) > 1 else f"{v[0]:.2f}"
-print(f"| query | rays | threads | project Mrays/s | Embree Mrays/s | project / Embree |")
+unit = "Mrays/CPU-s" if sys.argv[3] == "1" else "Mrays/s"
+print(f"| query | rays | threads | project {unit} | Embree {unit} | project / Embree |")
 print("|---|---|---|---|---|---|")
 for g in groups:
     query, kind, threads = g.split('_')

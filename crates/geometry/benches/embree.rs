@@ -25,7 +25,8 @@ use std::hint::black_box;
 use std::sync::Arc;
 use std::time::Duration;
 
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use criterion::measurement::{Measurement, ValueFormatter, WallTime};
+use criterion::{Criterion, Throughput};
 use geometry::accel::{Accel, GeometryScene};
 use geometry::mesh::{MeshData, TriangleMesh};
 use geometry::shapes::{coordinate_system, Shape};
@@ -283,6 +284,79 @@ impl Drop for EmbreeScene {
     }
 }
 
+/// The calling thread's CPU time (Linux `CLOCK_THREAD_CPUTIME_ID`), for criterion: on a machine shared with other
+/// jobs, time the thread was not running is not counted, so the one-thread rates are far less noisy than by wall
+/// clock. Only meaningful for work done on the calling thread (the one-thread benchmarks).
+struct ThreadCpuTime;
+
+/// `struct timespec` on x86-64 Linux.
+#[repr(C)]
+struct Timespec {
+    tv_sec: i64,
+    tv_nsec: i64,
+}
+
+extern "C" {
+    /// POSIX `clock_gettime` (from the C library the standard library already links).
+    fn clock_gettime(clock: i32, tp: *mut Timespec) -> i32;
+}
+
+/// Linux's `CLOCK_THREAD_CPUTIME_ID`.
+const CLOCK_THREAD_CPUTIME_ID: i32 = 3;
+
+impl ThreadCpuTime {
+    fn now_ns() -> u64 {
+        let mut ts = Timespec { tv_sec: 0, tv_nsec: 0 };
+        // SAFETY: `ts` is a valid, writable `struct timespec`; the clock id is a valid Linux clock.
+        let rc = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+        assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
+        ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+    }
+}
+
+impl Measurement for ThreadCpuTime {
+    type Intermediate = u64;
+    type Value = u64;
+    fn start(&self) -> u64 {
+        Self::now_ns()
+    }
+    fn end(&self, start: u64) -> u64 {
+        Self::now_ns() - start
+    }
+    fn add(&self, a: &u64, b: &u64) -> u64 {
+        a + b
+    }
+    fn zero(&self) -> u64 {
+        0
+    }
+    fn to_f64(&self, v: &u64) -> f64 {
+        *v as f64
+    }
+    fn formatter(&self) -> &dyn ValueFormatter {
+        &CpuFormatter
+    }
+}
+
+/// Formats CPU nanoseconds as milliseconds and element throughput as millions per CPU-second.
+struct CpuFormatter;
+
+impl ValueFormatter for CpuFormatter {
+    fn scale_values(&self, _typical: f64, values: &mut [f64]) -> &'static str {
+        values.iter_mut().for_each(|v| *v *= 1e-6);
+        "ms (CPU)"
+    }
+    fn scale_throughputs(&self, _typical: f64, throughput: &Throughput, values: &mut [f64]) -> &'static str {
+        let n = match *throughput {
+            Throughput::Elements(n) | Throughput::Bytes(n) | Throughput::BytesDecimal(n) | Throughput::Bits(n) => n,
+        };
+        values.iter_mut().for_each(|v| *v = n as f64 * 1e3 / *v);
+        "M/CPU-s"
+    }
+    fn scale_for_machines(&self, _values: &mut [f64]) -> &'static str {
+        "ns"
+    }
+}
+
 /// A deterministic hash to [0, 1).
 fn hash01(mut x: u64) -> f32 {
     x ^= x >> 33;
@@ -444,7 +518,8 @@ fn check_agreement(set: &RaySet, mesh: &TriangleMesh, ours: &GeometryScene, embr
 /// Rays per parallel task on two threads.
 const CHUNK: usize = 256;
 
-fn bench(c: &mut Criterion) {
+/// Sets everything up, checks the two agree, and registers the benchmarks (two-thread ones only by wall clock).
+fn bench<M: Measurement>(c: &mut Criterion<M>, wall_clock: bool) {
     let data = scene_mesh(640, 320);
     let tris = data.triangle_count();
     let mesh = Arc::new(TriangleMesh::new(&Transform::IDENTITY, data, false).unwrap());
@@ -469,7 +544,7 @@ fn bench(c: &mut Criterion) {
     let embree_first = std::env::var("TRAVERSAL_EMBREE_FIRST").is_ok_and(|v| v == "1");
     for set in &sets {
         for query in ["closest", "occluded"] {
-            for threads in [1, 2] {
+            for &threads in if wall_clock { &[1, 2][..] } else { &[1][..] } {
                 let mut g = c.benchmark_group(format!("{query}_{}_{threads}t", set.name));
                 g.throughput(Throughput::Elements(set.rays.len() as u64));
                 let rays: Vec<(Ray, f32)> = set.rays.iter().copied().zip(set.t_max.iter().copied()).collect();
@@ -499,12 +574,21 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default()
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(500))
-        .measurement_time(Duration::from_secs(2));
-    targets = bench
+fn main() {
+    // `TRAVERSAL_CPU_TIME=1`: time by the thread's CPU time (one-thread benchmarks only), see [`ThreadCpuTime`].
+    let cpu_time = std::env::var("TRAVERSAL_CPU_TIME").is_ok_and(|v| v == "1");
+    if cpu_time {
+        let mut c = config(Criterion::default().with_measurement(ThreadCpuTime));
+        bench(&mut c, false);
+        c.final_summary();
+    } else {
+        let mut c = config(Criterion::default().with_measurement(WallTime));
+        bench(&mut c, true);
+        c.final_summary();
+    }
 }
-criterion_main!(benches);
+
+/// Short runs by default (command-line options override them).
+fn config<M: Measurement>(c: Criterion<M>) -> Criterion<M> {
+    c.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(2)).configure_from_args()
+}
