@@ -590,5 +590,8 @@ fn main() {
 
 /// Short runs by default (command-line options override them).
 fn config<M: Measurement>(c: Criterion<M>) -> Criterion<M> {
-    c.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(2)).configure_from_args()
+    c.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .configure_from_args()
 }
