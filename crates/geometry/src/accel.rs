@@ -182,11 +182,18 @@ struct Blas {
     /// Flattened primitive index where each shape starts; one more entry at the end (the total).
     shape_starts: Vec<u32>,
     bvh: CwBvh,
-    /// Triangle vertices per BVH slot (zeros for indirect slots), so triangles are tested without a lookup.
-    slot_tris: Vec<[Vec3; 3]>,
-    /// Flattened primitive index per BVH slot, `| INDIRECT` for primitives that are not plain triangles.
-    slot_prim: Vec<u32>,
+    /// One record per BVH slot, the leaf's primitive with its triangle inline (see [`Slot`]).
+    slots: Vec<Slot>,
     bounds: Bounds3,
+}
+
+/// A BVH leaf slot: the triangle's vertices (zeros for indirect slots), so triangles are tested without a lookup,
+/// and the flattened primitive index, `| INDIRECT` for primitives that are not plain triangles. Kept together so
+/// that a leaf visit touches one stream of memory, not two (the loads of a leaf's data are the traversal's main
+/// cache misses on big meshes).
+struct Slot {
+    tri: [Vec3; 3],
+    prim: u32,
 }
 
 #[derive(Clone)]
@@ -274,19 +281,19 @@ impl Blas {
             prims.par_iter().map(|&(s, e)| to_aabb(&shapes[s as usize].element_bounds(e as usize))).collect();
         let bounds = shapes.iter().fold(Bounds3::EMPTY, |b, s| b.union(&s.bounds()));
         let mut bvh = build_bvh(&aabbs);
-        let (slot_prim, slot_tris): (Vec<u32>, Vec<[Vec3; 3]>) = bvh
+        let slots: Vec<Slot> = bvh
             .primitive_indices
             .par_iter()
             .map(|&i| {
                 let (s, e) = prims[i as usize];
                 match shapes[s as usize].element_triangle(e as usize) {
-                    Some(tri) => (i, tri),
-                    None => (i | INDIRECT, [Vec3::ZERO; 3]),
+                    Some(tri) => Slot { tri, prim: i },
+                    None => Slot { tri: [Vec3::ZERO; 3], prim: i | INDIRECT },
                 }
             })
-            .unzip();
+            .collect();
         bvh.primitive_indices = Vec::new();
-        Ok(Self { shapes, shape_starts, bvh, slot_tris, slot_prim, bounds })
+        Ok(Self { shapes, shape_starts, bvh, slots, bounds })
     }
 
     fn locate(&self, prim: u32) -> (u32, u32) {
@@ -390,10 +397,10 @@ impl Blas {
         let mut state = bvh.new_traversal(Vec3A::from(d));
         let mut node;
         obvhs::traverse!(bvh, node, state, node_hits(node, &node_ray, best.hit.t, state.oct_inv4), {
-            let slot = state.primitive_id as usize;
-            let prim = self.slot_prim[slot];
+            let slot = &self.slots[state.primitive_id as usize];
+            let prim = slot.prim;
             if prim & INDIRECT == 0 {
-                if let Some(hit) = intersect_inline_triangle(&ray, &self.slot_tris[slot], best.hit.t) {
+                if let Some(hit) = intersect_inline_triangle(&ray, &slot.tri, best.hit.t) {
                     *best = Closest { hit, instance, prim };
                 }
             } else {
@@ -420,10 +427,10 @@ impl Blas {
         let mut hit = false;
         'search: {
             obvhs::traverse!(bvh, node, state, node_hits(node, &node_ray, t_max, state.oct_inv4), {
-                let slot = state.primitive_id as usize;
-                let prim = self.slot_prim[slot];
+                let slot = &self.slots[state.primitive_id as usize];
+                let prim = slot.prim;
                 let found = if prim & INDIRECT == 0 {
-                    intersect_inline_triangle(&ray, &self.slot_tris[slot], t_max).is_some()
+                    intersect_inline_triangle(&ray, &slot.tri, t_max).is_some()
                 } else {
                     let (s, e) = self.locate(prim & !INDIRECT);
                     self.shapes[s as usize].occludes_element(e as usize, &ray, t_max)

@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# Traversal against Embree 3: runs the geometry crate's `embree` benchmark (the project's BVH and Embree on the
+# same ~1M triangles and the same camera, diffuse-bounce and shadow rays; closest hit and occlusion; one and two
+# threads) RUNS times, alternating which of the two is timed first in each pair, and prints a Markdown table:
+# the median rays per second over the runs with their range, and the ratio project / Embree.
+#
+#   scripts/bench-traversal.sh                  # 3 runs, 2 s of measurement per benchmark
+#   RUNS=5 MEASURE=3 scripts/bench-traversal.sh
+#   scripts/bench-traversal.sh bounce           # only the benchmarks whose name matches (criterion's filter)
+#   TRAVERSAL_EMBREE_ROBUST=1 TRAVERSAL_EMBREE_QUALITY=high scripts/bench-traversal.sh   # Embree's other modes
+#   TRAVERSAL_CPU_TIME=1 scripts/bench-traversal.sh   # one thread, timed by the thread's CPU time (shared machines)
+#
+# Installs Embree (scripts/install-embree.sh) if it is missing. Numbers depend on the machine and its load.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+runs=${RUNS:-3}
+measure=${MEASURE:-2}
+if ! ldconfig -p 2>/dev/null | grep -q 'libembree3\.so\b'; then
+  scripts/install-embree.sh
+fi
+target=${CARGO_TARGET_DIR:-target}
+cargo build --release -q -p geometry --features embree --bench embree
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+for ((run = 1; run <= runs; run++)); do
+  first=$(( run % 2 == 0 ))
+  echo "run $run of $runs ($([[ $first == 1 ]] && echo Embree || echo project) first in each pair)" >&2
+  rm -rf "$target/criterion"/{closest,occluded}_*
+  TRAVERSAL_EMBREE_FIRST=$first cargo bench -q -p geometry --features embree --bench embree -- \
+    --warm-up-time 0.5 --measurement-time "$measure" --sample-size 10 "$@" >"$out/log-$run" 2>&1 ||
+    { cat "$out/log-$run" >&2; exit 1; }
+  [[ $run == 1 ]] && grep -E 'triangles;|rays, ' "$out/log-$run" >&2
+  # One line per benchmark: group who rays median_ns.
+  for est in "$target"/criterion/{closest,occluded}_*/*/new/estimates.json; do
+    [[ -f $est ]] || continue
+    dir=$(dirname "$est")
+    elements=$(jq '.throughput.Elements' "$dir/benchmark.json")
+    median=$(jq '.median.point_estimate' "$est")
+    echo "$(jq -r '.group_id' "$dir/benchmark.json") $(jq -r '.function_id' "$dir/benchmark.json") $elements $median"
+  done >>"$out/results"
+done
+
+python3 - "$out/results" "$runs" "${TRAVERSAL_CPU_TIME:-0}" <<'EOF'
+import sys, statistics
+from collections import defaultdict
+rates = defaultdict(list)  # (group, who) -> Mrays/s per run
+for line in open(sys.argv[1]):
+    group, who, n, ns = line.split()
+    rates[(group, who)].append(float(n) / float(ns) * 1e3)
+groups = sorted({g for g, _ in rates}, key=lambda g: (g.split('_')[0], ['camera', 'bounce', 'shadow'].index(g.split('_')[1]), g))
+def fmt(v):
+    return f"{statistics.median(v):.2f} ({min(v):.2f}–{max(v):.2f})" if len(v) > 1 else f"{v[0]:.2f}"
+unit = "Mrays/CPU-s" if sys.argv[3] == "1" else "Mrays/s"
+print(f"| query | rays | threads | project {unit} | Embree {unit} | project / Embree |")
+print("|---|---|---|---|---|---|")
+for g in groups:
+    query, kind, threads = g.split('_')
+    ours, theirs = rates.get((g, 'prismatic')), rates.get((g, 'embree'))
+    if not ours or not theirs:
+        continue
+    ratios = [a / b for a, b in zip(ours, theirs)]
+    print(f"| {query} | {kind} | {threads[:-1]} | {fmt(ours)} | {fmt(theirs)} | {fmt(ratios)} |")
+print(f"\nMedian over {sys.argv[2]} runs (range in parentheses); ratio per run, project first in odd runs.")
+EOF
