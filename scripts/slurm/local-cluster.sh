@@ -63,6 +63,9 @@ MpiDefault=none
 SelectType=select/cons_tres
 SelectTypeParameters=CR_CPU
 SchedulerType=sched/backfill
+# A test cluster: look at pending jobs every 2 s (defaults 60 s and 30 s), so that the next array tasks start as
+# soon as CPUs free up and the timings measure rendering, not the scheduler's period.
+SchedulerParameters=sched_interval=2,bf_interval=2
 JobAcctGatherType=jobacct_gather/none
 AccountingStorageType=accounting_storage/none
 JobCompType=jobcomp/none
