@@ -908,9 +908,10 @@ struct PngSamples {
 /// technical notes give the same 1032:1.
 const DEFLATE_MAX_RATIO: u64 = 1032;
 
-/// Refuses a `PLTE` chunk whose length is not a whole number of RGB entries (PNG spec. §11.2.3), which the png
-/// crate (0.17) lets through to a panic when it expands the palette (image-rs/image-png issue 694). Walks the
-/// chunks up to `IEND`; anything else malformed is left to the decoder.
+/// Refuses a `PLTE` chunk that is not 1 to 256 whole RGB entries (PNG spec. §11.2.3), which the png crate (0.17)
+/// lets through to a panic when it expands the palette into its 256-entry table: a fractional last entry
+/// (image-rs/image-png issue 694) or more than 256 entries (found by fuzzing). Walks the chunks up to `IEND`;
+/// anything else malformed is left to the decoder.
 fn check_png_palette(bytes: &[u8]) -> Result<(), String> {
     let mut rest = bytes.get(8..).unwrap_or_default();
     while let Some(head) = rest.get(..8) {
@@ -918,6 +919,9 @@ fn check_png_palette(bytes: &[u8]) -> Result<(), String> {
         let kind = &head[4..8];
         if kind == b"PLTE" && len % 3 != 0 {
             return Err(format!("PLTE chunk of {len} bytes: not a whole number of 3-byte palette entries"));
+        }
+        if kind == b"PLTE" && !(3..=768).contains(&len) {
+            return Err(format!("PLTE chunk of {len} bytes: a palette has 1 to 256 entries of 3 bytes"));
         }
         if kind == b"IEND" {
             break;

@@ -85,6 +85,17 @@ fn png_palette_of_a_fractional_number_of_entries() {
     }
 }
 
+/// Found by the fuzzer: a 5×3 RGB PNG with a suggested palette (`PLTE`) of 474 entries, more than the 256 a palette
+/// may have (PNG spec. §11.2.3): the png crate (0.17) copied it into a 256-entry table and panicked past its end.
+#[test]
+fn png_palette_of_more_than_256_entries() {
+    let path = scratch("palette-474.png", include_bytes!("hostile/png-palette-of-474-entries.png"));
+    match read_png_linear(&path) {
+        Err(ImageError::Png { message, .. }) => assert!(message.contains("PLTE chunk of 1422 bytes"), "{message}"),
+        r => panic!("expected a PNG error, got {:?}", r.map(|(w, h, _)| (w, h))),
+    }
+}
+
 /// Found by the fuzzer, all mutations of a tiled 5×3 B44 file: B44 blocks whose deltas wrap below zero (the decoder
 /// relies on wrapping arithmetic, as OpenEXR's C++ does, and panicked where overflow checks were on) and a tile
 /// whose level index the decoder asserted on. Each is read as a release build reads it, in every profile: an
