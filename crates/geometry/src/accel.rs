@@ -5,12 +5,14 @@
 //! primitives in its own space; a top-level BVH8 is built over the instances' render-space bounds. Objects are
 //! built in parallel (rayon), and each BVH build is itself parallel (`obvhs`'s PLOC builder).
 //!
-//! Traversal uses `obvhs`'s `traverse!` loop with our own node test (an SSE-width slab test through glam's `Vec4`
-//! with no minimum-`t` epsilon, and pbrt's `1 + 2γ(3)` widening of the far distance). Leaves ask the shapes: plain
-//! triangles (`Shape::element_triangle`) are copied into the BVH and tested there with the watertight triangle
-//! test, every other primitive through its [`Shape`]'s element queries (f64 sphere, disk and bilinear-patch tests),
-//! so this file never looks at shape kinds. Hits are found down to `t → 0⁺` and rays spawned with
-//! [`crate::spawn_ray`] never re-hit their surface.
+//! Closest-hit traversal of an object visits a node's children nearest first (our own loop over `obvhs`'s node
+//! layout); the top level and occlusion queries use `obvhs`'s `traverse!` loop (children ordered by the ray's
+//! octant). Both use our own node test (an SSE-width slab test through glam's `Vec4` with no minimum-`t` epsilon,
+//! and pbrt's `1 + 2γ(3)` widening of the far distance). Leaves ask the shapes: plain triangles
+//! (`Shape::element_triangle`) are copied into the BVH in blocks of four and tested four at a time with the
+//! watertight triangle test, every other primitive through its [`Shape`]'s element queries (f64 sphere, disk and
+//! bilinear-patch tests), so this file never looks at shape kinds. Hits are found down to `t → 0⁺` and rays spawned
+//! with [`crate::spawn_ray`] never re-hit their surface.
 //!
 //! ## IDs in a [`Hit`]
 //! - `instance`: index into the `instances` given to [`GeometryScene::build`].
@@ -37,7 +39,7 @@ use crate::mesh::TriangleMesh;
 use crate::ray::{gamma, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
 pub use crate::shapes::Shape;
 use crate::shapes::{
-    coordinate_system, d_normalize, intersect_inline_triangle, ElementHit, ShapeRay, SurfaceDerivatives, SurfaceGeom,
+    coordinate_system, d_normalize, intersect_tri4, ElementHit, ShapeRay, SurfaceDerivatives, SurfaceGeom, Tri4,
 };
 use crate::transform::Transform;
 use crate::GeometryError;
@@ -182,18 +184,13 @@ struct Blas {
     /// Flattened primitive index where each shape starts; one more entry at the end (the total).
     shape_starts: Vec<u32>,
     bvh: CwBvh,
-    /// One record per BVH slot, the leaf's primitive with its triangle inline (see [`Slot`]).
-    slots: Vec<Slot>,
+    /// The BVH's leaf slots in blocks of four (slot `i` is lane `i % 4` of block `i / 4`): each slot's triangle
+    /// inline (zeros for indirect slots), so triangles are tested without a lookup and four at a time, and its
+    /// flattened primitive index, `| INDIRECT` for primitives that are not plain triangles. One record holds both,
+    /// so that a leaf visit touches one stream of memory (the loads of a leaf's data are the traversal's main cache
+    /// misses on big meshes).
+    slots: Vec<Tri4>,
     bounds: Bounds3,
-}
-
-/// A BVH leaf slot: the triangle's vertices (zeros for indirect slots), so triangles are tested without a lookup,
-/// and the flattened primitive index, `| INDIRECT` for primitives that are not plain triangles. Kept together so
-/// that a leaf visit touches one stream of memory, not two (the loads of a leaf's data are the traversal's main
-/// cache misses on big meshes).
-struct Slot {
-    tri: [Vec3; 3],
-    prim: u32,
 }
 
 #[derive(Clone)]
@@ -281,15 +278,22 @@ impl Blas {
             prims.par_iter().map(|&(s, e)| to_aabb(&shapes[s as usize].element_bounds(e as usize))).collect();
         let bounds = shapes.iter().fold(Bounds3::EMPTY, |b, s| b.union(&s.bounds()));
         let mut bvh = build_bvh(&aabbs);
-        let slots: Vec<Slot> = bvh
+        let slots: Vec<Tri4> = bvh
             .primitive_indices
-            .par_iter()
-            .map(|&i| {
-                let (s, e) = prims[i as usize];
-                match shapes[s as usize].element_triangle(e as usize) {
-                    Some(tri) => Slot { tri, prim: i },
-                    None => Slot { tri: [Vec3::ZERO; 3], prim: i | INDIRECT },
+            .par_chunks(4)
+            .map(|chunk| {
+                let mut block = Tri4::empty(INDIRECT);
+                for (lane, &i) in chunk.iter().enumerate() {
+                    let (s, e) = prims[i as usize];
+                    match shapes[s as usize].element_triangle(e as usize) {
+                        Some(tri) => {
+                            block.set(lane, &tri);
+                            block.prim[lane] = i;
+                        }
+                        None => block.prim[lane] = i | INDIRECT,
+                    }
                 }
+                block
             })
             .collect();
         bvh.primitive_indices = Vec::new();
@@ -331,15 +335,33 @@ const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32
 /// cover the rounding of the quantized child boxes.
 #[inline(always)]
 fn node_hits(node: &CwBvhNode, r: &NodeRay, t_max: f32, oct_inv4: u32) -> u32 {
+    let (mask8, _) = child_slabs(node, r, t_max);
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    let mut hit_mask = 0u32;
+    let mut m = mask8;
+    while m != 0 {
+        let child = m.trailing_zeros();
+        m &= m - 1;
+        let child_bits = ((child_bits8 >> (child * 8)) as u32) & 0xff;
+        let bit_index = ((bit_index8 >> (child * 8)) as u32) & 0xff;
+        hit_mask |= child_bits << bit_index;
+    }
+    hit_mask
+}
+
+/// The slab test of [`node_hits`] itself: bit `i` of the mask is set if the ray meets child `i`'s box with
+/// `t < t_max`, and the second value holds each child's entry distance (clamped to 0).
+#[inline(always)]
+fn child_slabs(node: &CwBvhNode, r: &NodeRay, t_max: f32) -> (u32, [Vec4; 2]) {
     let e = node.compute_extent();
     let (ex, ey, ez) = (Vec4::splat(e.x), Vec4::splat(e.y), Vec4::splat(e.z));
     let (px, py, pz) = (Vec4::splat(node.p.x), Vec4::splat(node.p.y), Vec4::splat(node.p.z));
     let (ox, oy, oz) = (Vec4::splat(r.o.x), Vec4::splat(r.o.y), Vec4::splat(r.o.z));
     let (ix, iy, iz) = (Vec4::splat(r.inv_d.x), Vec4::splat(r.inv_d.y), Vec4::splat(r.inv_d.z));
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
     let t_max4 = Vec4::splat(t_max);
-    let mut hit_mask = 0u32;
-    for i in 0..2 {
+    let mut mask = 0u32;
+    let mut t_near = [Vec4::ZERO; 2];
+    for (i, near) in t_near.iter_mut().enumerate() {
         let q = |a: &[u8; 8]| Vec4::new(a[4 * i] as f32, a[4 * i + 1] as f32, a[4 * i + 2] as f32, a[4 * i + 3] as f32);
         let pick = |lo: Vec4, hi: Vec4, neg: bool| if neg { (hi, lo) } else { (lo, hi) };
         let (x0, x1) = pick(q(&node.child_min_x), q(&node.child_max_x), r.neg[0]);
@@ -353,20 +375,52 @@ fn node_hits(node: &CwBvhNode, r: &NodeRay, t_max: f32, oct_inv4: u32) -> u32 {
         let tz1 = ((z1 * ez + pz) - oz) * iz;
         let t0 = tx0.max(ty0).max(tz0).max(Vec4::ZERO);
         let t1 = (tx1.min(ty1).min(tz1) * FAR_SCALE).min(t_max4);
-        let mask = t0.cmple(t1).bitmask();
-        if mask == 0 {
-            continue;
-        }
-        for j in 0..4 {
-            if mask & (1 << j) != 0 {
-                let child = 4 * i + j;
-                let child_bits = ((child_bits8 >> (child * 8)) as u32) & 0xff;
-                let bit_index = ((bit_index8 >> (child * 8)) as u32) & 0xff;
-                hit_mask |= child_bits << bit_index;
-            }
+        mask |= t0.cmple(t1).bitmask() << (4 * i);
+        *near = t0;
+    }
+    (mask, t_near)
+}
+
+/// Entries of the nearest-first traversal stack: a node index and the distance at which the ray enters its box.
+/// A fixed array that spills into a vector (which never allocates unless the fixed part is full), so that no tree
+/// depth can overflow it.
+struct NodeStack {
+    items: [(u32, f32); NODE_STACK],
+    len: usize,
+    spill: Vec<(u32, f32)>,
+}
+
+/// Fixed part of [`NodeStack`]: a BVH8 visit pushes at most 7 entries more than it pops, so this covers trees
+/// nine levels deep even when every child is hit.
+const NODE_STACK: usize = 64;
+
+impl NodeStack {
+    #[inline(always)]
+    fn new() -> Self {
+        Self { items: [(0, 0.0); NODE_STACK], len: 0, spill: Vec::new() }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, e: (u32, f32)) {
+        if self.len < NODE_STACK {
+            self.items[self.len] = e;
+            self.len += 1;
+        } else {
+            self.spill.push(e);
         }
     }
-    hit_mask
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        if let Some(e) = self.spill.pop() {
+            return Some(e);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.items[self.len])
+    }
 }
 
 /// Closest hit so far.
@@ -386,31 +440,89 @@ impl Closest {
 
 impl Blas {
     /// Closest hit in this object's space; updates `best` (and its `t`) when closer.
+    ///
+    /// Nearest first (as Embree and pbrt-v4 visit children): a node's hit leaves are tested at once, then its hit
+    /// inner children are pushed farthest first, and a popped node is skipped if the ray enters it beyond the
+    /// closest hit found since it was pushed (the same `t0 ≤ t_max` test the slab test makes).
     #[inline]
     fn closest(&self, o: Vec3, d: Vec3, instance: u32, best: &mut Closest) {
-        if self.bvh.nodes.is_empty() {
+        let nodes = &self.bvh.nodes;
+        if nodes.is_empty() {
             return;
         }
         let ray = ShapeRay::new(o, d);
         let node_ray = NodeRay::new(o, d);
-        let bvh = &self.bvh;
-        let mut state = bvh.new_traversal(Vec3A::from(d));
-        let mut node;
-        obvhs::traverse!(bvh, node, state, node_hits(node, &node_ray, best.hit.t, state.oct_inv4), {
-            let slot = &self.slots[state.primitive_id as usize];
-            let prim = slot.prim;
-            if prim & INDIRECT == 0 {
-                if let Some(hit) = intersect_inline_triangle(&ray, &slot.tri, best.hit.t) {
-                    *best = Closest { hit, instance, prim };
+        let mut stack = NodeStack::new();
+        let mut next = Some((0u32, 0.0f32));
+        while let Some((index, t_enter)) = next.take().or_else(|| stack.pop()) {
+            if t_enter > best.hit.t {
+                continue;
+            }
+            let node = &nodes[index as usize];
+            let (mut hit8, t_near) = child_slabs(node, &node_ray, best.hit.t);
+            let t_near = [t_near[0].to_array(), t_near[1].to_array()];
+            let mut prims = 0u32;
+            let mut inner = [(0u32, 0.0f32); 8];
+            let mut n_inner = 0;
+            while hit8 != 0 {
+                let child = hit8.trailing_zeros() as usize;
+                hit8 &= hit8 - 1;
+                let meta = node.child_meta[child] as u32;
+                // obvhs's child_meta: inner children are 0b001_xxxxx with 24 + their slot among the inner children;
+                // leaves have a unary primitive count in the top 3 bits and the first primitive's offset below.
+                if meta & 0b1_1000 == 0b1_1000 {
+                    let slot = (meta & 31) - 24;
+                    let below = (node.imask as u32) & ((1 << slot) - 1);
+                    let entry = (node.child_base_idx + below.count_ones(), t_near[child / 4][child % 4]);
+                    // Insertion sort, nearest last (popped first).
+                    let mut k = n_inner;
+                    while k > 0 && inner[k - 1].1 < entry.1 {
+                        inner[k] = inner[k - 1];
+                        k -= 1;
+                    }
+                    inner[k] = entry;
+                    n_inner += 1;
+                } else {
+                    prims |= (meta >> 5) << (meta & 31);
                 }
-            } else {
-                let prim = prim & !INDIRECT;
+            }
+            if prims != 0 {
+                self.closest_in_leaves(&ray, node.primitive_base_idx, prims, instance, best);
+            }
+            if n_inner > 0 {
+                for &e in &inner[..n_inner - 1] {
+                    stack.push(e);
+                }
+                next = Some(inner[n_inner - 1]);
+            }
+        }
+    }
+
+    /// Tests the primitives `base + i` for the bits `i` of `mask` (a node's hit leaves) and updates `best`.
+    #[inline(always)]
+    fn closest_in_leaves(&self, ray: &ShapeRay, base: u32, mask: u32, instance: u32, best: &mut Closest) {
+        for (block, lanes) in LeafBlocks::new(base, mask) {
+            let b = &self.slots[block];
+            let indirect = indirect_lanes(b);
+            let tris = lanes & !indirect;
+            if tris != 0 {
+                let hits = intersect_tri4(&ray.tri, b, tris, best.hit.t);
+                if let Some(lane) = hits.nearest() {
+                    let (t, bary) = hits.hit(lane);
+                    *best = Closest { hit: ElementHit::at_coords(t, bary), instance, prim: b.prim[lane] };
+                }
+            }
+            let mut rest = lanes & indirect;
+            while rest != 0 {
+                let lane = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let prim = b.prim[lane] & !INDIRECT;
                 let (s, e) = self.locate(prim);
-                if let Some(hit) = self.shapes[s as usize].intersect_element(e as usize, &ray, best.hit.t) {
+                if let Some(hit) = self.shapes[s as usize].intersect_element(e as usize, ray, best.hit.t) {
                     *best = Closest { hit, instance, prim };
                 }
             }
-        });
+        }
     }
 
     /// True if anything in this object is hit with `0 < t < t_max`.
@@ -427,14 +539,29 @@ impl Blas {
         let mut hit = false;
         'search: {
             obvhs::traverse!(bvh, node, state, node_hits(node, &node_ray, t_max, state.oct_inv4), {
-                let slot = &self.slots[state.primitive_id as usize];
-                let prim = slot.prim;
-                let found = if prim & INDIRECT == 0 {
-                    intersect_inline_triangle(&ray, &slot.tri, t_max).is_some()
-                } else {
-                    let (s, e) = self.locate(prim & !INDIRECT);
-                    self.shapes[s as usize].occludes_element(e as usize, &ray, t_max)
-                };
+                let base = state.primitive_group.x;
+                let mask = state.primitive_group.y | (1 << (state.primitive_id - base));
+                state.primitive_group.y = 0;
+                let mut found = false;
+                for (block, lanes) in LeafBlocks::new(base, mask) {
+                    let b = &self.slots[block];
+                    let indirect = indirect_lanes(b);
+                    let tris = lanes & !indirect;
+                    if tris != 0 && intersect_tri4(&ray.tri, b, tris, t_max).mask != 0 {
+                        found = true;
+                        break;
+                    }
+                    let mut rest = lanes & indirect;
+                    while rest != 0 && !found {
+                        let lane = rest.trailing_zeros() as usize;
+                        rest &= rest - 1;
+                        let (s, e) = self.locate(b.prim[lane] & !INDIRECT);
+                        found = self.shapes[s as usize].occludes_element(e as usize, &ray, t_max);
+                    }
+                    if found {
+                        break;
+                    }
+                }
                 if found {
                     hit = true;
                     break 'search;
@@ -442,6 +569,46 @@ impl Blas {
             });
         }
         hit
+    }
+}
+
+/// The lanes of a slot block whose primitives are intersected through their shapes.
+#[inline(always)]
+fn indirect_lanes(b: &Tri4) -> u32 {
+    b.prim.iter().enumerate().fold(0, |m, (lane, &p)| m | ((p >> 31) << lane))
+}
+
+/// The slot blocks a node's leaf primitives fall in: slots `base + i` for the bits `i` of `mask`, as (block index,
+/// lane mask) pairs in increasing order.
+struct LeafBlocks {
+    /// The mask shifted so that bit `j` is lane `j % 4` of block `block + j / 4`.
+    bits: u32,
+    block: usize,
+}
+
+impl LeafBlocks {
+    #[inline(always)]
+    fn new(base: u32, mask: u32) -> Self {
+        // A node's primitives are at most 24 slots, so the shifted mask fits in 27 bits.
+        Self { bits: mask << (base & 3), block: (base >> 2) as usize }
+    }
+}
+
+impl Iterator for LeafBlocks {
+    type Item = (usize, u32);
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<(usize, u32)> {
+        if self.bits == 0 {
+            return None;
+        }
+        let skip = self.bits.trailing_zeros() / 4;
+        self.bits >>= 4 * skip;
+        self.block += skip as usize;
+        let out = (self.block, self.bits & 0xf);
+        self.bits >>= 4;
+        self.block += 1;
+        Some(out)
     }
 }
 

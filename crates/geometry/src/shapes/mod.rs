@@ -28,7 +28,7 @@ mod triangle;
 pub use disk::Disk;
 pub use sphere::Sphere;
 pub use triangle::sample_triangle_area;
-pub(crate) use triangle::{intersect_inline_triangle, TriRay};
+pub(crate) use triangle::{intersect_tri4, Tri4, TriRay};
 
 /// A point sampled on a shape.
 #[derive(Clone, Copy, Debug, PartialEq)]
