@@ -337,13 +337,13 @@ const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32
 fn node_hits(node: &CwBvhNode, r: &NodeRay, t_max: f32, oct_inv4: u32) -> u32 {
     let (mask8, _) = child_slabs(node, r, t_max);
     let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    // Branch-free over the eight children (a missed child contributes no bits), so that neither coherent nor
+    // incoherent rays pay for mispredicted branches.
     let mut hit_mask = 0u32;
-    let mut m = mask8;
-    while m != 0 {
-        let child = m.trailing_zeros();
-        m &= m - 1;
-        let child_bits = ((child_bits8 >> (child * 8)) as u32) & 0xff;
-        let bit_index = ((bit_index8 >> (child * 8)) as u32) & 0xff;
+    for child in 0..8 {
+        let keep = 0u32.wrapping_sub((mask8 >> child) & 1);
+        let child_bits = ((child_bits8 >> (child * 8)) as u32) & 0xff & keep;
+        let bit_index = ((bit_index8 >> (child * 8)) as u32) & 0x1f;
         hit_mask |= child_bits << bit_index;
     }
     hit_mask
