@@ -818,9 +818,25 @@ pub fn read_exr_spectral(path: &Path) -> Result<SpectralImage, ImageError> {
     })
 }
 
-fn open_read(path: &Path) -> Result<Vec<u8>, ImageError> {
+/// The largest image file read (2 GiB, the bound of scene and mesh files): a name that leads to an endless stream
+/// such as `/dev/zero` is an error once this much is read, not a read until memory runs out.
+pub const MAX_IMAGE_FILE_BYTES: u64 = 2 << 30;
+
+/// A whole image file (EXR, PNG, PFM, TGA), up to [`MAX_IMAGE_FILE_BYTES`].
+pub(crate) fn open_read(path: &Path) -> Result<Vec<u8>, ImageError> {
+    open_read_bounded(path, MAX_IMAGE_FILE_BYTES)
+}
+
+/// A whole file of at most `limit` bytes; a longer one is an error, found by reading one byte past the limit.
+pub(crate) fn open_read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>, ImageError> {
     let mut bytes = Vec::new();
-    File::open(path).and_then(|mut f| f.read_to_end(&mut bytes)).map_err(io_err(path))?;
+    File::open(path).and_then(|f| f.take(limit + 1).read_to_end(&mut bytes)).map_err(io_err(path))?;
+    if bytes.len() as u64 > limit {
+        return Err(ImageError::Malformed {
+            path: path.to_path_buf(),
+            message: format!("larger than {limit} bytes, the most an image file is read to"),
+        });
+    }
     Ok(bytes)
 }
 

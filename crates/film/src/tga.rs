@@ -142,26 +142,9 @@ fn decode_rle(mut src: &[u8], n: usize, bpp: usize) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
-/// The largest TGA file read (2 GiB, the bound of scene and mesh files): a name that leads to an endless stream
-/// such as `/dev/zero` is an error once this much is read, not a read until memory runs out.
-pub const MAX_TGA_BYTES: u64 = 2 << 30;
-
-/// Reads a TGA file's raw 8-bit samples ([`decode_tga`]).
+/// Reads a TGA file's raw 8-bit samples ([`decode_tga`]), up to [`crate::image_io::MAX_IMAGE_FILE_BYTES`].
 pub fn read_tga(path: &Path) -> Result<Image8, ImageError> {
-    read_tga_bounded(path, MAX_TGA_BYTES)
-}
-
-fn read_tga_bounded(path: &Path, limit: u64) -> Result<Image8, ImageError> {
-    use std::io::Read;
-    let io = |source| ImageError::Io { path: path.to_path_buf(), source };
-    let mut bytes = Vec::new();
-    std::fs::File::open(path).map_err(io)?.take(limit + 1).read_to_end(&mut bytes).map_err(io)?;
-    if bytes.len() as u64 > limit {
-        return Err(ImageError::Malformed {
-            path: path.to_path_buf(),
-            message: format!("larger than {limit} bytes, the most a TGA file is read to"),
-        });
-    }
+    let bytes = crate::image_io::open_read(path)?;
     decode_tga(&bytes).map_err(|message| ImageError::Malformed { path: path.to_path_buf(), message })
 }
 
@@ -283,20 +266,23 @@ mod tests {
 
     #[test]
     fn endless_files_are_read_only_to_the_limit() {
+        use crate::image_io::open_read_bounded;
         // /dev/zero never ends: reading stops one byte past the limit and says so.
         if Path::new("/dev/zero").exists() {
-            let e = read_tga_bounded(Path::new("/dev/zero"), 1 << 20).unwrap_err().to_string();
+            let e = open_read_bounded(Path::new("/dev/zero"), 1 << 20).unwrap_err().to_string();
             assert!(e.contains("larger than 1048576 bytes"), "{e}");
         }
-        // A file of exactly the limit is read (and decoded: here a 1×1 grey image).
+        // A file of exactly the limit is read whole (and decodes: here a 1×1 grey image); one byte less is refused.
         let dir = std::env::temp_dir().join(format!("prismatic-tga-limit-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let mut f = header(3, 1, 1, 8, 0, b"");
         f.push(77);
         let path = dir.join("one.tga");
         std::fs::write(&path, &f).unwrap();
-        assert_eq!(read_tga_bounded(&path, f.len() as u64).unwrap().data, vec![77]);
-        assert!(read_tga_bounded(&path, f.len() as u64 - 1).is_err());
+        let bytes = open_read_bounded(&path, f.len() as u64).unwrap();
+        assert_eq!(decode_tga(&bytes).unwrap().data, vec![77]);
+        assert_eq!(read_tga(&path).unwrap().data, vec![77]);
+        assert!(open_read_bounded(&path, f.len() as u64 - 1).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -12,15 +12,8 @@ use geometry::mesh::{MeshData, TriangleMesh};
 use geometry::shapes::Shape;
 use geometry::{Ray, Transform, Vec3};
 
-/// A deterministic hash to [0, 1).
-fn hash01(mut x: u64) -> f32 {
-    x ^= x >> 33;
-    x = x.wrapping_mul(0xff51_afd7_ed55_8ccd);
-    x ^= x >> 33;
-    x = x.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
-    x ^= x >> 33;
-    (x >> 40) as f32 / (1u64 << 24) as f32
-}
+mod support;
+use support::hash01;
 
 /// A lat-long sphere of `2·n·n` triangles with radial bumps.
 fn bumpy_sphere(n: usize) -> MeshData {

@@ -33,6 +33,9 @@ use geometry::shapes::{coordinate_system, Shape};
 use geometry::{Ray, Transform, Vec3};
 use rayon::prelude::*;
 
+mod support;
+use support::hash01;
+
 /// Embree 3's C API: the few declarations this benchmark needs.
 #[allow(non_camel_case_types, non_snake_case, clippy::upper_case_acronyms)]
 mod ffi {
@@ -355,16 +358,6 @@ impl ValueFormatter for CpuFormatter {
     fn scale_for_machines(&self, _values: &mut [f64]) -> &'static str {
         "ns"
     }
-}
-
-/// A deterministic hash to [0, 1).
-fn hash01(mut x: u64) -> f32 {
-    x ^= x >> 33;
-    x = x.wrapping_mul(0xff51_afd7_ed55_8ccd);
-    x ^= x >> 33;
-    x = x.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
-    x ^= x >> 33;
-    (x >> 40) as f32 / (1u64 << 24) as f32
 }
 
 /// A lat-long sphere of radius about `radius` and `2·n·n` triangles with radial bumps, appended to `data`.

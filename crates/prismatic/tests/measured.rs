@@ -12,6 +12,8 @@ use film::Film;
 use render::builder::{build_scene, BuildOptions, BuiltScene};
 use rgl::{Facet, Ggx, Resolution};
 
+mod support;
+
 /// Allowed distance between two renders' means, in standard errors of the difference (fixed seeds: never flakes).
 const K_SIGMA: f64 = 4.5;
 
@@ -87,23 +89,9 @@ fn render(built: &BuiltScene, spp: u32, seed: u32) -> Film {
     film
 }
 
-/// Mean XYZ over all pixels of two renders with different seeds, and the standard error of each component
-/// (pixels are independent with a box filter: SE = √Σ(aₚ − bₚ)² / 2n).
+/// [`support::image_xyz`] of two renders of `built` with seeds 1 and 2.
 fn image_xyz(built: &BuiltScene, spp: u32) -> ([f64; 3], [f64; 3]) {
-    let (a, b) = (render(built, spp, 1), render(built, spp, 2));
-    let (w, h) = (a.width(), a.height());
-    let n = (w * h) as f64;
-    let (mut m, mut d2) = ([0.0; 3], [0.0; 3]);
-    for y in 0..h {
-        for x in 0..w {
-            let (va, vb) = (a.pixel_xyz(x, y).to_array(), b.pixel_xyz(x, y).to_array());
-            for c in 0..3 {
-                m[c] += 0.5 * (va[c] + vb[c]) / n;
-                d2[c] += (va[c] - vb[c]).powi(2);
-            }
-        }
-    }
-    (m, d2.map(|d| d.sqrt() / (2.0 * n)))
+    support::image_xyz(&render(built, spp, 1), &render(built, spp, 2))
 }
 
 /// The measured file renders as the conductor it tabulates, through the camera-path integrators and BDPT: each XYZ
