@@ -429,12 +429,18 @@ struct Closest {
     hit: ElementHit,
     instance: u32,
     prim: u32,
+    /// The leaf slot (`4 · block + lane`) whose inline triangle was hit, or `NO_SLOT` for primitives intersected
+    /// through their shape: [`GeometryScene::finish`] takes the vertices from there, already in cache.
+    slot: u32,
 }
+
+/// [`Closest::slot`] of a hit that has no inline triangle.
+const NO_SLOT: u32 = u32::MAX;
 
 impl Closest {
     /// No hit yet: anything nearer than `t_max` is closer.
     fn none(t_max: f32) -> Self {
-        Self { hit: ElementHit::at_coords(t_max, [0.0; 3]), instance: u32::MAX, prim: 0 }
+        Self { hit: ElementHit::at_coords(t_max, [0.0; 3]), instance: u32::MAX, prim: 0, slot: NO_SLOT }
     }
 }
 
@@ -509,7 +515,12 @@ impl Blas {
                 let hits = intersect_tri4(&ray.tri, b, tris, best.hit.t);
                 if let Some(lane) = hits.nearest() {
                     let (t, bary) = hits.hit(lane);
-                    *best = Closest { hit: ElementHit::at_coords(t, bary), instance, prim: b.prim[lane] };
+                    *best = Closest {
+                        hit: ElementHit::at_coords(t, bary),
+                        instance,
+                        prim: b.prim[lane],
+                        slot: (4 * block + lane) as u32,
+                    };
                 }
             }
             let mut rest = lanes & indirect;
@@ -519,7 +530,7 @@ impl Blas {
                 let prim = b.prim[lane] & !INDIRECT;
                 let (s, e) = self.locate(prim);
                 if let Some(hit) = self.shapes[s as usize].intersect_element(e as usize, ray, best.hit.t) {
-                    *best = Closest { hit, instance, prim };
+                    *best = Closest { hit, instance, prim, slot: NO_SLOT };
                 }
             }
         }
@@ -855,7 +866,13 @@ impl GeometryScene {
         };
         let blas = &self.objects[inst.object as usize];
         let (shape, element) = blas.locate(c.prim);
-        let g = inst.geom_to_render(blas.shapes[shape as usize].surface_geom(element as usize, &c.hit));
+        let s = &blas.shapes[shape as usize];
+        let g = inst.geom_to_render(if c.slot == NO_SLOT {
+            s.surface_geom(element as usize, &c.hit)
+        } else {
+            let block = &blas.slots[c.slot as usize / 4];
+            s.surface_geom_of_triangle(element as usize, &c.hit, block.triangle(c.slot as usize % 4))
+        });
         let mut tangent = g.dpdu - g.ns * g.ns.dot(g.dpdu);
         tangent = tangent.try_normalize().unwrap_or_else(|| coordinate_system(g.ns).0);
         Hit {
@@ -1048,7 +1065,8 @@ impl GeometryScene {
             for (s, shape) in blas.shapes.iter().enumerate() {
                 for e in 0..shape.primitive_count() {
                     if let Some(hit) = shape.intersect_element(e, &ray, best.hit.t) {
-                        best = Closest { hit, instance: i as u32, prim: blas.shape_starts[s] + e as u32 };
+                        best =
+                            Closest { hit, instance: i as u32, prim: blas.shape_starts[s] + e as u32, slot: NO_SLOT };
                     }
                 }
             }

@@ -53,6 +53,11 @@ fn bvh_matches_brute_force() {
         shapes.push(Shape::Sphere(Sphere::new(0.2 + uniform(&mut rng), Transform::translate(c), false).unwrap()));
     }
     shapes.push(mesh(soup(&mut rng, 500)));
+    // A soup with per-vertex normals and uvs, whose hit records read them through the mesh's indices.
+    let mut shaded = soup(&mut rng, 500);
+    shaded.normals = Some(shaded.positions.iter().map(|_| unit_vector(&mut rng)).collect());
+    shaded.uvs = Some(shaded.positions.iter().map(|p| glam::Vec2::new(p.x * 0.1, p.y * 0.3 + p.z)).collect());
+    shapes.push(mesh(shaded));
     for _ in 0..5 {
         let t = Transform::translate(vec3(&mut rng, -8.0, 8.0).as_dvec3())
             * Transform::rotate(360.0 * uniform(&mut rng) as f64, unit_vector(&mut rng).as_dvec3()).unwrap();
@@ -88,6 +93,14 @@ fn bvh_matches_brute_force() {
             match (a, b) {
                 (Some(a), Some(b)) => {
                     assert_eq!((a.t, a.instance, a.primitive), (b.t, b.instance, b.primitive), "ray {i}");
+                    // The whole record, bit for bit: the BVH builds it from its inline copy of the triangle, the
+                    // brute force from the mesh.
+                    assert_eq!((a.p, a.p_error, a.n, a.ns, a.uv), (b.p, b.p_error, b.n, b.ns, b.uv), "ray {i}");
+                    assert_eq!(
+                        (a.dpdu, a.tangent, a.shading_dpdu, a.shading_dpdv),
+                        (b.dpdu, b.tangent, b.shading_dpdu, b.shading_dpdv),
+                        "ray {i}"
+                    );
                     hits += 1;
                 }
                 (None, None) => {}

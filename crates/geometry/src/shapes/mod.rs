@@ -206,6 +206,13 @@ pub(crate) trait ShapeKind {
     /// Surface geometry of element `e` at a hit it returned.
     fn surface_geom(&self, e: usize, hit: &ElementHit) -> SurfaceGeom;
 
+    /// [`ShapeKind::surface_geom`] of an element whose [`ShapeKind::element_triangle`] is `positions` (the BVH's
+    /// inline copy), for shapes that can use them instead of reading their own.
+    fn surface_geom_of_triangle(&self, e: usize, hit: &ElementHit, positions: [Vec3; 3]) -> SurfaceGeom {
+        let _ = positions;
+        self.surface_geom(e, hit)
+    }
+
     /// First derivatives of the surface of element `e` at a hit it returned (in the same space as
     /// [`ShapeKind::surface_geom`]); `None` for shapes that do not provide them.
     fn derivatives(&self, e: usize, hit: &ElementHit) -> Option<SurfaceDerivatives> {
@@ -365,6 +372,17 @@ impl Shape {
     /// Surface geometry of primitive `element` at a hit [`Shape::intersect_element`] returned.
     pub(crate) fn surface_geom(&self, element: usize, hit: &ElementHit) -> SurfaceGeom {
         dispatch!(self, k => ShapeKind::surface_geom(k, element, hit))
+    }
+
+    /// [`Shape::surface_geom`] of a primitive whose [`Shape::element_triangle`] is `positions`.
+    #[inline]
+    pub(crate) fn surface_geom_of_triangle(
+        &self,
+        element: usize,
+        hit: &ElementHit,
+        positions: [Vec3; 3],
+    ) -> SurfaceGeom {
+        dispatch!(self, k => ShapeKind::surface_geom_of_triangle(k, element, hit, positions))
     }
 
     /// Surface derivatives of primitive `element` at a hit [`Shape::intersect_element`] returned.

@@ -127,6 +127,12 @@ impl Tri4 {
         Self { v: [[Vec4::ZERO; 3]; 3], prim: [prim; 4] }
     }
 
+    /// The triangle of lane `lane`.
+    #[inline(always)]
+    pub fn triangle(&self, lane: usize) -> [Vec3; 3] {
+        self.v.map(|v| Vec3::new(v[0][lane], v[1][lane], v[2][lane]))
+    }
+
     /// Stores triangle `tri` in lane `lane`.
     pub fn set(&mut self, lane: usize, tri: &[Vec3; 3]) {
         for (v, p) in self.v.iter_mut().zip(tri) {
@@ -249,7 +255,14 @@ fn edges_f64(lanes: u32, p: [Vec4; 6], e: [Vec4; 3]) -> (Vec4, Vec4, Vec4) {
 
 /// Surface geometry of triangle `tri` of `mesh` at barycentrics `b` (pbrt-v4's `InteractionFromIntersection`).
 pub(crate) fn triangle_geom(mesh: &TriangleMesh, tri: usize, b: [f32; 3]) -> SurfaceGeom {
-    let [p0, p1, p2] = mesh.triangle_positions(tri);
+    triangle_geom_at(mesh, tri, mesh.triangle_positions(tri), b)
+}
+
+/// [`triangle_geom`] given the triangle's vertex positions, which must equal `mesh.triangle_positions(tri)`: the
+/// BVH passes its inline copy, which the hit test has just read, so that a mesh without uvs or normals needs no
+/// further memory access (the index and vertex loads were 13% of the closest-hit time on a 1M-triangle mesh).
+pub(crate) fn triangle_geom_at(mesh: &TriangleMesh, tri: usize, positions: [Vec3; 3], b: [f32; 3]) -> SurfaceGeom {
+    let [p0, p1, p2] = positions;
     let [uv0, uv1, uv2] = mesh.triangle_uvs(tri);
     let p = b[0] * p0 + b[1] * p1 + b[2] * p2;
     let p_abs = (b[0] * p0).abs() + (b[1] * p1).abs() + (b[2] * p2).abs();
@@ -375,6 +388,10 @@ impl ShapeKind for TriangleMesh {
 
     fn surface_geom(&self, e: usize, hit: &ElementHit) -> SurfaceGeom {
         triangle_geom(self, e, hit.b)
+    }
+
+    fn surface_geom_of_triangle(&self, e: usize, hit: &ElementHit, positions: [Vec3; 3]) -> SurfaceGeom {
+        triangle_geom_at(self, e, positions, hit.b)
     }
 
     fn derivatives(&self, e: usize, hit: &ElementHit) -> Option<SurfaceDerivatives> {
