@@ -74,6 +74,9 @@ pub struct Hit {
     pub uv: Vec2,
     /// ∂p/∂u (not normalized; a tangent of the surface).
     pub dpdu: Vec3,
+    /// ∂p/∂v (not normalized): with `dpdu` the surface's own partials with respect to its (u, v), which turn a
+    /// change of the point into a change of (u, v) (pbrt-v4's `SurfaceInteraction::dpdv`, for texture footprints).
+    pub dpdv: Vec3,
     /// Unit tangent perpendicular to `ns` (∂p/∂u made orthogonal to `ns`), for shading frames.
     pub tangent: Vec3,
     /// pbrt-v4's shading ∂p/∂u (not normalized): ∂p/∂u, or for meshes with vertex normals ∂p/∂u turned to `ns`
@@ -699,6 +702,7 @@ impl InstanceData {
             ns,
             uv: g.uv,
             dpdu: self.linear * g.dpdu,
+            dpdv: self.linear * g.dpdv,
             shading_dpdu: self.linear * g.shading_dpdu,
             shading_dpdv: self.linear * g.shading_dpdv,
         }
@@ -883,6 +887,7 @@ impl GeometryScene {
             ns: g.ns,
             uv: g.uv,
             dpdu: g.dpdu,
+            dpdv: g.dpdv,
             tangent,
             shading_dpdu: g.shading_dpdu,
             shading_dpdv: g.shading_dpdv,

@@ -274,7 +274,8 @@ impl IndexedMesh<4> {
                 }
             }
         }
-        SurfaceGeom { p: p.as_vec3(), p_error, n, ns, uv: tex_uv, dpdu: dpds.as_vec3(), shading_dpdu, shading_dpdv }
+        let (dpdu, dpdv) = (dpds.as_vec3(), dpdt.as_vec3());
+        SurfaceGeom { p: p.as_vec3(), p_error, n, ns, uv: tex_uv, dpdu, dpdv, shading_dpdu, shading_dpdv }
     }
 
     /// Corner area elements of patch `k`, the weights of the bilinear density used to sample it.

@@ -87,8 +87,8 @@ pub struct RenderArgs {
     #[arg(long, default_value = "hero")]
     pub wavelengths: WavelengthStrategy,
 
-    /// Also write albedo and normal layers (albedo.R/G/B, N.X/Y/Z) of the first surface hit, for denoisers
-    /// (EXR output only).
+    /// Also write pbrt-v4's geometry-buffer channels of the first visible surface (Albedo, P, dzdx, dzdy, N, Ns,
+    /// u, v, Variance, RelativeVariance; camera space) on any film, as Film "gbuffer" does (EXR output only).
     #[arg(long)]
     pub aovs: bool,
 
@@ -219,7 +219,10 @@ impl Setup {
         let scene_hash = checkpoint::scene_hash(&desc.input_files())?;
         let mut spec = built.film.clone();
         if plan.aovs {
+            // pbrt-v4's geometry buffer on any film: its channels, names and camera space, as `Film "gbuffer"`
+            // writes them (a gbuffer film keeps its own coordinate system).
             spec.aovs = true;
+            spec.gbuffer.get_or_insert(film::GBuffer { coordinates: film::GBufferCoordinates::Camera });
         }
         spec.wavelengths = plan.wavelengths;
         let whole = spec.bounds();

@@ -6,7 +6,9 @@
 //! - the variance of the samples' colour: 0 where every sample sees black, the colour noise of the wavelength
 //!   sampling where every sample sees an emitter, and the compound Bernoulli variance where half of them do;
 //! - every integrator writes the same geometry for the same camera samples, and the buffers do not depend on the
-//!   number of threads.
+//!   number of threads;
+//! - the command line's `--aovs` writes the same channels on an `rgb` and a `spectral` film, bit for bit those of
+//!   `Film "gbuffer"`, with the depth, its change and the normal of a tilted plane.
 
 use std::path::Path;
 
@@ -61,6 +63,33 @@ fn screen(x: u32, y: u32, w: u32, h: u32) -> (f64, f64, f64, f64) {
 /// screen point (sx, sy) is along (k·sx, k·sy, 1) with k = tan 30°.
 const PERSPECTIVE: &str = "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" 60";
 
+/// The slope b of the plane z = 5 + b·y of [`tilted_quad`].
+const TILT: f64 = 0.5;
+
+/// A quad on the plane z = 5 + b·y, far wider than a 60° view of it.
+fn tilted_quad(b: f64) -> String {
+    format!(
+        "Shape \"bilinearmesh\" \"point3 P\" [ -20 -20 {z0}  20 -20 {z0}  -20 20 {z1}  20 20 {z1} ]",
+        z0 = 5.0 - 20.0 * b,
+        z1 = 5.0 + 20.0 * b
+    )
+}
+
+/// The mean depth over pixel row `y` of an H-row image of [`PERSPECTIVE`] looking at the plane z = 5 + b·y, and
+/// its change to the next row, both averaged over the pixel.
+///
+/// Along the ray t·(k·sx, k·sy, 1) the depth is z(sy) = 5/(1 − c·sy) with c = b·k, the same for the pixel to the
+/// right (dz/dx = 0), and one pixel down (sy − Δ) it changes by z(sy − Δ) − z(sy). The pixel's mean over
+/// sy ∈ [s0, s1] is (5/c)·[ln(1 − c·s0) − ln(1 − c·s1)]/Δ.
+fn tilted_depth_and_change(b: f64, y: u32, h: u32) -> (f64, f64) {
+    let c = b * (30f64).to_radians().tan();
+    let mean_depth = |s0: f64, s1: f64| (5.0 / c) * ((1.0 - c * s0).ln() - (1.0 - c * s1).ln()) / (s1 - s0);
+    let (_, sy, _, d) = screen(0, y, h, h);
+    let (s0, s1) = (sy - d / 2.0, sy + d / 2.0);
+    let depth = mean_depth(s0, s1);
+    (depth, mean_depth(s0 - d, s1 - d) - depth)
+}
+
 #[test]
 fn depth_and_its_change_per_pixel_on_planes_seen_by_a_perspective_camera() {
     let k = (30f64).to_radians().tan();
@@ -81,24 +110,11 @@ fn depth_and_its_change_per_pixel_on_planes_seen_by_a_perspective_camera() {
             assert!(px.dz[0] < 1e-5 && px.dz[1] < 1e-5, "({x}, {y}): dz {:?}", px.dz);
         }
     }
-    // Tilted about the x axis, z = 5 + b·y: along the ray t·(k·sx, k·sy, 1) the depth is z(sy) = 5/(1 − c·sy) with
-    // c = b·k, the same for the pixel to the right (dz/dx = 0), and one pixel down (sy − Δ) the depth changes by
-    // z(sy − Δ) − z(sy). The pixel's mean over sy ∈ [s0, s1] is (5/c)·[ln(1 − c·s) − ln(1 − c·(s − Δ))]/Δ.
-    let b = 0.5;
-    let quad = format!(
-        "Shape \"bilinearmesh\" \"point3 P\" [ -20 -20 {z0}  20 -20 {z0}  -20 20 {z1}  20 20 {z1} ]",
-        z0 = 5.0 - 20.0 * b,
-        z1 = 5.0 + 20.0 * b
-    );
-    let film = render(&build(&scene(PERSPECTIVE, w, h, 64, "camera", "path", &quad)));
-    let c = b * k;
-    let mean_depth = |s0: f64, s1: f64| (5.0 / c) * ((1.0 - c * s0).ln() - (1.0 - c * s1).ln()) / (s1 - s0);
+    // Tilted about the x axis, z = 5 + b·y (see tilted_depth_and_change).
+    let film = render(&build(&scene(PERSPECTIVE, w, h, 64, "camera", "path", &tilted_quad(TILT))));
     for y in 0..h {
         for x in 0..w {
-            let (_, sy, _, d) = screen(x, y, w, h);
-            let (s0, s1) = (sy - d / 2.0, sy + d / 2.0);
-            let depth = mean_depth(s0, s1);
-            let change = mean_depth(s0 - d, s1 - d) - depth;
+            let (depth, change) = tilted_depth_and_change(TILT, y, h);
             let px = pixel(&film, x, y);
             assert!((px.p[2] - depth).abs() < 1e-3 * depth, "({x}, {y}): z {} vs {depth}", px.p[2]);
             // pbrt-v4 writes |dz/dy|; the derivative at the centre (what a scaled differential would tend to)
@@ -339,4 +355,98 @@ fn every_integrator_writes_the_same_geometry_and_no_thread_count_changes_the_buf
             _ => assert!(noisy > g.p.len() / 2, "{integrator}: {noisy} pixels with variance"),
         }
     }
+}
+
+/// Runs `prismatic render` in `dir` with `args`.
+fn prismatic(dir: &Path, args: &[&str]) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_prismatic"))
+        .arg("render")
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// pbrt-v4's gbuffer channels in its order.
+const GBUFFER_CHANNELS: [&str; 21] = [
+    "Albedo.R",
+    "Albedo.G",
+    "Albedo.B",
+    "P.X",
+    "P.Y",
+    "P.Z",
+    "dzdx",
+    "dzdy",
+    "N.X",
+    "N.Y",
+    "N.Z",
+    "Ns.X",
+    "Ns.Y",
+    "Ns.Z",
+    "u",
+    "v",
+    "Variance.R",
+    "Variance.G",
+    "Variance.B",
+    "RelativeVariance.R",
+    "RelativeVariance.G",
+];
+
+/// `--aovs` on an `rgb` and on a `spectral` film writes pbrt-v4's gbuffer channels, bit for bit those of the same
+/// scene rendered with `Film "gbuffer"` (the same camera samples: geometry, albedo and the colour's variance), and
+/// they are right: on the tilted plane z = 5 + b·y the depth and its change per row are the closed forms of
+/// [`tilted_depth_and_change`], and both normals are the plane's, (0, b, −1)/√(1 + b²) in camera space (facing the
+/// camera at the origin).
+#[test]
+fn aovs_on_any_film_write_the_gbuffer_channels() {
+    let dir = std::env::temp_dir().join(format!("prismatic-gbuffer-aovs-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (6, 6);
+    let text = scene(PERSPECTIVE, w, h, 64, "camera", "volpath", &tilted_quad(TILT));
+    std::fs::write(dir.join("gbuffer.pbrt"), &text).unwrap();
+    prismatic(&dir, &["gbuffer.pbrt", "--quiet", "-o", "gbuffer.exr"]);
+    let (_, _, reference) = film::read_exr_channels(&dir.join("gbuffer.exr")).unwrap();
+    let channel = |channels: &film::NamedChannels, name: &str| -> Vec<f32> {
+        channels.iter().find(|(n, _)| n == name).unwrap_or_else(|| panic!("no channel {name}")).1.clone()
+    };
+    let len = (1.0 + TILT * TILT).sqrt();
+    let normal = [0.0, TILT / len, -1.0 / len];
+    for kind in ["rgb", "spectral"] {
+        let other = text
+            .replace("Film \"gbuffer\"", &format!("Film \"{kind}\""))
+            .replace("\"string coordinatesystem\" \"camera\"", "");
+        std::fs::write(dir.join(format!("{kind}.pbrt")), other).unwrap();
+        let out = format!("{kind}.exr");
+        prismatic(&dir, &[&format!("{kind}.pbrt"), "--aovs", "--quiet", "-o", &out]);
+        let (_, _, channels) = film::read_exr_channels(&dir.join(&out)).unwrap();
+        let names: Vec<&str> = channels.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names.iter().filter(|n| n.starts_with("S0.")).count() > 0, kind == "spectral", "{names:?}");
+        for name in GBUFFER_CHANNELS.iter().chain(["RelativeVariance.B", "R", "G", "B"].iter()) {
+            let (got, want) = (channel(&channels, name), channel(&reference, name));
+            assert!(got.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()), "{kind}: {name} differs");
+        }
+        let (pz, dzdx, dzdy) = (channel(&channels, "P.Z"), channel(&channels, "dzdx"), channel(&channels, "dzdy"));
+        let n: Vec<Vec<f32>> = ["N.X", "N.Y", "N.Z", "Ns.X", "Ns.Y", "Ns.Z"].map(|c| channel(&channels, c)).into();
+        for y in 0..h {
+            let (depth, change) = tilted_depth_and_change(TILT, y, h);
+            for x in 0..w {
+                let i = (y * w + x) as usize;
+                assert!((pz[i] as f64 - depth).abs() < 1e-3 * depth, "{kind} ({x}, {y}): z {} vs {depth}", pz[i]);
+                let dz = dzdy[i] as f64;
+                assert!((dz - change.abs()).abs() < 2e-3 * change.abs(), "{kind} ({x}, {y}): dz/dy {dz} vs {change}");
+                assert!(dzdx[i].abs() < 1e-5, "{kind} ({x}, {y}): dz/dx {}", dzdx[i]);
+                for c in 0..6 {
+                    let want = normal[c % 3];
+                    assert!(
+                        (n[c][i] as f64 - want).abs() < 1e-5,
+                        "{kind} ({x}, {y}): normal {c} {} vs {want}",
+                        n[c][i]
+                    );
+                }
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -149,28 +149,32 @@ fn render_and_kill(dir: &Path, args: &[&str]) {
 
 /// SIGKILL between checkpoints, then `render --resume`: the image is bit for bit the uninterrupted render's, for
 /// every integrator (splats of lightpath and bdpt, sppm's progressive statistics), RGB, spectral and gbuffer
-/// films in turn. The checkpoint was really taken mid-render (fewer passes done than asked). (A kill during a write
+/// films in turn, and a spectral film with `--aovs` (the gbuffer's channels on it). The checkpoint was really taken mid-render (fewer passes done than asked). (A kill during a write
 /// can leave a temporary file beside it; the checkpoint itself is always a complete one.)
 #[cfg(unix)]
 #[test]
 fn a_killed_render_resumes_to_the_uninterrupted_image() {
-    for (integrator, film, spp) in [
-        ("path", "spectral", 2048),
-        ("volpath", "gbuffer", 2048),
-        ("bdpt", "spectral", 1536),
-        ("lightpath", "rgb", 2048),
-        ("sppm", "gbuffer", 4096),
+    for (integrator, film, spp, aovs) in [
+        ("path", "spectral", 2048, false),
+        ("volpath", "gbuffer", 2048, false),
+        ("bdpt", "spectral", 1536, true),
+        ("lightpath", "rgb", 2048, false),
+        ("sppm", "gbuffer", 4096, false),
     ] {
         let dir = temp_dir(&format!("kill-{integrator}"));
         write_scene(&dir, integrator, film);
         let spp = spp.to_string();
-        render_and_kill(&dir, &["scene.pbrt", "--spp", &spp, "--seed", "3", "-o", "out.exr"]);
+        let aovs: &[&str] = if aovs { &["--aovs"] } else { &[] };
+        render_and_kill(&dir, &[&["scene.pbrt", "--spp", &spp, "--seed", "3", "-o", "out.exr"], aovs].concat());
         let (start, end, done) = checkpoint_passes(&dir.join("c.ckpt"));
         assert!(start == 0 && done < end && end.to_string() == spp, "{integrator}: {start}..{end}, done {done}");
         let resumed = ok(prismatic(&dir, &["render", "--resume", "c.ckpt"]));
         let summary = String::from_utf8_lossy(&resumed.stdout);
         assert!(summary.contains(&format!("resumed at {done}")), "{summary}");
-        ok(prismatic(&dir, &["render", "scene.pbrt", "--spp", &spp, "--seed", "3", "-o", "whole.exr", "--quiet"]));
+        let whole = ["render", "scene.pbrt", "--spp", &spp, "--seed", "3", "-o", "whole.exr", "--quiet"];
+        ok(prismatic(&dir, &[&whole[..], aovs].concat()));
+        let names: Vec<String> = other_channels(&dir.join("out.exr")).into_iter().map(|(n, _)| n).collect();
+        assert_eq!(names.iter().any(|n| n == "P.Z"), film == "gbuffer" || !aovs.is_empty(), "{integrator}");
         assert_identical(&dir.join("out.exr"), &dir.join("whole.exr"), integrator);
         let header = film::read_exr_text_attributes(&dir.join("out.exr")).unwrap();
         assert_eq!(header["samplesPerPixel"], spp);
@@ -291,21 +295,23 @@ fn assert_within_rounding(merged: &Path, single: &Path, what: &str) -> (usize, u
 
 /// Three shards merged equal the single-process render: within one f32 unit of the pixel's largest value for the
 /// sample shards of path, volpath, bdpt and lightpath (sums regrouped, see the merge's bound), bit for bit for
-/// sppm's bands of rows, RGB, spectral and gbuffer films. A part alone is not the image (each holds a third of the
-/// samples, or of the rows).
+/// sppm's bands of rows, RGB, spectral and gbuffer films, and a spectral film with `--aovs`. A part alone is not
+/// the image (each holds a third of the samples, or of the rows).
 #[test]
 fn shards_merge_into_the_single_process_image() {
-    for film in ["rgb", "spectral", "gbuffer"] {
+    for (film, aovs) in [("rgb", false), ("spectral", false), ("gbuffer", false), ("spectral", true)] {
+        let aovs: &[&str] = if aovs { &["--aovs"] } else { &[] };
         for integrator in ["path", "volpath", "bdpt", "lightpath", "sppm"] {
-            let what = format!("{integrator} ({film})");
-            let dir = temp_dir(&format!("shards-{integrator}-{film}"));
+            let what = format!("{integrator} ({film}{})", aovs.concat());
+            let dir = temp_dir(&format!("shards-{integrator}-{film}{}", aovs.concat()));
             write_scene(&dir, integrator, film);
             let spp = "6";
-            ok(prismatic(&dir, &["render", "scene.pbrt", "--spp", spp, "--seed", "4", "-o", "whole.exr", "--quiet"]));
+            let whole = ["render", "scene.pbrt", "--spp", spp, "--seed", "4", "-o", "whole.exr", "--quiet"];
+            ok(prismatic(&dir, &[&whole[..], aovs].concat()));
             for k in 1..=3 {
                 let (shard, out) = (format!("{k}/3"), format!("part-{k}.exr"));
                 let args = ["render", "scene.pbrt", "--spp", spp, "--seed", "4", "--shard", &shard, "-o", &out];
-                ok(prismatic(&dir, &args));
+                ok(prismatic(&dir, &[&args[..], aovs].concat()));
                 let header = film::read_exr_text_attributes(&dir.join(&out)).unwrap();
                 assert_eq!(header["prismatic.shard"], shard);
                 let passes =
@@ -317,7 +323,8 @@ fn shards_merge_into_the_single_process_image() {
             ok(prismatic(&dir, &["merge", "part-3.exr", "part-1.exr", "part-2.exr", "-o", "merged.exr"]));
             let names: Vec<String> = other_channels(&dir.join("merged.exr")).into_iter().map(|(n, _)| n).collect();
             let gbuffer = ["P.Z", "dzdx", "N.X", "Ns.Y", "u", "Variance.G", "RelativeVariance.B"];
-            assert_eq!(gbuffer.iter().all(|g| names.iter().any(|n| n == g)), film == "gbuffer", "{what}: {names:?}");
+            let want = film == "gbuffer" || !aovs.is_empty();
+            assert_eq!(gbuffer.iter().all(|g| names.iter().any(|n| n == g)), want, "{what}: {names:?}");
             if integrator == "sppm" {
                 assert_identical(&dir.join("merged.exr"), &dir.join("whole.exr"), &what);
                 let layout = film::read_exr_layout(&dir.join("part-2.exr")).unwrap();

@@ -213,3 +213,64 @@ fn normal_map_tilts_the_shading_normal() {
     assert!((y_map / y_flat - expect).abs() < 0.01 * expect, "ratio {} expected {expect}", y_map / y_flat);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A floor checkered with one-texel checks of 0 and 1 (a 64×64 image repeated 100 times over 400 units), seen at
+/// grazing angles from a camera one unit above it: far away a pixel covers tens to thousands of checks. Filtered
+/// over the rays' footprints (`trilinear`, `ewa`) each far pixel's albedo is the checks' mean 1/2, as on a floor of
+/// constant reflectance 1/2 rendered with the same samples (the albedo is the gbuffer's, the first hit's
+/// reflectance, which has the wavelength sampling's noise but no lighting noise); `bilinear` reads single texels,
+/// so 16 samples per pixel leave far pixels scattered around 1/2 (aliasing).
+#[test]
+fn filtered_image_textures_average_a_fine_checkerboard_at_grazing_angles() {
+    let dir = temp_dir("grazing");
+    let path = dir.join("checks.pfm");
+    let checks: Vec<[f32; 3]> = (0..64 * 64).map(|i| [((i % 64 + i / 64) % 2) as f32; 3]).collect();
+    film::write_rgb(&path, 64, 64, &checks).unwrap();
+    // The far pixels' albedo (G) with the floor's material `material` after texture definitions `defs`.
+    let far_albedos = |defs: &str, material: &str| {
+        let text = format!(
+            "LookAt 0 1 0  0 0 10  0 1 0\nCamera \"perspective\" \"float fov\" 30\n\
+             Film \"gbuffer\" \"integer xresolution\" 32 \"integer yresolution\" 16 \"string filename\" \"g.exr\"\n\
+             PixelFilter \"box\"\nSampler \"zsobol\" \"integer pixelsamples\" 16\n\
+             Integrator \"path\" \"integer maxdepth\" 1\nWorldBegin\n{SKY}\n{defs}\n{material}\n\
+             Shape \"bilinearmesh\" \"point3 P\" [ -200 0 0  200 0 0  -200 0 400  200 0 400 ]\n"
+        );
+        let film = render(&build(&text, "grazing.pbrt"), 1);
+        let albedo = film.to_aov_images().unwrap().albedo;
+        let mut far = vec![];
+        for y in 0..film.height() {
+            for x in 0..film.width() {
+                let g = film.pixel_gbuffer(x, y).unwrap();
+                // Depths of 8 to 200 units: every sample of the pixel sees the floor, many checks away.
+                if g.count >= 16.0 && (8.0..200.0).contains(&g.p[2]) {
+                    far.push(albedo[(y * film.width() + x) as usize][1] as f64);
+                }
+            }
+        }
+        far
+    };
+    let reference = far_albedos("", "Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.5 0.5 ]");
+    assert!(reference.len() >= 64, "{} far pixels", reference.len());
+    let textured = |filter: &str| {
+        let defs = format!(
+            "Texture \"checks\" \"spectrum\" \"imagemap\" \"string filename\" \"{}\" \"string filter\" \"{filter}\"\n\
+               \"float uscale\" 100 \"float vscale\" 100",
+            path.display()
+        );
+        far_albedos(&defs, "Material \"diffuse\" \"texture reflectance\" \"checks\"")
+    };
+    // Each far pixel's difference from the constant floor's.
+    let differences = |far: &[f64]| far.iter().zip(&reference).map(|(a, b)| a - b).collect::<Vec<f64>>();
+    // Trilinear: these footprints span more than a texel, where the MIP levels of one-texel checks are exactly 1/2.
+    let d = differences(&textured("trilinear"));
+    assert!(d.iter().all(|v| v.abs() < 1e-4), "trilinear: {d:?}");
+    // EWA: a Gaussian-weighted mean over an ellipse of a few texels across (the footprint's minor axis, from 1/4
+    // of a pixel at 16 spp), close to 1/2.
+    let d = differences(&textured("ewa"));
+    assert!(d.iter().all(|v| v.abs() < 0.03) && mean(&d).abs() < 0.005, "ewa: {d:?}");
+    // Bilinear: one interpolated lookup per sample, 1/2 + (1 − 2f)(1 − 2g)/2 between the nearest texel centres
+    // (f, g the offsets), of standard deviation 1/6 per sample and 1/24 ≈ 0.042 over 16 samples: aliased.
+    let d = differences(&textured("bilinear"));
+    assert!(mean(&d).abs() < 0.02 && std_dev(&d) > 0.025, "bilinear: {d:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -10,7 +10,7 @@ use crate::scene::SurfaceHit;
 use crate::texture::{FloatTexture, RgbImage, TextureEvalContext};
 
 /// The step in u and v of bump mapping's finite differences. pbrt-v4 takes half the ray differentials' footprint
-/// and falls back to this when a ray has none; Prismatic traces no differentials, so it is always this.
+/// and falls back to this when a ray has none; Prismatic always takes this (its footprints serve image filters).
 pub const BUMP_DELTA: f32 = 0.0005;
 
 /// The shading geometry at a surface point that bump and normal mapping start from and change.

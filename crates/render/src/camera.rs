@@ -126,6 +126,43 @@ impl Camera {
         &self.camera_from_world
     }
 
+    /// World space from pbrt-v4's camera space (where the camera is at the start of the shutter).
+    pub fn world_from_camera(&self) -> &Transform {
+        &self.world_from_camera
+    }
+
+    /// The rays through the film position one pixel to the right and one pixel down of the camera ray
+    /// (`origin`, `dir`) traced at `time`, from the same lens point (pbrt-v4's `GenerateRayDifferential`): a pinhole's
+    /// ray through the neighbouring pixel, a thin lens's ray to the neighbour's point on the plane of focus, an
+    /// orthographic ray shifted by a pixel. `None` for a ray the camera cannot have generated (pointing backwards).
+    pub fn ray_differential(&self, origin: Vec3, dir: Vec3, time: f32) -> Option<[(Vec3, Vec3); 2]> {
+        let camera = self.at_time(time);
+        let (m, w) = (camera.camera_from_world(), camera.world_from_camera());
+        let o = m.point(origin.as_dvec3());
+        let d = m.vector(dir.as_dvec3());
+        let win = &self.window;
+        let (rx, ry) = (self.resolution.0 as f64, self.resolution.1 as f64);
+        // Screen-space extent of one pixel along x and along y (y grows downwards on the film).
+        let (px, py) = ((win.x_max - win.x_min) as f64 / rx, -(win.y_max - win.y_min) as f64 / ry);
+        let rays = match self.projection {
+            Projection::Perspective { tan_half_fov } => {
+                if d.z <= 0.0 {
+                    return None;
+                }
+                // The ray's point at depth f (the plane of focus, or z = 1 for a pinhole) moves by f·tan·(pixel).
+                let f = if self.lens_radius > 0.0 { self.focal_distance as f64 } else { 1.0 };
+                let p_focus = o + d * ((f - o.z) / d.z);
+                let k = f * tan_half_fov as f64;
+                let dx = (p_focus + DVec3::new(k * px, 0.0, 0.0) - o).normalize();
+                let dy = (p_focus + DVec3::new(0.0, k * py, 0.0) - o).normalize();
+                [(o, dx), (o, dy)]
+            }
+            Projection::Orthographic => [(o + DVec3::new(px, 0.0, 0.0), d), (o + DVec3::new(0.0, py, 0.0), d)],
+        };
+        let world = |(o, d): (DVec3, DVec3)| (w.point(o).as_vec3(), w.vector(d).normalize().as_vec3());
+        Some(rays.map(world))
+    }
+
     /// Film resolution in pixels.
     pub fn resolution(&self) -> (u32, u32) {
         self.resolution

@@ -29,6 +29,7 @@ pub mod builder;
 pub mod bump;
 pub mod bxdf;
 pub mod camera;
+pub mod footprint;
 pub mod integrator;
 pub mod layered;
 pub mod light;

@@ -62,6 +62,11 @@ pub struct SurfaceHit {
     pub uv: Vec2,
     /// Tangent for the shading frame.
     pub dpdu: Vec3,
+    /// The surface's own ∂p/∂u and ∂p/∂v with respect to its texture (u, v) (pbrt-v4's `SurfaceInteraction::dpdu`,
+    /// `dpdv`): how far (u, v) moves when the point does, for image textures' filter footprints.
+    pub surface_dpdu: Vec3,
+    /// See `surface_dpdu`.
+    pub surface_dpdv: Vec3,
     /// pbrt-v4's shading ∂p/∂u (not normalised; see [`geometry::Hit::shading_dpdu`]), for bump and normal maps.
     pub shading_dpdu: Vec3,
     /// pbrt-v4's shading ∂p/∂v (not normalised).
@@ -169,6 +174,8 @@ impl SceneGeometry {
             ns: hit.ns,
             uv: hit.uv,
             dpdu: hit.tangent,
+            surface_dpdu: hit.dpdu,
+            surface_dpdv: hit.dpdv,
             shading_dpdu: hit.shading_dpdu,
             shading_dpdv: hit.shading_dpdv,
             p_error: hit.p_error,
@@ -289,6 +296,9 @@ pub struct RenderScene {
     /// The shutter interval `[open, close]` when something moves (the camera or some geometry), `None` when
     /// nothing does: then no time is drawn and every ray is traced at time 0.
     pub motion: Option<[f32; 2]>,
+    /// Ray footprints for textures that filter over them (`trilinear`, `ewa`); `None` when no texture does: then
+    /// textures are evaluated at points and hits compute no footprint.
+    pub footprints: Option<crate::footprint::Footprints>,
 }
 
 impl RenderScene {
@@ -326,6 +336,7 @@ impl RenderScene {
             camera,
             bounding_sphere,
             motion: None,
+            footprints: None,
         }
     }
 

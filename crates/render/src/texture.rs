@@ -2,10 +2,11 @@
 //! bilerp, checkerboard (2-D and 3-D), dots, fbm, wrinkled, windy, marble and image maps — with their 2-D mappings
 //! (`uv`, `spherical`, `cylindrical`, `planar`) and the 3-D mapping to texture space.
 //!
-//! Prismatic traces no ray differentials, so every texture is evaluated at a point (pbrt-v4's lookups with a
-//! vanishing filter footprint): image maps are interpolated bilinearly at full resolution, checkerboards are sharp,
-//! and noise sums all its octaves. The pixel filter's supersampling does the antialiasing; the mean over a pixel is
-//! the one pbrt-v4's filtered lookups give.
+//! Most textures are evaluated at a point (pbrt-v4's lookups with a vanishing filter footprint): `point` and
+//! `bilinear` image maps read the full-resolution image, checkerboards are sharp, and noise sums all its octaves;
+//! the pixel filter's supersampling does the antialiasing. Image maps with the `trilinear` and `ewa` filters read
+//! a MIP map ([`mipmap`]) over the footprint of the ray in (s, t), from the context's screen-space derivatives
+//! (filled in only for scenes that have such a texture: [`crate::footprint`]).
 
 use std::sync::Arc;
 
@@ -13,9 +14,13 @@ use glam::{Affine3A, Vec2, Vec3};
 use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbUnboundedSpectrum};
 use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
 
+pub mod mipmap;
 pub mod noise;
 
-/// Where a texture is evaluated (pbrt-v4's `TextureEvalContext` without differentials).
+pub use mipmap::MipMap;
+
+/// Where a texture is evaluated (pbrt-v4's `TextureEvalContext`): the point, and how it and its (u, v) change from
+/// one pixel to the next (zero where no footprint is known: then filtered lookups are point lookups).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TextureEvalContext {
     /// Render-space point.
@@ -24,13 +29,30 @@ pub struct TextureEvalContext {
     pub n: Vec3,
     /// Surface (u, v).
     pub uv: Vec2,
+    /// Change of `p` per pixel along the film's x.
+    pub dpdx: Vec3,
+    /// Change of `p` per pixel along the film's y.
+    pub dpdy: Vec3,
+    /// ∂u/∂x, ∂u/∂y, ∂v/∂x, ∂v/∂y per pixel.
+    pub duv: [f32; 4],
 }
 
 impl TextureEvalContext {
-    /// A context at point `p` with geometric normal `n` and surface coordinates `uv`.
+    /// A context at point `p` with geometric normal `n` and surface coordinates `uv`, without a footprint.
     pub fn new(p: Vec3, n: Vec3, uv: Vec2) -> Self {
-        Self { p, n, uv }
+        Self { p, n, uv, ..Self::default() }
     }
+}
+
+/// Texture coordinates and their change per pixel along x and y (pbrt-v4's `TexCoord2D`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TexCoord2D {
+    /// (s, t).
+    pub st: Vec2,
+    /// (∂s/∂x, ∂t/∂x).
+    pub dst_dx: Vec2,
+    /// (∂s/∂y, ∂t/∂y).
+    pub dst_dy: Vec2,
 }
 
 /// pbrt's `uv` mapping: s = su·u + du, t = sv·v + dv.
@@ -112,6 +134,43 @@ impl TextureMapping2D {
     }
 }
 
+impl TextureMapping2D {
+    /// Texture coordinates with their change per pixel (pbrt-v4's `TextureMapping2D::Map`), from the context's
+    /// derivatives; non-finite derivatives (at a pole of a spherical mapping) are zero.
+    pub fn map_footprint(&self, ctx: &TextureEvalContext) -> TexCoord2D {
+        use std::f32::consts::PI;
+        let st = self.map(ctx);
+        // (∂s/∂p, ∂t/∂p) in texture space, and the context's dp/dx, dp/dy taken there.
+        let gradients = |m: &Affine3A, ds: Vec3, dt: Vec3| {
+            let (dx, dy) = (m.transform_vector3(ctx.dpdx), m.transform_vector3(ctx.dpdy));
+            (Vec2::new(ds.dot(dx), dt.dot(dx)), Vec2::new(ds.dot(dy), dt.dot(dy)))
+        };
+        let (dst_dx, dst_dy) = match self {
+            TextureMapping2D::Uv(m) => {
+                let [dudx, dudy, dvdx, dvdy] = ctx.duv;
+                (Vec2::new(m.su * dudx, m.sv * dvdx), Vec2::new(m.su * dudy, m.sv * dvdy))
+            }
+            TextureMapping2D::Spherical(m) => {
+                // s = θ/π, t = φ/2π: ∂θ/∂p = (xz/ρ, yz/ρ, −ρ)/r², ∂φ/∂p = (−y, x, 0)/ρ² (ρ² = x² + y²).
+                let p = m.transform_point3(ctx.p);
+                let rho2 = p.x * p.x + p.y * p.y;
+                let (rho, r2) = (rho2.sqrt(), rho2 + p.z * p.z);
+                let dtheta = Vec3::new(p.x * p.z / rho, p.y * p.z / rho, -rho) / r2;
+                let dphi = Vec3::new(-p.y, p.x, 0.0) / rho2;
+                gradients(m, dtheta / PI, dphi / (2.0 * PI))
+            }
+            TextureMapping2D::Cylindrical(m) => {
+                let p = m.transform_point3(ctx.p);
+                let rho2 = p.x * p.x + p.y * p.y;
+                gradients(m, Vec3::new(-p.y, p.x, 0.0) / (2.0 * PI * rho2), Vec3::Z)
+            }
+            TextureMapping2D::Planar { texture_from_render, vs, vt, .. } => gradients(texture_from_render, *vs, *vt),
+        };
+        let finite = |v: Vec2| if v.is_finite() { v } else { Vec2::ZERO };
+        TexCoord2D { st, dst_dx: finite(dst_dx), dst_dy: finite(dst_dy) }
+    }
+}
+
 impl Default for TextureMapping2D {
     fn default() -> Self {
         TextureMapping2D::Uv(UvMapping::default())
@@ -159,7 +218,7 @@ impl CheckerMapping {
 }
 
 /// What an image lookup does outside [0, 1]² (pbrt-v4's `WrapMode`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum WrapMode {
     /// The image tiles the plane.
     Repeat,
@@ -174,11 +233,15 @@ pub enum WrapMode {
 /// How an image texture is sampled between texels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ImageFilter {
-    /// The nearest texel (pbrt-v4's `point`).
+    /// The nearest texel of the full-resolution image (pbrt-v4's `point`).
     Point,
-    /// Bilinear interpolation between the four nearest texel centres (pbrt-v4's `bilinear`; `trilinear` and `ewa`
-    /// too, which without a filter footprint are bilinear lookups at full resolution, as in pbrt-v4).
+    /// Bilinear interpolation between the four nearest texel centres of the full-resolution image (pbrt-v4's
+    /// `bilinear`).
     Bilinear,
+    /// Bilinear lookups in the two MIP levels whose texels match the footprint, blended (pbrt-v4's `trilinear`).
+    Trilinear,
+    /// A Gaussian-weighted elliptical average over the footprint (pbrt-v4's `ewa`, Heckbert 1989).
+    Ewa,
 }
 
 /// A linear RGB image (rows top to bottom), with bilinear and nearest lookups under a wrap mode.
@@ -223,6 +286,12 @@ impl RgbImage {
     pub fn bilerp_wrapped(&self, st: Vec2, wrap: WrapMode) -> [f32; 3] {
         let x = st.x * self.width as f32 - 0.5;
         let y = (1.0 - st.y) * self.height as f32 - 0.5;
+        self.bilerp_texels(x, y, wrap)
+    }
+
+    /// Bilinear interpolation at continuous texel coordinates (x, y) (texel centres at integers, row 0 at the top),
+    /// under `wrap`.
+    pub fn bilerp_texels(&self, x: f32, y: f32, wrap: WrapMode) -> [f32; 3] {
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
@@ -252,6 +321,10 @@ pub struct ImageTexture {
     pub wrap: WrapMode,
     /// Between texels.
     pub filter: ImageFilter,
+    /// The image's MIP map, for the `trilinear` and `ewa` filters (`None` for the others: they read `image`).
+    pub mip: Option<Arc<MipMap>>,
+    /// The `ewa` filter's largest ratio of the footprint's axes (pbrt-v4's `maxanisotropy`, default 8).
+    pub max_anisotropy: f32,
     /// Multiplier.
     pub scale: f32,
     /// 1 − value (clamped at zero).
@@ -260,20 +333,28 @@ pub struct ImageTexture {
 
 impl ImageTexture {
     fn rgb(&self, ctx: &TextureEvalContext) -> [f32; 3] {
-        let st = self.map.map(ctx);
-        match self.filter {
-            ImageFilter::Point => self.image.nearest(st, self.wrap),
-            ImageFilter::Bilinear => self.image.bilerp_wrapped(st, self.wrap),
+        match (self.filter, &self.mip) {
+            (ImageFilter::Point, _) => self.image.nearest(self.map.map(ctx), self.wrap),
+            (ImageFilter::Trilinear, Some(mip)) => {
+                let c = self.map.map_footprint(ctx);
+                mip.trilinear(c.st, c.dst_dx, c.dst_dy)
+            }
+            (ImageFilter::Ewa, Some(mip)) => {
+                let c = self.map.map_footprint(ctx);
+                mip.ewa(c.st, c.dst_dx, c.dst_dy, self.max_anisotropy)
+            }
+            _ => self.image.bilerp_wrapped(self.map.map(ctx), self.wrap),
         }
     }
 
-    /// The scalar value: the channels' mean for bilinear lookups, the first channel for point lookups (pbrt-v4's
-    /// MIP map reads a float from an RGB image so), times `scale`, then inverted.
+    /// The scalar value: the channels' mean for bilinear and trilinear lookups, the first channel for point and
+    /// EWA lookups (pbrt-v4's MIP map reads a float from an RGB image so: `Bilerp` averages, `Texel` takes the
+    /// first channel), times `scale`, then inverted.
     fn value(&self, ctx: &TextureEvalContext) -> f32 {
         let rgb = self.rgb(ctx);
         let v = match self.filter {
-            ImageFilter::Point => rgb[0],
-            ImageFilter::Bilinear => (rgb[0] + rgb[1] + rgb[2]) / 3.0,
+            ImageFilter::Point | ImageFilter::Ewa => rgb[0],
+            ImageFilter::Bilinear | ImageFilter::Trilinear => (rgb[0] + rgb[1] + rgb[2]) / 3.0,
         };
         let v = self.scale * v;
         if self.invert {

@@ -48,6 +48,8 @@ impl Geometry for OneSphere {
             ns: n,
             uv: Vec2::ZERO,
             dpdu: n.cross(Vec3::Z).try_normalize().unwrap_or(Vec3::X),
+            surface_dpdu: n.cross(Vec3::Z).try_normalize().unwrap_or(Vec3::X),
+            surface_dpdv: n.cross(n.cross(Vec3::Z)).try_normalize().unwrap_or(Vec3::Y),
             shading_dpdu: n.cross(Vec3::Z).try_normalize().unwrap_or(Vec3::X),
             shading_dpdv: n.cross(n.cross(Vec3::Z)).try_normalize().unwrap_or(Vec3::Y),
             p_error: Vec3::splat(1e-5),

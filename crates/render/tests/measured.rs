@@ -385,6 +385,8 @@ impl Geometry for OneSphere {
             ns: n,
             uv: Vec2::ZERO,
             dpdu,
+            surface_dpdu: dpdu,
+            surface_dpdv: n.cross(dpdu),
             shading_dpdu: dpdu,
             shading_dpdv: n.cross(dpdu),
             p_error: Vec3::splat(1e-5),

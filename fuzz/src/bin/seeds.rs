@@ -1,7 +1,8 @@
 //! Writes the generated seed inputs (small PLY meshes, PNG, EXR, PFM and TGA images, gzip-compressed scene and
 //! mesh files) into `<dir>/<target>/`: `seeds DIR [SCENE.pbrt ...]`. Each covers a case the readers must decode
 //! (every PLY format and index type, every PNG colour type and bit depth, the EXR compressions and tiling, both
-//! PFM byte orders, every TGA image type and origin), kept tiny so that the fuzzer runs fast.
+//! PFM byte orders, every TGA image type and origin, 15/16-bit and colour-mapped TGAs), kept tiny so that the
+//! fuzzer runs fast.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -222,7 +223,41 @@ fn tga_seeds(dir: &Path) {
     rle_grey.extend([0x80 | 3, 50, 0x01, 7, 8]);
     let mut rle_rgb = header(10, 2, 2, 24, 0, b"");
     rle_rgb.extend([0x00, 30, 20, 10, 0x80 | 2, 3, 2, 1]);
-    for (name, bytes) in [("rgb", rgb), ("rgba", rgba), ("grey", grey), ("rle-grey", rle_grey), ("rle-rgb", rle_rgb)] {
+    // 16-bit 5-5-5 true colour (attribute bit set on the first pixel), raw and RLE; 16-bit grey and alpha.
+    let mut rgb16 = header(2, 2, 1, 16, 0x21, b"");
+    rgb16.extend([0x00, 0xfc, 0xe0, 0x03]);
+    let mut rle_rgb16 = header(10, 3, 1, 15, 0, b"");
+    rle_rgb16.extend([0x81, 0x1f, 0x00, 0x00, 0xff, 0x7f]);
+    let mut grey16 = header(3, 2, 1, 16, 0x20, b"");
+    grey16.extend([10, 200, 250, 0]);
+    // Colour-mapped: 8-bit indices into three 24-bit entries starting at index 2, and RLE 16-bit indices into
+    // two 16-bit entries.
+    let mapped = |image_type: u8, first: u16, len: u16, entry_bits: u8, w: u16, index_bits: u8| {
+        let mut v = vec![0, 1, image_type];
+        v.extend(first.to_le_bytes());
+        v.extend(len.to_le_bytes());
+        v.extend([entry_bits, 0, 0, 0, 0]);
+        v.extend(w.to_le_bytes());
+        v.extend(1u16.to_le_bytes());
+        v.extend([index_bits, 0x20]);
+        v
+    };
+    let mut cmap = mapped(1, 2, 3, 24, 4, 8);
+    cmap.extend([30, 20, 10, 60, 50, 40, 90, 80, 70, 2, 3, 4, 2]);
+    let mut rle_cmap = mapped(9, 0, 2, 16, 4, 16);
+    rle_cmap.extend([0x00, 0x7c, 0xe0, 0x83, 0x82, 1, 0, 0x00, 0, 0]);
+    for (name, bytes) in [
+        ("rgb", rgb),
+        ("rgba", rgba),
+        ("grey", grey),
+        ("rle-grey", rle_grey),
+        ("rle-rgb", rle_rgb),
+        ("rgb16", rgb16),
+        ("rle-rgb15", rle_rgb16),
+        ("grey16", grey16),
+        ("cmap", cmap),
+        ("rle-cmap16", rle_cmap),
+    ] {
         std::fs::write(dir.join(format!("{name}.tga")), bytes).unwrap();
     }
 }

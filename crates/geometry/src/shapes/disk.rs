@@ -109,7 +109,7 @@ impl Disk {
         if self.reverse_orientation {
             n = -n;
         }
-        SurfaceGeom { p: pr, p_error, n, ns: n, uv, dpdu, shading_dpdu: dpdu, shading_dpdv: dpdv }
+        SurfaceGeom { p: pr, p_error, n, ns: n, uv, dpdu, dpdv, shading_dpdu: dpdu, shading_dpdv: dpdv }
     }
 
     /// A uniformly distributed point on the disk (pdf per unit area = 1/area).

@@ -55,6 +55,8 @@ pub(crate) struct SurfaceGeom {
     pub ns: Vec3,
     pub uv: Vec2,
     pub dpdu: Vec3,
+    /// ∂p/∂v of the texture (u, v) (`dpdu` is its ∂p/∂u).
+    pub dpdv: Vec3,
     /// pbrt-v4's shading ∂p/∂u and ∂p/∂v: the surface's own partials, or where vertex normals tilt the shading
     /// normal, partials turned to it as pbrt-v4's shape does (bump and normal maps start from these).
     pub shading_dpdu: Vec3,

@@ -191,7 +191,7 @@ impl Sphere {
         if self.reverse_orientation {
             n = -n;
         }
-        SurfaceGeom { p: pr, p_error, n, ns: n, uv, dpdu, shading_dpdu: dpdu, shading_dpdv: dpdv }
+        SurfaceGeom { p: pr, p_error, n, ns: n, uv, dpdu, dpdv, shading_dpdu: dpdu, shading_dpdv: dpdv }
     }
 
     /// pbrt-v4's ∂p/∂v = (θ(zmax) − θ(zmin))·(z cos φ, z sin φ, −r sin θ) at the object-space point `p` on the

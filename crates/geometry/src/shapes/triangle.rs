@@ -301,7 +301,7 @@ pub(crate) fn triangle_geom_at(mesh: &TriangleMesh, tri: usize, positions: [Vec3
         (shading_dpdu, shading_dpdv) =
             if ts.length_squared() > 0.0 { (ts.cross(ns), ts) } else { coordinate_system(ns) };
     }
-    SurfaceGeom { p, p_error, n, ns, uv, dpdu, shading_dpdu, shading_dpdv }
+    SurfaceGeom { p, p_error, n, ns, uv, dpdu, dpdv, shading_dpdu, shading_dpdv }
 }
 
 /// Derivatives of triangle `tri` of `mesh` at barycentrics `b`, with respect to the texture (u, v) as pbrt-v4 takes

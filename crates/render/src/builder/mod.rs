@@ -149,6 +149,9 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     scene.motion = motion;
     scene.light_media = light_media;
     scene.normal_perturbations = materials.perturbations;
+    if textures.need_footprints() {
+        scene.footprints = Some(crate::footprint::Footprints::new(&scene.camera, spp));
+    }
     warnings.extend(desc.warnings.iter().map(|d| d.to_string()));
     warnings.extend(desc.unused_parameters().iter().map(|d| d.to_string()));
     Ok(BuiltScene { scene, film, spp, integrator, triangles: shapes.triangles, warnings })

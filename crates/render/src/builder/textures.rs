@@ -18,7 +18,7 @@ use spectral::Spectrum;
 
 use super::{err, unsupported, Result};
 use crate::texture::{
-    CheckerMapping, FloatTexture, ImageFilter, ImageTexture, PointMapping, RgbImage, RgbKind, SpectrumTexture,
+    CheckerMapping, FloatTexture, ImageFilter, ImageTexture, MipMap, PointMapping, RgbImage, RgbKind, SpectrumTexture,
     TextureMapping2D, UvMapping, WrapMode,
 };
 
@@ -47,6 +47,8 @@ pub(super) struct Textures {
     spectrum: HashMap<String, (SpectrumTexture, SpectrumTexture)>, // (albedo, unbounded) variants
     /// Images read so far, by file and encoding (textures and normal maps share them).
     images: RefCell<HashMap<(PathBuf, String), Arc<RgbImage>>>,
+    /// MIP maps built so far, by image (its address in `images`) and wrap mode.
+    mipmaps: RefCell<HashMap<(usize, WrapMode), Arc<MipMap>>>,
 }
 
 /// A float parameter that must be finite.
@@ -150,7 +152,9 @@ fn image_texture(t: &Textures, e: &TextureEntity) -> Result<ImageTexture> {
     let map = mapping_2d(p, loc, &e.render_from_texture)?;
     let filter = match p.get_string("filter", "bilinear")?.as_str() {
         "point" => ImageFilter::Point,
-        "bilinear" | "trilinear" | "ewa" | "EWA" => ImageFilter::Bilinear,
+        "bilinear" => ImageFilter::Bilinear,
+        "trilinear" => ImageFilter::Trilinear,
+        "ewa" | "EWA" => ImageFilter::Ewa,
         other => {
             return err(
                 &p.loc_of("filter", loc),
@@ -158,7 +162,6 @@ fn image_texture(t: &Textures, e: &TextureEntity) -> Result<ImageTexture> {
             )
         }
     };
-    // EWA's anisotropy limit has nothing to limit without a footprint; it is still checked.
     let aniso = finite(p, loc, "maxanisotropy", 8.0)?;
     if aniso <= 0.0 {
         return err(&p.loc_of("maxanisotropy", loc), format!("'maxanisotropy' must be positive, got {aniso}"));
@@ -190,7 +193,8 @@ fn image_texture(t: &Textures, e: &TextureEntity) -> Result<ImageTexture> {
         );
     };
     let image = t.image(&path, encoding, &enc_name, &p.loc_of("filename", loc))?;
-    Ok(ImageTexture { map, image, wrap, filter, scale, invert })
+    let mip = matches!(filter, ImageFilter::Trilinear | ImageFilter::Ewa).then(|| t.mipmap(&image, wrap));
+    Ok(ImageTexture { map, image, wrap, filter, mip, max_anisotropy: aniso, scale, invert })
 }
 
 /// The error for a texture class pbrt-v4 reads with its Ptex library.
@@ -208,7 +212,12 @@ fn ptex_error(e: &TextureEntity) -> SceneError {
 impl Textures {
     /// Reads every `Texture` directive in order, so a texture can use those defined before it.
     pub(super) fn build(desc: &SceneDescription) -> Result<Self> {
-        let mut t = Textures { float: HashMap::new(), spectrum: HashMap::new(), images: RefCell::default() };
+        let mut t = Textures {
+            float: HashMap::new(),
+            spectrum: HashMap::new(),
+            images: RefCell::default(),
+            mipmaps: RefCell::default(),
+        };
         for te in &desc.textures {
             match te.value_type {
                 TextureValueType::Float => {
@@ -247,6 +256,18 @@ impl Textures {
         let img = Arc::new(RgbImage { width: w as usize, height: h as usize, pixels });
         self.images.borrow_mut().insert(key, img.clone());
         Ok(img)
+    }
+
+    /// The MIP map of `image` (one of `images`) under `wrap`, built once.
+    fn mipmap(&self, image: &Arc<RgbImage>, wrap: WrapMode) -> Arc<MipMap> {
+        let key = (Arc::as_ptr(image) as usize, wrap);
+        self.mipmaps.borrow_mut().entry(key).or_insert_with(|| Arc::new(MipMap::new(image, wrap))).clone()
+    }
+
+    /// Whether some image texture filters over ray footprints (`trilinear` or `ewa`): only then do hits compute
+    /// them.
+    pub(super) fn need_footprints(&self) -> bool {
+        !self.mipmaps.borrow().is_empty()
     }
 
     fn float_texture(&self, te: &TextureEntity) -> Result<FloatTexture> {

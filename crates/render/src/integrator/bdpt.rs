@@ -589,7 +589,11 @@ impl BdptIntegrator {
         let mut pdf_fwd = pdf_dir;
         let mut added = 0usize;
         let mut r = SampledSpectrum::splat(1.0);
-        let mut ray = PathRay::new(o, d, medium, time);
+        // The camera subpath starts with the camera ray (its first hit takes the ray's footprint).
+        let mut ray = match mode {
+            TransportMode::Radiance => PathRay::camera(o, d, medium, time),
+            TransportMode::Importance => PathRay::new(o, d, medium, time),
+        };
         loop {
             let d = ray.d;
             let hit = ray.intersect(scene, counts);

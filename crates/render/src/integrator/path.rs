@@ -263,7 +263,7 @@ impl Radiance for PathIntegrator {
         first_hit: Option<&mut Option<FirstHit>>,
     ) -> SampledSpectrum {
         let mut st = PathState {
-            ray: PathRay::new(o, d, scene.camera_medium, time),
+            ray: PathRay::camera(o, d, scene.camera_medium, time),
             beta: SampledSpectrum::splat(1.0),
             specular_bounce: false,
             eta_scale: 1.0,

@@ -518,7 +518,7 @@ impl SppmIntegrator {
         counts: &mut RayCounts,
         mut first_hit: Option<&mut Option<FirstHit>>,
     ) -> (Option<VisiblePoint<'static>>, SampledSpectrum) {
-        let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
+        let mut ray = PathRay::camera(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
         // The camera sample's filter weight, as a camera sample of the other integrators carries it into the film.
         let mut beta = SampledSpectrum::splat(cs.weight);
         let mut ld = SampledSpectrum::zero();
@@ -577,7 +577,7 @@ impl SppmIntegrator {
         counts: &mut RayCounts,
         mut first_hit: Option<&mut Option<FirstHit>>,
     ) -> (Option<VisiblePoint<'s>>, SampledSpectrum) {
-        let mut ray = PathRay::new(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
+        let mut ray = PathRay::camera(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
         let mut beta = SampledSpectrum::splat(cs.weight);
         let mut r_u = SampledSpectrum::splat(1.0);
         let mut mis = SpectralMis::new(wl);

@@ -225,13 +225,28 @@ pub(crate) struct PathRay {
     pub time: f32,
     /// Material-less boundaries crossed in a row.
     crossings: u32,
+    /// For a camera ray (also after crossing material-less boundaries), the lens point it left from: its hits take
+    /// their texture footprints from the camera ray's differentials.
+    camera_origin: Option<Vec3>,
 }
 
 impl PathRay {
     /// A ray from `o` along `d` in `medium`, at `time`.
     #[inline]
     pub fn new(o: Vec3, d: Vec3, medium: Option<u32>, time: f32) -> Self {
-        Self { o, d, medium, time, crossings: 0 }
+        Self { o, d, medium, time, crossings: 0, camera_origin: None }
+    }
+
+    /// The camera ray from lens point `o` along `d` in `medium`, at `time`.
+    #[inline]
+    pub fn camera(o: Vec3, d: Vec3, medium: Option<u32>, time: f32) -> Self {
+        Self { camera_origin: Some(o), ..Self::new(o, d, medium, time) }
+    }
+
+    /// The camera ray this ray continues (lens point and direction), if it is one.
+    #[inline]
+    fn camera_ray(&self) -> Option<(Vec3, Vec3)> {
+        self.camera_origin.map(|o| (o, self.d))
     }
 
     /// The closest surface along the ray, counted in `counts`.
@@ -273,6 +288,7 @@ impl PathRay {
         }
         self.o = hit.spawn_origin(wi);
         self.d = wi;
+        self.camera_origin = None;
     }
 }
 
@@ -301,7 +317,7 @@ pub(crate) fn begin_bounce(
     sampler: &mut Sampler,
 ) -> Bounce {
     let u = BounceSamples::draw(sampler);
-    match resolve_surface(scene, hit, wl, u.mix, u.wavelength) {
+    match resolve_surface(scene, hit, ray.camera_ray(), wl, u.mix, u.wavelength) {
         Surface::PassThrough => {
             if ray.cross(hit) {
                 Bounce::PassedThrough
@@ -395,19 +411,27 @@ enum Surface {
 
 /// Resolves the material at `hit` (a mix picks one of its materials with `u_mix`, repeatedly), applies the chosen
 /// material's bump or normal map to `hit`'s shading frame (pbrt-v4 does it for the material a mix chose), and builds
-/// its BxDF at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front).
+/// its BxDF at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front). Textures see
+/// the hit's footprint if the scene has textures that filter over it (`camera_ray`: the camera ray that found the
+/// hit, if it was one).
 #[inline]
 fn resolve_surface(
     scene: &RenderScene,
     hit: &mut SurfaceHit,
+    camera_ray: Option<(Vec3, Vec3)>,
     wl: &mut SampledWavelengths,
     mut u_mix: f32,
     u_bxdf: f32,
 ) -> Surface {
+    // Bump and normal maps below change the shading frame only, not the point, normal and (u, v) textures see.
+    let ctx = match &scene.footprints {
+        None => TextureEvalContext::new(hit.p, hit.n, hit.uv),
+        Some(f) => f.context(&scene.camera, hit, camera_ray),
+    };
     let mut material_index = hit.material;
     while material_index != NO_MATERIAL {
         if let Material::Mix { materials, amount } = &scene.materials[material_index as usize] {
-            let a = amount.eval(&TextureEvalContext::new(hit.p, hit.n, hit.uv)).clamp(0.0, 1.0);
+            let a = amount.eval(&ctx).clamp(0.0, 1.0);
             let pick = if u_mix < a { 1 } else { 0 };
             u_mix = if pick == 1 { u_mix / a.max(1e-6) } else { (u_mix - a) / (1.0 - a).max(1e-6) };
             material_index = materials[pick];
@@ -421,7 +445,6 @@ fn resolve_surface(
     if let Some(Some(perturbation)) = scene.normal_perturbations.get(material_index as usize) {
         perturbation.apply(hit);
     }
-    let ctx = TextureEvalContext::new(hit.p, hit.n, hit.uv);
     match scene.materials[material_index as usize].bxdf(&ctx, wl, u_bxdf) {
         Some(b) => Surface::Scatter(b),
         None => Surface::Absorb,

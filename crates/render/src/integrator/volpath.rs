@@ -387,7 +387,7 @@ impl Radiance for VolPathIntegrator {
             mis.choose(sampler.next_1d());
         }
         let mut st = VolPathState {
-            ray: PathRay::new(o, d, scene.camera_medium, time),
+            ray: PathRay::camera(o, d, scene.camera_medium, time),
             beta: SampledSpectrum::splat(1.0),
             r_u: SampledSpectrum::splat(1.0),
             r_l: SampledSpectrum::splat(1.0),

@@ -163,6 +163,8 @@ fn image_textures_scale_invert_and_read_channels_as_pbrt_does() {
         image: img.clone(),
         wrap: WrapMode::Repeat,
         filter,
+        mip: None,
+        max_anisotropy: 8.0,
         scale,
         invert,
     };
@@ -245,4 +247,158 @@ fn polka_dots_sit_in_cells_with_positive_noise() {
         }
     }
     assert!(with_dot > cells / 5 && with_dot < cells * 4 / 5, "{with_dot} of {cells} cells hold a dot");
+}
+
+/// A `w`×`h` image with texel values from `f(x, y)` (grey).
+fn grey_image(w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> Arc<RgbImage> {
+    let pixels = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| [f(x, y); 3]).collect();
+    Arc::new(RgbImage { width: w, height: h, pixels })
+}
+
+/// A hash of (x, y) in [0, 1), for images without structure.
+fn noise(x: usize, y: usize) -> f32 {
+    let h = (x as u64 * 0x9E37_79B9_7F4A_7C15) ^ (y as u64 * 0xC2B2_AE3D_27D4_EB4F);
+    ((h ^ (h >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9) >> 40) as f32 / (1u64 << 24) as f32
+}
+
+fn image_mean(img: &RgbImage) -> f64 {
+    img.pixels.iter().map(|p| p[0] as f64).sum::<f64>() / img.pixels.len() as f64
+}
+
+#[test]
+fn mip_levels_halve_down_to_one_texel_and_keep_the_mean() {
+    // A power-of-two image of random texels: 1 + log₂ 32 levels, each half the last, each with the image's mean
+    // (a 2×2 box average keeps it exactly, up to f32 rounding); a 1-texel side is reused (32×8 → … → 2×1 → 1×1).
+    let img = grey_image(32, 8, noise);
+    let mip = MipMap::new(&img, WrapMode::Repeat);
+    assert_eq!(mip.levels(), 6);
+    let sizes: Vec<(usize, usize)> = (0..6).map(|i| (mip.level(i).width, mip.level(i).height)).collect();
+    assert_eq!(sizes, [(32, 8), (16, 4), (8, 2), (4, 1), (2, 1), (1, 1)]);
+    assert_eq!(mip.level(0), &*img);
+    let mean = image_mean(&img);
+    assert!(mean > 0.3 && mean < 0.7, "{mean}");
+    for i in 0..6 {
+        let m = image_mean(mip.level(i));
+        assert!((m - mean).abs() < 1e-6, "level {i}: mean {m} vs {mean}");
+    }
+    // Level 1's texel (0, 0) is the mean of the four texels it covers.
+    let want = (noise(0, 0) + noise(1, 0) + noise(0, 1) + noise(1, 1)) / 4.0;
+    assert!((mip.level(1).pixels[0][0] - want).abs() < 1e-7);
+    // Any other size is resampled up to the next powers of two first (20×12 → 32×16), and the levels below keep
+    // that level's mean; a constant image stays constant through the resampling (normalised weights) under every
+    // wrap mode but black.
+    let img = grey_image(20, 12, noise);
+    let mip = MipMap::new(&img, WrapMode::Clamp);
+    assert_eq!((mip.level(0).width, mip.level(0).height, mip.levels()), (32, 16, 6));
+    let base = image_mean(mip.level(0));
+    assert!((base - image_mean(&img)).abs() < 0.02, "{base} vs {}", image_mean(&img));
+    for i in 1..6 {
+        assert!((image_mean(mip.level(i)) - base).abs() < 1e-6, "level {i}");
+    }
+    for wrap in [WrapMode::Repeat, WrapMode::Clamp, WrapMode::OctahedralSphere] {
+        let constant = grey_image(12, 12, |_, _| 0.37);
+        let mip = MipMap::new(&constant, wrap);
+        for i in 0..mip.levels() {
+            assert!(mip.level(i).pixels.iter().all(|p| (p[0] - 0.37).abs() < 1e-5), "{wrap:?} level {i}");
+        }
+    }
+}
+
+#[test]
+fn filtered_lookups_of_a_constant_are_the_constant_and_without_footprint_are_bilinear() {
+    let constant = grey_image(16, 16, |_, _| 0.61);
+    let img = grey_image(16, 16, noise);
+    let st = [Vec2::new(0.3, 0.7), Vec2::new(0.03, 0.99), Vec2::new(1.4, -0.2), Vec2::new(0.5, 0.5)];
+    let footprints = [
+        (Vec2::new(0.01, 0.0), Vec2::new(0.0, 0.01)),
+        (Vec2::new(0.2, 0.05), Vec2::new(-0.01, 0.004)),
+        (Vec2::new(3.0, 0.0), Vec2::new(0.0, 2.0)),
+        (Vec2::new(0.0005, 0.0001), Vec2::new(0.0, 0.0)),
+    ];
+    for wrap in [WrapMode::Repeat, WrapMode::Clamp, WrapMode::Black] {
+        let (mc, mi) = (MipMap::new(&constant, wrap), MipMap::new(&img, wrap));
+        for &st in &st {
+            // No footprint: exactly the full-resolution bilinear lookup.
+            let bilinear = img.bilerp_wrapped(st, wrap);
+            assert_eq!(mi.trilinear(st, Vec2::ZERO, Vec2::ZERO), bilinear, "{wrap:?} {st}");
+            assert_eq!(mi.ewa(st, Vec2::ZERO, Vec2::ZERO, 8.0), bilinear, "{wrap:?} {st}");
+            if wrap == WrapMode::Black {
+                continue;
+            }
+            for &(d0, d1) in &footprints {
+                let (t, e) = (mc.trilinear(st, d0, d1), mc.ewa(st, d0, d1, 8.0));
+                assert!(
+                    (t[0] - 0.61).abs() < 1e-5 && (e[0] - 0.61).abs() < 1e-5,
+                    "{wrap:?} {st} {d0} {d1}: {t:?} {e:?}"
+                );
+            }
+        }
+    }
+    // A footprint wider than the image is its mean (the last level's texel).
+    let mi = MipMap::new(&img, WrapMode::Repeat);
+    let mean = image_mean(&img) as f32;
+    for f in [
+        mi.trilinear(Vec2::splat(0.4), Vec2::new(2.0, 0.0), Vec2::new(0.0, 2.0)),
+        mi.ewa(Vec2::splat(0.4), Vec2::new(4.0, 0.0), Vec2::new(0.0, 4.0), 8.0),
+    ] {
+        assert!((f[0] - mean).abs() < 1e-5, "{f:?} vs {mean}");
+    }
+}
+
+#[test]
+fn filtered_lookups_of_a_fine_checkerboard_are_its_mean_where_the_footprint_covers_many_checks() {
+    // Checks of one texel, 0 and 1: a point lookup is 0 or 1, a footprint of a few texels or more is 1/2. EWA with
+    // an anisotropic footprint (a grazing view: 16 texels along s, one along t) too.
+    let img = grey_image(64, 64, |x, y| ((x + y) % 2) as f32);
+    let mip = MipMap::new(&img, WrapMode::Repeat);
+    let texel = 1.0 / 64.0;
+    for i in 0..50 {
+        let st = Vec2::new(noise(i, 1), noise(i, 2));
+        for (d0, d1) in [
+            (Vec2::new(4.0 * texel, 0.0), Vec2::new(0.0, 4.0 * texel)),
+            (Vec2::new(16.0 * texel, 0.0), Vec2::new(0.0, texel)),
+        ] {
+            let t = mip.trilinear(st, d0, d1)[0];
+            let e = mip.ewa(st, d0, d1, 8.0)[0];
+            assert!((t - 0.5).abs() < 1e-6, "trilinear at {st}: {t}");
+            assert!((e - 0.5).abs() < 0.05, "ewa at {st}: {e}");
+        }
+    }
+}
+
+#[test]
+fn mappings_carry_the_footprint_into_texture_space() {
+    let ctx = TextureEvalContext {
+        p: Vec3::new(1.0, 2.0, 3.0),
+        dpdx: Vec3::new(0.1, 0.0, 0.0),
+        dpdy: Vec3::new(0.0, 0.2, 0.05),
+        duv: [0.01, 0.02, 0.03, 0.04],
+        ..TextureEvalContext::new(Vec3::new(1.0, 2.0, 3.0), Vec3::Z, Vec2::new(0.5, 0.25))
+    };
+    // uv: s = 2u + 1, t = 3v: (∂s/∂x, ∂t/∂x) = (2·0.01, 3·0.03).
+    let c = TextureMapping2D::Uv(UvMapping { su: 2.0, sv: 3.0, du: 1.0, dv: 0.0 }).map_footprint(&ctx);
+    assert_eq!(c.st, Vec2::new(2.0, 0.75));
+    assert!((c.dst_dx - Vec2::new(0.02, 0.09)).length() < 1e-7 && (c.dst_dy - Vec2::new(0.04, 0.12)).length() < 1e-7);
+    // Planar: s = p·v1, t = p·v2.
+    let planar = TextureMapping2D::Planar {
+        texture_from_render: Affine3A::IDENTITY,
+        vs: Vec3::new(1.0, 1.0, 0.0),
+        vt: Vec3::new(0.0, 0.0, 2.0),
+        ds: 0.0,
+        dt: 0.0,
+    };
+    let c = planar.map_footprint(&ctx);
+    assert!((c.dst_dx - Vec2::new(0.1, 0.0)).length() < 1e-7 && (c.dst_dy - Vec2::new(0.2, 0.1)).length() < 1e-7);
+    // Spherical and cylindrical: the derivatives are those of the mapping, by central differences.
+    for map in [TextureMapping2D::Spherical(Affine3A::IDENTITY), TextureMapping2D::Cylindrical(Affine3A::IDENTITY)] {
+        let c = map.map_footprint(&ctx);
+        // f32 differences of step h: truncation O(h²), rounding ~1e-7/h; a swapped or wrong derivative is off by
+        // far more than 1%.
+        let h = 1e-2;
+        let at = |p: Vec3| map.map(&TextureEvalContext::new(p, Vec3::Z, Vec2::ZERO));
+        for (dp, got) in [(ctx.dpdx, c.dst_dx), (ctx.dpdy, c.dst_dy)] {
+            let want = (at(ctx.p + dp * h) - at(ctx.p - dp * h)) / (2.0 * h);
+            assert!((got - want).length() < 1e-2 * want.length(), "{map:?}: {got} vs {want}");
+        }
+    }
 }
