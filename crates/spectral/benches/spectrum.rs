@@ -24,6 +24,13 @@ fn bench(c: &mut Criterion) {
         });
     }
     let ws = WavelengthSampler::new(WavelengthStrategy::Hero, Observer::Cie1931);
+    // As a renderer draws them: uniform numbers in random order (the ordered ones above make the cdf search's
+    // branches predictable).
+    let random_u: Vec<f64> =
+        (0..N).map(|i| (i.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 11) as f64 / (1u64 << 53) as f64).collect();
+    g.bench_function("sample/hero, random order", |b| {
+        b.iter(|| black_box(random_u.iter().map(|&u| ws.sample(u).lambda(0)).sum::<f32>()))
+    });
     let wls: Vec<_> = (0..N).map(|i| ws.sample((i as f64 + 0.5) / N as f64)).collect();
     let spectra = [
         ("piecewise-linear D65", named::illuminant("stdillum-D65").unwrap()),

@@ -129,7 +129,10 @@ impl Distribution1D {
         let g = self.guide.len() - 1;
         let gi = ((u * g as f64) as usize).min(g - 1);
         let (lo, hi) = (self.guide[gi] as usize, (self.guide[gi + 1] as usize + 1).min(n));
-        let j = (lo + self.cdf[lo..=hi].partition_point(|&c| c <= u)).saturating_sub(1).clamp(lo, n - 1);
+        // Counting the edges ≤ u after `lo` (the cdf is non-decreasing and cdf[lo] ≤ u up to rounding, when the
+        // count is 0 as in the binary search) gives the binary search's bin without its unpredictable branches:
+        // renderers draw u at random, and this is one of four draws per camera sample.
+        let j = (lo + self.cdf[lo + 1..=hi].iter().map(|&c| usize::from(c <= u)).sum::<usize>()).min(n - 1);
         let width = self.cdf[j + 1] - self.cdf[j];
         let t = if width > 0.0 { ((u - self.cdf[j]) / width).clamp(0.0, 1.0) } else { 0.0 };
         let dx = self.bin_width();
