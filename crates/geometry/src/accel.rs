@@ -186,6 +186,10 @@ struct Blas {
     shapes: Vec<Shape>,
     /// Flattened primitive index where each shape starts; one more entry at the end (the total).
     shape_starts: Vec<u32>,
+    /// `shape_guide[k]`: the shape holding primitive `min(64·k, last)`, so that [`Blas::locate`] searches only
+    /// the shapes between two entries (most often none: a binary search over all shapes mispredicted its
+    /// branches on every hit of scenes with many shapes).
+    shape_guide: Vec<u32>,
     bvh: CwBvh,
     /// The BVH's leaf slots in blocks of four (slot `i` is lane `i % 4` of block `i / 4`): each slot's triangle
     /// inline (zeros for indirect slots), so triangles are tested without a lookup and four at a time, and its
@@ -300,13 +304,41 @@ impl Blas {
             })
             .collect();
         bvh.primitive_indices = Vec::new();
-        Ok(Self { shapes, shape_starts, bvh, slots, bounds })
+        let shape_guide = shape_guide(&shape_starts);
+        Ok(Self { shapes, shape_starts, shape_guide, bvh, slots, bounds })
     }
 
+    /// The (shape, element) of flattened primitive `prim` (which must be below the total).
+    #[inline]
     fn locate(&self, prim: u32) -> (u32, u32) {
-        let s = self.shape_starts.partition_point(|&x| x <= prim) - 1;
-        (s as u32, prim - self.shape_starts[s])
+        locate_in(&self.shape_starts, &self.shape_guide, prim)
     }
+}
+
+/// Primitives per entry of [`Blas::shape_guide`], as a power of two.
+const SHAPE_GUIDE_SHIFT: u32 = 6;
+
+/// [`Blas::shape_guide`] for the flattened shape starts `starts` (one entry per shape and the total at the end).
+fn shape_guide(starts: &[u32]) -> Vec<u32> {
+    let total = *starts.last().unwrap_or(&0);
+    let last = total.saturating_sub(1);
+    let blocks = (total >> SHAPE_GUIDE_SHIFT) + 1;
+    (0..=blocks)
+        .map(|k| {
+            let prim = (k << SHAPE_GUIDE_SHIFT).min(last);
+            (starts[..starts.len() - 1].partition_point(|&x| x <= prim).max(1) - 1) as u32
+        })
+        .collect()
+}
+
+/// The (shape, element) of primitive `prim` given the shape starts and their [`shape_guide`]: the last shape
+/// starting at or before `prim` (empty shapes are skipped), searched only between the two guide entries around it.
+#[inline]
+fn locate_in(starts: &[u32], guide: &[u32], prim: u32) -> (u32, u32) {
+    let k = (prim >> SHAPE_GUIDE_SHIFT) as usize;
+    let (lo, hi) = (guide[k] as usize, guide[k + 1] as usize);
+    let s = lo + starts[lo + 1..=hi].iter().filter(|&&x| x <= prim).count();
+    (s as u32, prim - starts[s])
 }
 
 /// Ray data for the node test.
@@ -1077,5 +1109,35 @@ impl GeometryScene {
             }
         }
         (best.instance != u32::MAX).then(|| self.finish(ray, &best))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn guided_shape_lookup_equals_the_binary_search() {
+        // Shapes of 1 to 300 primitives, some empty, around and across the guide's 64-primitive blocks.
+        let mut state = 12345u32;
+        for case in 0..200 {
+            let n_shapes = 1 + case % 40;
+            let mut starts = vec![0u32];
+            for _ in 0..n_shapes {
+                state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                let size = match state >> 29 {
+                    0 => 0,
+                    1 | 2 => 1 + (state >> 8) % 3,
+                    _ => (state >> 8) % 300,
+                };
+                starts.push(starts.last().unwrap() + size);
+            }
+            let total = *starts.last().unwrap();
+            let guide = shape_guide(&starts);
+            for prim in 0..total {
+                let s = starts.partition_point(|&x| x <= prim) - 1;
+                assert_eq!(locate_in(&starts, &guide, prim), (s as u32, prim - starts[s]), "case {case}, prim {prim}");
+            }
+        }
     }
 }
