@@ -449,7 +449,18 @@ pub enum FloatTexture {
 
 impl FloatTexture {
     /// Value at `ctx`.
+    #[inline]
     pub fn eval(&self, ctx: &TextureEvalContext) -> f32 {
+        // Inline for constants (most roughness and bump parameters), which need no call into the recursive match.
+        match self {
+            FloatTexture::Constant(v) => *v,
+            _ => self.eval_varying(ctx),
+        }
+    }
+
+    /// [`FloatTexture::eval`] of any texture, out of line.
+    #[inline(never)]
+    fn eval_varying(&self, ctx: &TextureEvalContext) -> f32 {
         match self {
             FloatTexture::Constant(v) => *v,
             FloatTexture::Scale { tex, scale } => {
