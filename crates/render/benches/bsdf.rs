@@ -82,6 +82,18 @@ fn bench(c: &mut Criterion) {
                 black_box(acc)
             })
         });
+        g.bench_function(format!("{name}/f_pdf (joint)"), |bench| {
+            bench.iter(|| {
+                let mut acc = 0.0f32;
+                for i in 0..N {
+                    let u = (i as f32 + 0.5) / N as f32;
+                    let wi = Vec3::new(u - 0.5, 0.3, 0.8).normalize();
+                    let (f, pdf) = b.f_pdf(wo, wi, TransportMode::Radiance);
+                    acc += f[0] + pdf;
+                }
+                black_box(acc)
+            })
+        });
     }
     g.finish();
 }

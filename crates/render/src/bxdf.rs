@@ -230,6 +230,21 @@ impl Bxdf {
         }
     }
 
+    /// [`Bxdf::f`] and [`Bxdf::pdf`] of the same pair, the same values, computed together where that saves work
+    /// (a measured BRDF inverts its warp once instead of twice in radiance mode).
+    pub fn f_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (SampledSpectrum, f32) {
+        match (self, mode) {
+            (Bxdf::Measured { brdf, lambda }, TransportMode::Radiance) => brdf.f_pdf(wo, wi, lambda),
+            _ => (self.f(wo, wi, mode), self.pdf(wo, wi, mode)),
+        }
+    }
+
+    /// True if [`Bxdf::f_pdf`] is cheaper than [`Bxdf::f`] and [`Bxdf::pdf`] apart, so a caller that may not need
+    /// the density should still ask for both.
+    pub fn joint_f_pdf(&self) -> bool {
+        matches!(self, Bxdf::Measured { .. })
+    }
+
     /// Density of sampling `wi` given `wo` with [`Bxdf::sample_f`] (zero for delta components).
     pub fn pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
         self.pdf_lobes(wo, wi, mode, Lobes::All)

@@ -684,3 +684,23 @@ fn anisotropic_files_interpolate_between_incident_azimuths() {
     let (chi2, dof) = chi_square(&b, &b, wo, 200_000);
     assert!(chi2 < threshold(dof), "χ² = {chi2:.1} with {dof} degrees of freedom");
 }
+
+#[test]
+fn the_joint_evaluation_equals_value_and_density_apart() {
+    let brdf = load(&conductor(0.3), Resolution::FINE);
+    let b = measured(&brdf, LAMBDA);
+    let mut nonzero = 0;
+    for (wo, wi) in direction_pairs() {
+        for (wo, wi) in [(wo, wi), (-wo, -wi), (wo, -wi)] {
+            let (wo, wi) = (wo.as_vec3(), wi.as_vec3());
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                let (f, pdf) = b.f_pdf(wo, wi, mode);
+                assert_eq!(f.0.map(f32::to_bits), b.f(wo, wi, mode).0.map(f32::to_bits), "{wo} {wi} {mode:?}");
+                assert_eq!(pdf.to_bits(), b.pdf(wo, wi, mode).to_bits(), "{wo} {wi} {mode:?}");
+                nonzero += usize::from(pdf > 0.0 && !f.is_black());
+            }
+        }
+    }
+    // Most pairs are on one side and reflect something: the comparison is not of zeros.
+    assert!(nonzero > 20_000, "{nonzero}");
+}

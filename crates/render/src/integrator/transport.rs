@@ -62,7 +62,15 @@ pub(crate) fn sample_direct_light(
         return SampledSpectrum::zero();
     }
     let wi_local = frame.to_local(ls.wi);
-    let f = bxdf.f(wo, wi_local, TransportMode::Radiance) * wi_local.z.abs();
+    // The density is needed only if the shadow ray is clear (and for MIS): computed now only where it comes with
+    // the value at little cost.
+    let (f, joint_pdf) = if bxdf.joint_f_pdf() {
+        let (f, pdf) = bxdf.f_pdf(wo, wi_local, TransportMode::Radiance);
+        (f, Some(pdf))
+    } else {
+        (bxdf.f(wo, wi_local, TransportMode::Radiance), None)
+    };
+    let f = f * wi_local.z.abs();
     if f.is_black() {
         return SampledSpectrum::zero();
     }
@@ -87,7 +95,7 @@ pub(crate) fn sample_direct_light(
     if ls.delta || weighting == DirectLight::LightSamplingOnly {
         f * ls.l * (1.0 / p_l)
     } else {
-        let p_b = bxdf.pdf(wo, wi_local, TransportMode::Radiance);
+        let p_b = joint_pdf.unwrap_or_else(|| bxdf.pdf(wo, wi_local, TransportMode::Radiance));
         f * ls.l * (power_heuristic(p_l, p_b) / p_l)
     }
 }

@@ -96,8 +96,8 @@ pub(crate) fn sample_ld(
     let (f_hat, scatter_pdf, origin, medium) = match v {
         Vertex::Surface { hit, frame, bxdf, wo, medium } => {
             let wi = frame.to_local(ls.wi);
-            let f = bxdf.f(wo, wi, TransportMode::Radiance) * wi.z.abs();
-            let pdf = bxdf.pdf(wo, wi, TransportMode::Radiance);
+            let (f, pdf) = bxdf.f_pdf(wo, wi, TransportMode::Radiance);
+            let f = f * wi.z.abs();
             // The shadow ray leaves into the medium on the light's side (the arrival medium without an
             // interface).
             (f, pdf, hit.spawn_origin(ls.wi), next_medium(hit, ls.wi, medium))
