@@ -139,7 +139,9 @@ impl PathIntegrator {
         let mnee = self.manifold_nee && scene.media.is_empty();
         loop {
             let d = st.ray.d;
-            let Some(mut hit) = st.ray.intersect(scene, counts) else {
+            // Used in place (a move out of the Option copied the ~150-byte record at every hit).
+            let mut found = st.ray.intersect(scene, counts);
+            let Some(hit) = found.as_mut() else {
                 // Escaped: infinite lights, weighted against the BSDF sample that found them.
                 for &li in &scene.infinite_lights {
                     let light = &scene.lights[li as usize];
@@ -156,7 +158,7 @@ impl PathIntegrator {
                 }
                 break;
             };
-            st.ray.attenuate(scene, &hit, wl, &mut st.beta);
+            st.ray.attenuate(scene, hit, wl, &mut st.beta);
             // Emission from an area light that was hit.
             if let Some(li) = hit.area_light {
                 let light = &scene.lights[li as usize];
@@ -179,7 +181,7 @@ impl PathIntegrator {
                     }
                 }
             }
-            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut st.ray, wl, sampler) {
+            let (bxdf, u) = match begin_bounce(scene, hit, &mut st.ray, wl, sampler) {
                 // A boundary between media does not count as a bounce.
                 Bounce::PassedThrough => {
                     st.chain.end();
@@ -190,7 +192,7 @@ impl PathIntegrator {
             };
             if st.depth == 0 {
                 if let Some(fh) = first_hit.take() {
-                    *fh = Some(FirstHit::at(&hit, &bxdf));
+                    *fh = Some(FirstHit::at(hit, &bxdf));
                 }
             }
             if st.depth == self.max_depth {
@@ -202,12 +204,12 @@ impl PathIntegrator {
             // Next-event estimation.
             if !bxdf.is_specular() {
                 let (mis, medium) = (DirectLight::Mis, st.ray.medium);
-                l += st.beta * sample_direct_light(scene, &hit, medium, &frame, &bxdf, wo, wl, &u, mis, counts);
+                l += st.beta * sample_direct_light(scene, hit, medium, &frame, &bxdf, wo, wl, &u, mis, counts);
                 if mnee {
                     // Through refracting chains, at most as long as the path could still be.
                     let max_len = (self.max_depth - st.depth) as usize;
-                    l += st.beta * manifold::estimate(scene, &hit, &frame, &bxdf, wo, wl, &u, max_len, counts);
-                    st.chain = ChainTrack::start(&hit, max_len);
+                    l += st.beta * manifold::estimate(scene, hit, &frame, &bxdf, wo, wl, &u, max_len, counts);
+                    st.chain = ChainTrack::start(hit, max_len);
                 }
             }
             let mode = TransportMode::Radiance;
@@ -219,7 +221,7 @@ impl PathIntegrator {
                         DispersiveSplit::Reflection(bs) => {
                             let wi = frame.from_local(bs.wi);
                             st.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-                            if !st.follow(&bxdf, &hit, &bs, wi, wo, &u) {
+                            if !st.follow(&bxdf, hit, &bs, wi, wo, &u) {
                                 break;
                             }
                             continue;
@@ -230,7 +232,7 @@ impl PathIntegrator {
                                 let mut branch = *st;
                                 let mut wl_branch = wl.branch(slot);
                                 branch.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-                                if branch.follow(&bxdf, &hit, bs, frame.from_local(bs.wi), wo, &u) {
+                                if branch.follow(&bxdf, hit, bs, frame.from_local(bs.wi), wo, &u) {
                                     let lb = self.trace(scene, &mut branch, &mut wl_branch, sampler, counts, None);
                                     l[slot] += lb[slot];
                                 }
@@ -241,8 +243,8 @@ impl PathIntegrator {
                 }
             }
             // BSDF sampling for the next direction.
-            let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut st.beta) else { break };
-            if !st.follow(&bxdf, &hit, &s.bs, s.wi, wo, &u) {
+            let Some(s) = scatter(&bxdf, &frame, hit, wo, -d, &u, mode, wl, &mut st.beta) else { break };
+            if !st.follow(&bxdf, hit, &s.bs, s.wi, wo, &u) {
                 break;
             }
         }
