@@ -182,11 +182,11 @@ impl VolPathIntegrator {
     ) -> SampledSpectrum {
         let mut l = SampledSpectrum::zero();
         loop {
-            let hit = st.ray.intersect(scene, counts);
+            let mut hit = st.ray.intersect(scene, counts);
             // Through the medium along the ray, up to the surface.
             if let Some(m) = st.ray.medium {
                 let medium = &scene.media[m as usize];
-                let t_end = hit.map_or(f32::INFINITY, |h| h.t);
+                let t_end = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
                 if medium.is_absorbing_only() {
                     st.beta *= medium.absorption_transmittance(t_end, wl);
                 } else {
@@ -280,7 +280,7 @@ impl VolPathIntegrator {
                 }
             }
             let d = st.ray.d;
-            let Some(mut hit) = hit else {
+            let Some(hit) = hit.as_mut() else {
                 // Escaped: infinite lights.
                 for &li in &scene.infinite_lights {
                     let light = &scene.lights[li as usize];
@@ -311,7 +311,7 @@ impl VolPathIntegrator {
                 }
             }
             let arrived_in = st.ray.medium;
-            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut st.ray, wl, sampler) {
+            let (bxdf, u) = match begin_bounce(scene, hit, &mut st.ray, wl, sampler) {
                 Bounce::PassedThrough => continue,
                 Bounce::Stop | Bounce::Absorb => break,
                 Bounce::Scatter(bxdf, u) => (bxdf, u),
@@ -319,7 +319,7 @@ impl VolPathIntegrator {
             st.mis.update(wl);
             if st.depth == 0 {
                 if let Some(fh) = first_hit.take() {
-                    *fh = Some(FirstHit::at(&hit, &bxdf));
+                    *fh = Some(FirstHit::at(hit, &bxdf));
                 }
             }
             if st.depth == self.max_depth {
@@ -329,7 +329,7 @@ impl VolPathIntegrator {
             let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
             let wo = frame.to_local(-d);
             if !bxdf.is_specular() {
-                let v = Vertex::Surface { hit: &hit, frame: &frame, bxdf: &bxdf, wo, medium: arrived_in };
+                let v = Vertex::Surface { hit, frame: &frame, bxdf: &bxdf, wo, medium: arrived_in };
                 l += st.beta * self.sample_ld(scene, v, wl, &u, &st.mis, st.r_u, counts);
             }
             let mode = TransportMode::Radiance;
@@ -344,7 +344,7 @@ impl VolPathIntegrator {
                         let mut wl_branch = wl.branch(slot);
                         branch.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
                         let wi = frame.from_local(bs.wi);
-                        if branch.follow(&bxdf, &hit, Scattered { bs, wi }, wo, &u, &wl_branch) {
+                        if branch.follow(&bxdf, hit, Scattered { bs, wi }, wo, &u, &wl_branch) {
                             let lb = self.trace(scene, &mut branch, &mut wl_branch, sampler, counts, None);
                             l[slot] += lb[slot];
                         }
@@ -356,11 +356,11 @@ impl VolPathIntegrator {
                     Scattered { wi: frame.from_local(bs.wi), bs }
                 }
                 None => {
-                    let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut st.beta) else { break };
+                    let Some(s) = scatter(&bxdf, &frame, hit, wo, -d, &u, mode, wl, &mut st.beta) else { break };
                     s
                 }
             };
-            if !st.follow(&bxdf, &hit, s, wo, &u, wl) {
+            if !st.follow(&bxdf, hit, s, wo, &u, wl) {
                 break;
             }
         }
