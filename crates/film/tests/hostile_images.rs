@@ -79,8 +79,13 @@ fn exr_of_a_constant_image_is_read() {
 #[test]
 fn png_palette_of_a_fractional_number_of_entries() {
     let path = scratch("palette.png", include_bytes!("hostile/png-palette-of-26-bytes.png"));
-    match read_png_linear(&path) {
-        Err(ImageError::Png { message, .. }) => assert!(message.contains("PLTE chunk of 26 bytes"), "{message}"),
+    assert_png_error(&path, "PLTE chunk of 26 bytes");
+}
+
+/// Reading the PNG at `path` is a PNG error whose message contains `fragment`.
+fn assert_png_error(path: &std::path::Path, fragment: &str) {
+    match read_png_linear(path) {
+        Err(ImageError::Png { message, .. }) => assert!(message.contains(fragment), "{message}"),
         r => panic!("expected a PNG error, got {:?}", r.map(|(w, h, _)| (w, h))),
     }
 }
@@ -90,10 +95,7 @@ fn png_palette_of_a_fractional_number_of_entries() {
 #[test]
 fn png_palette_of_more_than_256_entries() {
     let path = scratch("palette-474.png", include_bytes!("hostile/png-palette-of-474-entries.png"));
-    match read_png_linear(&path) {
-        Err(ImageError::Png { message, .. }) => assert!(message.contains("PLTE chunk of 1422 bytes"), "{message}"),
-        r => panic!("expected a PNG error, got {:?}", r.map(|(w, h, _)| (w, h))),
-    }
+    assert_png_error(&path, "PLTE chunk of 1422 bytes");
 }
 
 /// Found by the fuzzer, all mutations of a tiled 5×3 B44 file: B44 blocks whose deltas wrap below zero (the decoder

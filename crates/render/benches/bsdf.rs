@@ -71,27 +71,23 @@ fn bench(c: &mut Criterion) {
                 black_box(acc)
             })
         });
+        // The same N directions for the value and density apart and together.
+        let over_pairs = |eval: &dyn Fn(Vec3) -> f32| {
+            (0..N).map(|i| eval(Vec3::new((i as f32 + 0.5) / N as f32 - 0.5, 0.3, 0.8).normalize())).sum::<f32>()
+        };
         g.bench_function(format!("{name}/f+pdf"), |bench| {
             bench.iter(|| {
-                let mut acc = 0.0f32;
-                for i in 0..N {
-                    let u = (i as f32 + 0.5) / N as f32;
-                    let wi = Vec3::new(u - 0.5, 0.3, 0.8).normalize();
-                    acc += b.f(wo, wi, TransportMode::Radiance)[0] + b.pdf(wo, wi, TransportMode::Radiance);
-                }
-                black_box(acc)
+                black_box(over_pairs(&|wi| {
+                    b.f(wo, wi, TransportMode::Radiance)[0] + b.pdf(wo, wi, TransportMode::Radiance)
+                }))
             })
         });
         g.bench_function(format!("{name}/f_pdf (joint)"), |bench| {
             bench.iter(|| {
-                let mut acc = 0.0f32;
-                for i in 0..N {
-                    let u = (i as f32 + 0.5) / N as f32;
-                    let wi = Vec3::new(u - 0.5, 0.3, 0.8).normalize();
+                black_box(over_pairs(&|wi| {
                     let (f, pdf) = b.f_pdf(wo, wi, TransportMode::Radiance);
-                    acc += f[0] + pdf;
-                }
-                black_box(acc)
+                    f[0] + pdf
+                }))
             })
         });
     }

@@ -1,8 +1,9 @@
 //! Tabulated 1D and 2D distributions for importance sampling.
 //!
 //! [`Distribution1D`] follows the recipe of seed 000 ("Sampling of a discrete pdf (tabulation)"): the cdf is the
-//! running sum cdf(xᵢ) = pdf(xᵢ)·Δx + cdf(xᵢ₋₁) with cdf(x₀) = 0, a uniform ξ ∈ [0, 1) is located by binary search
-//! (cdf(x_{j−1}) ≤ ξ < cdf(x_j)), the sample is linearly interpolated inside that bin,
+//! running sum cdf(xᵢ) = pdf(xᵢ)·Δx + cdf(xᵢ₋₁) with cdf(x₀) = 0, a uniform ξ ∈ [0, 1) is located in its bin
+//! (cdf(x_{j−1}) ≤ ξ < cdf(x_j); the seed's binary search, here a guide table and a count of the few edges it
+//! leaves, which finds the same bin), the sample is linearly interpolated inside that bin,
 //! x = x_min + Δx·(j − (cdf(x_j) − ξ)/(cdf(x_j) − cdf(x_{j−1}))), and its pdf is returned with it. The seed's pdf
 //! value cdf(x_j) − cdf(x_{j−1}) is the probability of the bin; divided by Δx it is the density, which is what
 //! [`Distribution1D::sample`] returns, so Monte Carlo estimators can divide by it directly.
