@@ -9,7 +9,7 @@
 //! - [`bilinear`]: [`BilinearMesh`], bilinear patches intersected exactly (Reshetov 2019), and their sampling.
 //! - [`shapes`]: [`Shape`], which answers intersection, surface-geometry and sampling queries ([`ShapeSample`]) for
 //!   every kind of shape ([`Sphere`], [`Disk`], triangles, bilinear patches), one file per kind.
-//! - [`accel`]: the [`Accel`] trait and [`GeometryScene`], a two-level BVH (compressed wide BVH from `obvhs`) with
+//! - [`accel`]: the [`Accel`] trait and [`GeometryScene`], a two-level BVH (wide BVHs built by `obvhs`) with
 //!   instancing.
 //! - [`animated`]: [`AnimatedTransform`], transforms that move during the shutter (pbrt-v4's decomposition into
 //!   translation, rotation and stretch), and the bounds of what they move.
@@ -28,6 +28,7 @@ pub mod ray;
 pub mod shapes;
 pub mod subdiv;
 pub mod transform;
+mod wide;
 
 pub use accel::{Accel, GeometryScene, Hit, Instance, MovingInstance, Object, Shape};
 pub use animated::AnimatedTransform;
