@@ -37,7 +37,7 @@ pub use bounds::Bounds3;
 pub use glam::{DMat4, DVec3, Vec2, Vec3, Vec3A};
 pub use mesh::{BilinearMeshData, IndexedMesh, IndexedMeshData, MeshData, TriangleMesh};
 pub use ray::{offset_ray_origin, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
-pub use shapes::{Disk, ShapeSample, Sphere, SurfaceDerivatives};
+pub use shapes::{Disk, PointSample, ShapeSample, Sphere, SurfaceDerivatives};
 pub use transform::Transform;
 
 /// Errors from building geometry from user data. Each names the problem.

@@ -258,11 +258,17 @@ impl Light {
                 })
             }
             Light::DiffuseArea { shape, element, l, two_sided, alpha, invisible } => {
-                let ss = shape.sample_solid_angle(*element as usize, ctx.p, u)?;
-                if alpha_masked(alpha, ss.p, ss.n, ss.uv) {
-                    return None;
-                }
-                let (p, n, pdf) = (ss.p, ss.n, ss.pdf);
+                // Only an alpha texture needs the point's uv: without one, the sample skips it.
+                let (p, n, pdf) = if alpha.is_some() {
+                    let ss = shape.sample_solid_angle(*element as usize, ctx.p, u)?;
+                    if alpha_masked(alpha, ss.p, ss.n, ss.uv) {
+                        return None;
+                    }
+                    (ss.p, ss.n, ss.pdf)
+                } else {
+                    let ps = shape.sample_solid_angle_point(*element as usize, ctx.p, u)?;
+                    (ps.p, ps.n, ps.pdf)
+                };
                 if !(pdf > 0.0 && pdf.is_finite()) {
                     return None;
                 }

@@ -45,6 +45,23 @@ pub struct ShapeSample {
     pub pdf: f32,
 }
 
+/// A point sampled on a shape by solid angle, with only what an area light without an alpha texture needs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointSample {
+    /// The point (render space).
+    pub p: Vec3,
+    /// Unit geometric normal at `p`, oriented as at a ray hit.
+    pub n: Vec3,
+    /// Density per steradian.
+    pub pdf: f32,
+}
+
+impl From<ShapeSample> for PointSample {
+    fn from(s: ShapeSample) -> Self {
+        Self { p: s.p, n: s.n, pdf: s.pdf }
+    }
+}
+
 /// Geometry of a surface point, in the space of the shape (render space, or instance space before the instance
 /// transform).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -237,6 +254,13 @@ pub(crate) trait ShapeKind {
         area_to_solid_angle(ref_p, self.sample_area(e, u)?)
     }
 
+    /// [`ShapeKind::sample_solid_angle`]'s point, normal and density alone (bit for bit the same), for callers that
+    /// need neither `uv` nor `p_error`; shapes whose full sample costs more (a sphere's uv takes two inverse
+    /// trigonometric functions) skip the rest.
+    fn sample_solid_angle_point(&self, e: usize, ref_p: Vec3, u: Vec2) -> Option<PointSample> {
+        self.sample_solid_angle(e, ref_p, u).map(PointSample::from)
+    }
+
     /// The density per steradian of [`ShapeKind::sample_solid_angle`] for direction `wi` (unit) from `ref_p`; 0 if
     /// the ray misses element `e`.
     fn pdf_solid_angle(&self, e: usize, ref_p: Vec3, wi: Vec3) -> f32 {
@@ -340,6 +364,12 @@ impl Shape {
     /// for full spheres seen from outside, area sampling converted to solid angle (pdf·dist²/|cos θ|) otherwise.
     pub fn sample_solid_angle(&self, element: usize, ref_p: Vec3, u: Vec2) -> Option<ShapeSample> {
         dispatch!(self, k => ShapeKind::sample_solid_angle(k, element, ref_p, u))
+    }
+
+    /// [`Shape::sample_solid_angle`]'s point, normal and density alone, bit for bit the same, computed without the
+    /// sample's `uv` and `p_error` where that is cheaper (spheres).
+    pub fn sample_solid_angle_point(&self, element: usize, ref_p: Vec3, u: Vec2) -> Option<PointSample> {
+        dispatch!(self, k => ShapeKind::sample_solid_angle_point(k, element, ref_p, u))
     }
 
     /// The density per steradian with which [`Shape::sample_solid_angle`] picks direction `wi` (unit) from
@@ -562,6 +592,29 @@ mod tests {
         let m = tri_mesh();
         let mean: Vec3 = points(n).map(|u| sample_triangle_area(&m, 0, u).unwrap().p).sum::<Vec3>() / n as f32;
         assert!((mean - Vec3::new(2.0 / 3.0, 2.0 / 3.0, 1.0)).length() < 5e-3, "{mean}");
+    }
+
+    #[test]
+    fn point_samples_equal_full_samples_bit_for_bit() {
+        let placed = Transform::translate(DVec3::new(0.3, -0.2, 4.0))
+            * Transform::rotate(30.0, DVec3::new(1.0, 1.0, 0.0)).unwrap()
+            * Transform::scale(DVec3::new(1.5, 1.5, 1.5)).unwrap();
+        let shapes = [
+            Shape::Sphere(Sphere::new(0.7, placed, false).unwrap()),
+            Shape::Sphere(Sphere::new(0.7, placed, true).unwrap()),
+            Shape::Sphere(Sphere::partial(1.0, -0.5, 0.8, 300.0, placed, false).unwrap()),
+            Shape::Disk(Disk::new(0.0, 1.0, 0.3, 270.0, placed, false).unwrap()),
+            Shape::Mesh(Arc::new(tri_mesh())),
+        ];
+        // From outside (cone sampling for the full spheres) and from inside the spheres (area sampling).
+        for (k, shape) in shapes.iter().enumerate() {
+            for ref_p in [Vec3::new(0.1, 0.2, -3.0), Vec3::new(0.3, -0.2, 4.1)] {
+                for u in points(256) {
+                    let full = shape.sample_solid_angle(0, ref_p, u).map(PointSample::from);
+                    assert_eq!(shape.sample_solid_angle_point(0, ref_p, u), full, "shape {k} from {ref_p} at {u}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -63,9 +63,15 @@ impl Placement {
         let pa = p_obj.abs().as_vec3();
         let p_error =
             (1.0 + gamma(3)) * (self.abs_linear * p_err_obj) + gamma(3) * (self.abs_linear * pa + self.abs_translation);
-        let n = (self.normal_matrix * n_obj).normalize_or_zero().as_vec3();
+        let n = self.normal(n_obj);
         let dpdu = (self.linear * dpdu_obj).as_vec3();
         (p, p_error, n, dpdu)
+    }
+
+    /// The unit render-space normal of object-space normal `n_obj` (as [`Placement::to_render`] gives it).
+    #[inline]
+    pub(super) fn normal(&self, n_obj: DVec3) -> Vec3 {
+        (self.normal_matrix * n_obj).normalize_or_zero().as_vec3()
     }
 
     /// A vector (such as ∂p/∂v) from object to render space.

@@ -8,7 +8,7 @@ use glam::{DVec3, Vec2, Vec3};
 use super::placement::{dpdu_or_frame, phi_of, Placement};
 use super::{
     area_pdf_to_solid_angle, area_to_solid_angle, coordinate_system, safe_sqrt, sample_uniform_sphere, ElementHit,
-    ShapeKind, ShapeRay, ShapeSample, SurfaceDerivatives, SurfaceGeom,
+    PointSample, ShapeKind, ShapeRay, ShapeSample, SurfaceDerivatives, SurfaceGeom,
 };
 use crate::bounds::Bounds3;
 use crate::ray::{gamma, Ray};
@@ -238,12 +238,38 @@ impl Sphere {
     /// of directions it subtends (pdf = 1/(2π(1 − cos θmax)) per steradian); otherwise (inside, or a partial sphere)
     /// area sampling converted to solid angle. `None` if no valid sample.
     pub fn sample_solid_angle(&self, ref_p: Vec3, u: Vec2) -> Option<ShapeSample> {
+        match self.sample_cone(ref_p, u) {
+            None => area_to_solid_angle(ref_p, self.sample_area(u)),
+            Some((p, p_obj, pdf)) => {
+                // Geometry (uv, error) from the object-space point.
+                let g = self.geom_at(p_obj);
+                Some(ShapeSample { p, p_error: g.p_error, n: g.n, uv: g.uv, pdf })
+            }
+        }
+    }
+
+    /// [`Sphere::sample_solid_angle`]'s point, normal and density (bit for bit), without its uv and error bound.
+    pub fn sample_solid_angle_point(&self, ref_p: Vec3, u: Vec2) -> Option<PointSample> {
+        match self.sample_cone(ref_p, u) {
+            None => area_to_solid_angle(ref_p, self.sample_area(u)).map(PointSample::from),
+            Some((p, p_obj, pdf)) => {
+                // The normal as `geom_at` finds it: the object-space point is the outward normal.
+                let n = self.place.normal(p_obj);
+                Some(PointSample { p, n: if self.reverse_orientation { -n } else { n }, pdf })
+            }
+        }
+    }
+
+    /// Cone sampling of a full sphere seen from outside (pbrt-v4 §6.2.4): the render-space point, the same point
+    /// in object space projected onto the sphere, and the density per steradian; `None` for a partial sphere or a
+    /// point inside, which sample by area.
+    #[inline]
+    fn sample_cone(&self, ref_p: Vec3, u: Vec2) -> Option<(Vec3, DVec3, f32)> {
         let pc = self.center;
         let r = self.render_radius;
         let dc2 = ref_p.distance_squared(pc);
         if !self.is_full() || dc2 <= r * r * (1.0 + 1e-4) {
-            let ss = self.sample_area(u);
-            return area_to_solid_angle(ref_p, ss);
+            return None;
         }
         let dc = dc2.sqrt();
         let sin2_max = r * r / dc2;
@@ -266,11 +292,9 @@ impl Sphere {
         let (x, y) = coordinate_system(z);
         let n_out = -(w.x * x + w.y * y + w.z * z);
         let p = pc + r * n_out;
-        // Geometry (uv, error) from the object-space point.
         let p_obj = self.place.render_from_object.inverse().point(p.as_dvec3());
         let p_obj = p_obj * (self.radius / p_obj.length());
-        let g = self.geom_at(p_obj);
-        Some(ShapeSample { p, p_error: g.p_error, n: g.n, uv: g.uv, pdf: 1.0 / (2.0 * PI * one_minus_cos_max) })
+        Some((p, p_obj, 1.0 / (2.0 * PI * one_minus_cos_max)))
     }
 
     /// Solid-angle density of [`Sphere::sample_solid_angle`] for direction `wi` (unit) from `ref_p`; assumes `wi`
@@ -321,6 +345,10 @@ impl ShapeKind for Sphere {
 
     fn sample_solid_angle(&self, _: usize, ref_p: Vec3, u: Vec2) -> Option<ShapeSample> {
         Sphere::sample_solid_angle(self, ref_p, u)
+    }
+
+    fn sample_solid_angle_point(&self, _: usize, ref_p: Vec3, u: Vec2) -> Option<PointSample> {
+        Sphere::sample_solid_angle_point(self, ref_p, u)
     }
 
     fn pdf_solid_angle(&self, _: usize, ref_p: Vec3, wi: Vec3) -> f32 {
