@@ -4,12 +4,13 @@
 #
 #   scripts/bench.sh            # all scenes
 #   scripts/bench.sh killeroo   # scenes whose name contains "killeroo"
+#   RUSTFLAGS="-C target-cpu=native" CARGO_TARGET_DIR=target/native scripts/bench.sh   # a build for this machine
 #
 # Numbers depend on the machine: BENCHMARKS.md records them with the machine they were measured on.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -q -p prismatic
-bin=target/release/prismatic
+bin=${CARGO_TARGET_DIR:-target}/release/prismatic
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 
