@@ -216,10 +216,10 @@ fn normal_map_tilts_the_shading_normal() {
 
 /// A floor checkered with one-texel checks of 0 and 1 (a 64×64 image repeated 100 times over 400 units), seen at
 /// grazing angles from a camera one unit above it: far away a pixel covers tens to thousands of checks. Filtered
-/// over the rays' footprints (`trilinear`, `ewa`) each far pixel's albedo is the checks' mean 1/2, as on a floor of
-/// constant reflectance 1/2 rendered with the same samples (the albedo is the gbuffer's, the first hit's
-/// reflectance, which has the wavelength sampling's noise but no lighting noise); `bilinear` reads single texels,
-/// so 16 samples per pixel leave far pixels scattered around 1/2 (aliasing).
+/// over the rays' footprints (`trilinear`, `ewa`), or read in the MIP level the footprint picks (`bilinear`,
+/// `point`), each far pixel's albedo is the checks' mean 1/2, as on a floor of constant reflectance 1/2 rendered
+/// with the same samples (the albedo is the gbuffer's, the first hit's reflectance, which has the wavelength
+/// sampling's noise but no lighting noise).
 #[test]
 fn filtered_image_textures_average_a_fine_checkerboard_at_grazing_angles() {
     let dir = temp_dir("grazing");
@@ -268,9 +268,51 @@ fn filtered_image_textures_average_a_fine_checkerboard_at_grazing_angles() {
     // of a pixel at 16 spp), close to 1/2.
     let d = differences(&textured("ewa"));
     assert!(d.iter().all(|v| v.abs() < 0.03) && mean(&d).abs() < 0.005, "ewa: {d:?}");
-    // Bilinear: one interpolated lookup per sample, 1/2 + (1 − 2f)(1 − 2g)/2 between the nearest texel centres
-    // (f, g the offsets), of standard deviation 1/6 per sample and 1/24 ≈ 0.042 over 16 samples: aliased.
-    let d = differences(&textured("bilinear"));
-    assert!(mean(&d).abs() < 0.02 && std_dev(&d) > 0.025, "bilinear: {d:?}");
+    // Bilinear and point: one lookup per sample in the level the footprint picks (pbrt-v4's ⌊level⌋), here level 1
+    // or above, whose texels are all 1/2. (Read in the full-resolution image instead, a bilinear lookup would be
+    // 1/2 + (1 − 2f)(1 − 2g)/2 between the nearest texel centres, of standard deviation 1/24 ≈ 0.042 over 16
+    // samples: aliased.)
+    for filter in ["bilinear", "point"] {
+        let d = differences(&textured(filter));
+        assert!(d.iter().all(|v| v.abs() < 1e-4), "{filter}: {d:?}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Only hits on materials that read an image map compute footprints: a material with an image map (directly, or
+/// through a scale texture and a named texture), a mix that may pick one, or whose amount is one; not a plain
+/// diffuse, a checkerboard or a mix of plain materials.
+#[test]
+fn footprints_are_computed_for_materials_that_read_image_maps_only() {
+    let dir = temp_dir("reads-footprint");
+    let path = dir.join("img.pfm");
+    film::write_rgb(&path, 2, 2, &[[0.5; 3]; 4]).unwrap();
+    let text = format!(
+        "Camera \"perspective\"\nFilm \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 4\nWorldBegin\n\
+         Texture \"img\" \"spectrum\" \"imagemap\" \"string filename\" \"{img}\"\n\
+         Texture \"scaled\" \"spectrum\" \"scale\" \"texture tex\" \"img\" \"float scale\" 0.5\n\
+         Texture \"amount\" \"float\" \"imagemap\" \"string filename\" \"{img}\"\n\
+         Texture \"checks\" \"spectrum\" \"checkerboard\"\n\
+         MakeNamedMaterial \"imaged\" \"string type\" \"diffuse\" \"texture reflectance\" \"scaled\"\n\
+         MakeNamedMaterial \"plain\" \"string type\" \"diffuse\"\n\
+         MakeNamedMaterial \"checked\" \"string type\" \"diffuse\" \"texture reflectance\" \"checks\"\n\
+         MakeNamedMaterial \"mix-imaged\" \"string type\" \"mix\" \"string materials\" [ \"plain\" \"imaged\" ]\n\
+         MakeNamedMaterial \"mix-plain\" \"string type\" \"mix\" \"string materials\" [ \"plain\" \"checked\" ]\n\
+         MakeNamedMaterial \"mix-amount\" \"string type\" \"mix\" \"string materials\" [ \"plain\" \"checked\" ] \
+         \"texture amount\" \"amount\"\n\
+         MakeNamedMaterial \"mix-of-mix\" \"string type\" \"mix\" \"string materials\" [ \"mix-plain\" \"mix-imaged\" ]\n\
+         NamedMaterial \"plain\"\nShape \"sphere\"\n",
+        img = path.display()
+    );
+    let built = build(&text, "reads-footprint.pbrt");
+    let scene = &built.scene;
+    assert!(scene.footprints.is_some());
+    // Named materials follow the anonymous one (the default diffuse), in the order they were made.
+    let expected = [false, true, false, false, true, false, true, true];
+    assert_eq!(scene.material_reads_footprint, expected);
+    for (i, &e) in expected.iter().enumerate() {
+        assert_eq!(scene.reads_footprint(i as u32), e, "material {i}");
+    }
+    assert!(!scene.reads_footprint(render::scene::NO_MATERIAL));
     std::fs::remove_dir_all(&dir).ok();
 }

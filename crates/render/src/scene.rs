@@ -296,9 +296,12 @@ pub struct RenderScene {
     /// The shutter interval `[open, close]` when something moves (the camera or some geometry), `None` when
     /// nothing does: then no time is drawn and every ray is traced at time 0.
     pub motion: Option<[f32; 2]>,
-    /// Ray footprints for textures that filter over them (`trilinear`, `ewa`); `None` when no texture does: then
+    /// Ray footprints for image maps, which read their MIP maps by them; `None` when the scene has none: then
     /// textures are evaluated at points and hits compute no footprint.
     pub footprints: Option<crate::footprint::Footprints>,
+    /// Per material, whether its textures read the footprint (see [`RenderScene::reads_footprint`]); materials
+    /// beyond the end of the list are taken to read it.
+    pub material_reads_footprint: Vec<bool>,
 }
 
 impl RenderScene {
@@ -337,7 +340,17 @@ impl RenderScene {
             bounding_sphere,
             motion: None,
             footprints: None,
+            material_reads_footprint: vec![],
         }
+    }
+
+    /// Whether a hit on material `material` needs its footprint: the scene has footprints and the material reads
+    /// them (an image map among its textures; for a mix, in its amount or a material it may pick).
+    #[inline]
+    pub fn reads_footprint(&self, material: u32) -> bool {
+        self.footprints.is_some()
+            && material != NO_MATERIAL
+            && self.material_reads_footprint.get(material as usize).copied().unwrap_or(true)
     }
 
     /// The time of a camera ray or a light path: uniform over the shutter interval (pbrt-v4's

@@ -2,11 +2,11 @@
 //! bilerp, checkerboard (2-D and 3-D), dots, fbm, wrinkled, windy, marble and image maps — with their 2-D mappings
 //! (`uv`, `spherical`, `cylindrical`, `planar`) and the 3-D mapping to texture space.
 //!
-//! Most textures are evaluated at a point (pbrt-v4's lookups with a vanishing filter footprint): `point` and
-//! `bilinear` image maps read the full-resolution image, checkerboards are sharp, and noise sums all its octaves;
-//! the pixel filter's supersampling does the antialiasing. Image maps with the `trilinear` and `ewa` filters read
-//! a MIP map ([`mipmap`]) over the footprint of the ray in (s, t), from the context's screen-space derivatives
-//! (filled in only for scenes that have such a texture: [`crate::footprint`]).
+//! Image maps read a MIP map ([`mipmap`]) as pbrt-v4 does: `point` and `bilinear` in the level the ray's footprint
+//! in (s, t) picks, `trilinear` and `ewa` filtering over it; the footprint comes from the context's screen-space
+//! derivatives (filled in only for scenes that have an image map: [`crate::footprint`]). The other textures are
+//! evaluated at a point (pbrt-v4's lookups with a vanishing filter footprint): checkerboards are sharp and noise
+//! sums all its octaves, and the pixel filter's supersampling does the antialiasing.
 
 use std::sync::Arc;
 
@@ -233,10 +233,10 @@ pub enum WrapMode {
 /// How an image texture is sampled between texels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ImageFilter {
-    /// The nearest texel of the full-resolution image (pbrt-v4's `point`).
+    /// The nearest texel of the MIP level the footprint picks (pbrt-v4's `point`).
     Point,
-    /// Bilinear interpolation between the four nearest texel centres of the full-resolution image (pbrt-v4's
-    /// `bilinear`).
+    /// Bilinear interpolation between the four nearest texel centres of the MIP level the footprint picks
+    /// (pbrt-v4's `bilinear`).
     Bilinear,
     /// Bilinear lookups in the two MIP levels whose texels match the footprint, blended (pbrt-v4's `trilinear`).
     Trilinear,
@@ -321,7 +321,8 @@ pub struct ImageTexture {
     pub wrap: WrapMode,
     /// Between texels.
     pub filter: ImageFilter,
-    /// The image's MIP map, for the `trilinear` and `ewa` filters (`None` for the others: they read `image`).
+    /// The image's MIP map, which every filter reads (pbrt-v4's `MIPMap`); without one (`None`), lookups read
+    /// `image` itself, `trilinear` and `ewa` as `bilinear`.
     pub mip: Option<Arc<MipMap>>,
     /// The `ewa` filter's largest ratio of the footprint's axes (pbrt-v4's `maxanisotropy`, default 8).
     pub max_anisotropy: f32,
@@ -334,7 +335,15 @@ pub struct ImageTexture {
 impl ImageTexture {
     fn rgb(&self, ctx: &TextureEvalContext) -> [f32; 3] {
         match (self.filter, &self.mip) {
-            (ImageFilter::Point, _) => self.image.nearest(self.map.map(ctx), self.wrap),
+            (ImageFilter::Point, Some(mip)) => {
+                let c = self.map.map_footprint(ctx);
+                mip.nearest(c.st, c.dst_dx, c.dst_dy)
+            }
+            (ImageFilter::Point, None) => self.image.nearest(self.map.map(ctx), self.wrap),
+            (ImageFilter::Bilinear, Some(mip)) => {
+                let c = self.map.map_footprint(ctx);
+                mip.bilinear(c.st, c.dst_dx, c.dst_dy)
+            }
             (ImageFilter::Trilinear, Some(mip)) => {
                 let c = self.map.map_footprint(ctx);
                 mip.trilinear(c.st, c.dst_dx, c.dst_dy)

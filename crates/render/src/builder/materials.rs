@@ -33,6 +33,9 @@ pub(super) struct Materials {
     pub(super) interiors: Vec<Option<HomogeneousMedium>>,
     /// The index of that medium among the scene's media, once attached.
     pub(super) interior_index: Vec<Option<u32>>,
+    /// Whether each material reads a texture through the ray's footprint (an image map; for a mix, its amount or
+    /// a material it may pick), so that hits on it need their footprint.
+    pub(super) reads_footprint: Vec<bool>,
     names: HashMap<String, u32>,
 }
 
@@ -48,21 +51,40 @@ impl Materials {
         let mut perturbations = Vec::with_capacity(materials.capacity());
         let mut interiors = Vec::with_capacity(materials.capacity());
         let measured = MeasuredFiles::default();
+        let mut reads_footprint = Vec::with_capacity(materials.capacity());
         for e in desc.materials.iter().chain(desc.named_materials.iter().map(|(_, e)| e)) {
+            textures.take_image_use();
             let (m, interior) = if e.name == "subsurface" {
                 let (m, medium) = super::subsurface::subsurface(e, roughness(textures, &e.params)?)?;
                 (m, Some(medium))
             } else {
                 (material(textures, e, &names, &measured)?, None)
             };
+            reads_footprint.push(textures.take_image_use());
             interiors.push(interior);
             // A mix has none of its own (the material it picks brings its own), nor has an interface.
             let own = !matches!(m, Material::Mix { .. } | Material::Interface);
             perturbations.push(if own { normal_perturbation(textures, e)? } else { None });
             materials.push(m);
         }
+        // A mix needs the footprint if a material it may pick does (mixes nest: one pass per level).
+        for _ in 0..materials.len() {
+            let mut changed = false;
+            for (i, m) in materials.iter().enumerate() {
+                if let Material::Mix { materials: picks, .. } = m {
+                    let any = picks.iter().any(|&k| reads_footprint.get(k as usize).copied().unwrap_or(false));
+                    if any && !reads_footprint[i] {
+                        reads_footprint[i] = true;
+                        changed = true;
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
         let interior_index = vec![None; materials.len()];
-        Ok(Materials { list: materials, perturbations, interiors, interior_index, names })
+        Ok(Materials { list: materials, perturbations, interiors, interior_index, reads_footprint, names })
     }
 
     /// Appends the interior media of `subsurface` materials to `media` and records their indices.

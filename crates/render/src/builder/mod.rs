@@ -151,6 +151,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     scene.normal_perturbations = materials.perturbations;
     if textures.need_footprints() {
         scene.footprints = Some(crate::footprint::Footprints::new(&scene.camera, spp));
+        scene.material_reads_footprint = materials.reads_footprint;
     }
     warnings.extend(desc.warnings.iter().map(|d| d.to_string()));
     warnings.extend(desc.unused_parameters().iter().map(|d| d.to_string()));

@@ -4,8 +4,8 @@
 //! and the lookups materials make when a parameter names a texture instead of giving a value. Images are read once
 //! per file and encoding.
 
-use std::cell::RefCell;
-use std::collections::HashMap;
+use std::cell::{Cell, RefCell};
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -49,6 +49,11 @@ pub(super) struct Textures {
     images: RefCell<HashMap<(PathBuf, String), Arc<RgbImage>>>,
     /// MIP maps built so far, by image (its address in `images`) and wrap mode.
     mipmaps: RefCell<HashMap<(usize, WrapMode), Arc<MipMap>>>,
+    /// The named float and spectrum textures that contain an image map (directly or through textures they use).
+    float_with_image: HashSet<String>,
+    spectrum_with_image: HashSet<String>,
+    /// Set whenever a texture containing an image map is built or handed out (see [`Textures::take_image_use`]).
+    image_used: Cell<bool>,
 }
 
 /// A float parameter that must be finite.
@@ -193,7 +198,7 @@ fn image_texture(t: &Textures, e: &TextureEntity) -> Result<ImageTexture> {
         );
     };
     let image = t.image(&path, encoding, &enc_name, &p.loc_of("filename", loc))?;
-    let mip = matches!(filter, ImageFilter::Trilinear | ImageFilter::Ewa).then(|| t.mipmap(&image, wrap));
+    let mip = Some(t.mipmap(&image, wrap));
     Ok(ImageTexture { map, image, wrap, filter, mip, max_anisotropy: aniso, scale, invert })
 }
 
@@ -217,12 +222,19 @@ impl Textures {
             spectrum: HashMap::new(),
             images: RefCell::default(),
             mipmaps: RefCell::default(),
+            float_with_image: HashSet::new(),
+            spectrum_with_image: HashSet::new(),
+            image_used: Cell::new(false),
         };
         for te in &desc.textures {
+            t.take_image_use();
             match te.value_type {
                 TextureValueType::Float => {
                     let tex = t.float_texture(te)?;
                     t.float.insert(te.texture_name.clone(), tex);
+                    if t.take_image_use() {
+                        t.float_with_image.insert(te.texture_name.clone());
+                    }
                 }
                 TextureValueType::Spectrum => {
                     let pair = (
@@ -230,10 +242,19 @@ impl Textures {
                         t.spectrum_texture(te, SpectrumKind::Unbounded)?,
                     );
                     t.spectrum.insert(te.texture_name.clone(), pair);
+                    if t.take_image_use() {
+                        t.spectrum_with_image.insert(te.texture_name.clone());
+                    }
                 }
             }
         }
         Ok(t)
+    }
+
+    /// Whether a texture containing an image map was built or handed out (by [`Textures::float_param`],
+    /// [`Textures::spectrum_param`]) since the last call: what a material reads through footprints.
+    pub(super) fn take_image_use(&self) -> bool {
+        self.image_used.replace(false)
     }
 
     /// The image at `path` read with `encoding` (named `enc_name`), from the cache if it was read before.
@@ -260,12 +281,13 @@ impl Textures {
 
     /// The MIP map of `image` (one of `images`) under `wrap`, built once.
     fn mipmap(&self, image: &Arc<RgbImage>, wrap: WrapMode) -> Arc<MipMap> {
+        self.image_used.set(true);
         let key = (Arc::as_ptr(image) as usize, wrap);
         self.mipmaps.borrow_mut().entry(key).or_insert_with(|| Arc::new(MipMap::new(image, wrap))).clone()
     }
 
-    /// Whether some image texture filters over ray footprints (`trilinear` or `ewa`): only then do hits compute
-    /// them.
+    /// Whether some image texture reads its MIP map by ray footprints (every image map does): only then do hits
+    /// compute them.
     pub(super) fn need_footprints(&self) -> bool {
         !self.mipmaps.borrow().is_empty()
     }
@@ -396,9 +418,14 @@ impl Textures {
                 }
                 Ok(FloatTexture::Constant(v as f32))
             }
-            FloatParam::Texture(t) => self.float.get(&t).cloned().ok_or_else(|| {
-                SceneError::at(p.get(name).map(|q| q.loc.clone()).unwrap(), format!("no float texture named '{t}'"))
-            }),
+            FloatParam::Texture(t) => {
+                if self.float_with_image.contains(&t) {
+                    self.image_used.set(true);
+                }
+                self.float.get(&t).cloned().ok_or_else(|| {
+                    SceneError::at(p.get(name).map(|q| q.loc.clone()).unwrap(), format!("no float texture named '{t}'"))
+                })
+            }
         }
     }
 
@@ -420,6 +447,9 @@ impl Textures {
                         format!("no spectrum texture named '{t}'"),
                     )
                 })?;
+                if self.spectrum_with_image.contains(&t) {
+                    self.image_used.set(true);
+                }
                 Ok(if kind == SpectrumKind::Albedo { pair.0.clone() } else { pair.1.clone() })
             }
         }

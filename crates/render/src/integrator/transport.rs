@@ -420,8 +420,7 @@ enum Surface {
 /// Resolves the material at `hit` (a mix picks one of its materials with `u_mix`, repeatedly), applies the chosen
 /// material's bump or normal map to `hit`'s shading frame (pbrt-v4 does it for the material a mix chose), and builds
 /// its BxDF at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front). Textures see
-/// the hit's footprint if the scene has textures that filter over it (`camera_ray`: the camera ray that found the
-/// hit, if it was one).
+/// the hit's footprint if the material reads it (`camera_ray`: the camera ray that found the hit, if it was one).
 #[inline]
 fn resolve_surface(
     scene: &RenderScene,
@@ -433,8 +432,8 @@ fn resolve_surface(
 ) -> Surface {
     // Bump and normal maps below change the shading frame only, not the point, normal and (u, v) textures see.
     let ctx = match &scene.footprints {
-        None => TextureEvalContext::new(hit.p, hit.n, hit.uv),
-        Some(f) => f.context(&scene.camera, hit, camera_ray),
+        Some(f) if scene.reads_footprint(hit.material) => f.context(&scene.camera, hit, camera_ray),
+        _ => TextureEvalContext::new(hit.p, hit.n, hit.uv),
     };
     let mut material_index = hit.material;
     while material_index != NO_MATERIAL {

@@ -1,4 +1,5 @@
-//! MIP maps of image textures, for pbrt-v4's `trilinear` and `ewa` filters (pbrt-v4 §10.4.3, `MIPMap`).
+//! MIP maps of image textures (pbrt-v4 §10.4.3, `MIPMap`): `point` and `bilinear` lookups in the level the ray's
+//! footprint picks, `trilinear` and `ewa` filtering over it.
 //!
 //! As pbrt-v4's `Image::GeneratePyramid`: an image whose sides are not powers of two is first resampled up to the
 //! next powers of two with a two-lobe windowed sinc (Lanczos, 4 taps per axis, weights normalised, negative results
@@ -130,6 +131,38 @@ impl MipMap {
 
     fn bilerp(&self, level: usize, st: Vec2) -> [f32; 3] {
         self.level(level).bilerp_wrapped(st, self.wrap)
+    }
+
+    /// pbrt-v4's level for the `point` and `bilinear` filters, from the footprint (∂s/∂x, ∂t/∂x) = `dst0`,
+    /// (∂s/∂y, ∂t/∂y) = `dst1`: ⌊n − 1 + log₂ w⌋ for the filter width w = 2·max|∂|, at least 0 (a footprint of
+    /// zero is level 0); `None` at or beyond the last level, where pbrt-v4 reads the last level's single texel.
+    fn discrete_level(&self, dst0: Vec2, dst1: Vec2) -> Option<usize> {
+        let width = 2.0 * dst0.abs().max(dst1.abs()).max_element();
+        let n = self.levels.len();
+        let level = (n - 1) as f32 + width.max(1e-8).log2();
+        if level >= (n - 1) as f32 {
+            return None;
+        }
+        // `f32::max` returns 0 for a NaN level (a NaN footprint), as for no footprint.
+        Some(level.floor().max(0.0) as usize)
+    }
+
+    /// pbrt-v4's `point` lookup: the texel nearest to `st` in the level the footprint picks
+    /// ([`MipMap::discrete_level`]).
+    pub fn nearest(&self, st: Vec2, dst0: Vec2, dst1: Vec2) -> [f32; 3] {
+        match self.discrete_level(dst0, dst1) {
+            Some(level) => self.level(level).nearest(st, self.wrap),
+            None => self.top(),
+        }
+    }
+
+    /// pbrt-v4's `bilinear` lookup: bilinear interpolation at `st` in the level the footprint picks
+    /// ([`MipMap::discrete_level`]).
+    pub fn bilinear(&self, st: Vec2, dst0: Vec2, dst1: Vec2) -> [f32; 3] {
+        match self.discrete_level(dst0, dst1) {
+            Some(level) => self.bilerp(level, st),
+            None => self.top(),
+        }
     }
 
     /// pbrt-v4's trilinear lookup at `st` with footprint (∂s/∂x, ∂t/∂x) = `dst0`, (∂s/∂y, ∂t/∂y) = `dst1`: the

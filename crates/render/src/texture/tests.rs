@@ -367,6 +367,44 @@ fn filtered_lookups_of_a_fine_checkerboard_are_its_mean_where_the_footprint_cove
 }
 
 #[test]
+fn point_and_bilinear_lookups_read_the_level_the_footprint_picks() {
+    // pbrt-v4: level ⌊n − 1 + log₂(2·max|∂|)⌋. A 64×64 checkerboard of one-texel checks (7 levels) is 0 or 1 in
+    // level 0 and 1/2 in every level above it.
+    let img = grey_image(64, 64, |x, y| ((x + y) % 2) as f32);
+    let mip = MipMap::new(&img, WrapMode::Repeat);
+    let texel = 1.0 / 64.0;
+    let level_of =
+        |d: f32| mip.bilinear(Vec2::new(0.25 + 0.3 * texel, 0.5 + 0.2 * texel), Vec2::new(d, 0.0), Vec2::ZERO)[0];
+    for i in 0..50 {
+        let st = Vec2::new(noise(i, 1), noise(i, 2));
+        // No footprint, or one that keeps level 0 (width up to just under two texels): the full-resolution lookups.
+        for d in [Vec2::ZERO, Vec2::new(0.45 * texel, 0.0), Vec2::new(0.0, 0.99 * texel)] {
+            assert_eq!(mip.bilinear(st, d, Vec2::ZERO), img.bilerp_wrapped(st, WrapMode::Repeat), "{st} {d}");
+            assert_eq!(mip.nearest(st, Vec2::ZERO, d), img.nearest(st, WrapMode::Repeat), "{st} {d}");
+        }
+        // Widths of two and eight texels: levels 1 and 3, all 1/2.
+        for d in [texel, 4.0 * texel] {
+            assert_eq!(mip.bilinear(st, Vec2::new(d, 0.0), Vec2::ZERO), [0.5; 3], "{st} {d}");
+            assert_eq!(mip.nearest(st, Vec2::new(0.0, d), Vec2::new(-d, 0.0)), [0.5; 3], "{st} {d}");
+        }
+    }
+    // Between levels there is no blend (unlike trilinear): just below width 2 texels it is level 0's value.
+    let full = img.bilerp_wrapped(Vec2::new(0.25 + 0.3 * texel, 0.5 + 0.2 * texel), WrapMode::Repeat)[0];
+    assert!((full - 0.5).abs() > 0.1, "{full}");
+    assert_eq!(level_of(0.99 * texel), full);
+    // A footprint as wide as the image reads the last level's single texel, the image's mean.
+    let noisy = grey_image(16, 16, noise);
+    let m = MipMap::new(&noisy, WrapMode::Repeat);
+    let mean = image_mean(&noisy) as f32;
+    for f in [
+        m.bilinear(Vec2::splat(0.4), Vec2::new(0.5, 0.0), Vec2::ZERO),
+        m.nearest(Vec2::splat(0.4), Vec2::ZERO, Vec2::new(0.0, 0.7)),
+    ] {
+        assert!((f[0] - mean).abs() < 1e-5, "{f:?} vs {mean}");
+    }
+}
+
+#[test]
 fn mappings_carry_the_footprint_into_texture_space() {
     let ctx = TextureEvalContext {
         p: Vec3::new(1.0, 2.0, 3.0),
