@@ -1,20 +1,18 @@
 //! Acceleration structures: the [`Accel`] trait and [`GeometryScene`], a two-level BVH with instancing.
 //!
 //! A scene is a list of [`Object`]s (each a list of [`Shape`]s) and a list of [`Instance`]s (an object placed by a
-//! render-from-instance transform). Every object gets a bottom-level wide BVH (BVH8, built by `obvhs` and
-//! decoded to float child boxes, the `wide` module) over its primitives in its own space; a top-level compressed
-//! BVH8 (`obvhs`) is built over the instances' render-space bounds. Objects are built in parallel (rayon), and
-//! each BVH build is itself parallel (`obvhs`'s PLOC builder).
+//! render-from-instance transform). Every object gets a bottom-level wide BVH over its primitives in its own space,
+//! and a top-level one is built over the instances' render-space bounds: BVH8s built by `obvhs` (PLOC, reinsertion,
+//! collapse to eight children) and decoded to float child boxes (the `wide` module). Objects are built in parallel
+//! (rayon), and each BVH build is itself parallel (`obvhs`'s PLOC builder).
 //!
-//! Traversal of an object is our own loop: closest-hit queries visit a node's children nearest first, occlusion
-//! queries in the reverse of the ray's octant order (which measured faster). The top level uses `obvhs`'s
-//! `traverse!` loop (children ordered by the ray's octant). All use our own node test (an SSE-width slab test
-//! through glam's `Vec4` with no minimum-`t` epsilon, and pbrt's `1 + 2γ(3)` widening of the far distance). Leaves
-//! ask the shapes: plain triangles
-//! (`Shape::element_triangle`) are copied into the BVH in blocks of four and tested four at a time with the
-//! watertight triangle test, every other primitive through its [`Shape`]'s element queries (f64 sphere, disk and
-//! bilinear-patch tests), so this file never looks at shape kinds. Hits are found down to `t → 0⁺` and rays spawned
-//! with [`crate::spawn_ray`] never re-hit their surface.
+//! Both levels are traversed by the `wide` module's two loops: closest-hit queries visit a node's children nearest
+//! first, occlusion queries in the reverse of the ray's octant order (which measured faster); the node test is an
+//! SSE-width slab test through glam's `Vec4` with no minimum-`t` epsilon and pbrt's `1 + 2γ(3)` widening of the far
+//! distance. Leaves ask the shapes: plain triangles (`Shape::element_triangle`) are copied into the BVH in blocks of
+//! four and tested four at a time with the watertight triangle test, every other primitive through its [`Shape`]'s
+//! element queries (f64 sphere, disk and bilinear-patch tests), so this file never looks at shape kinds. Hits are
+//! found down to `t → 0⁺` and rays spawned with [`crate::spawn_ray`] never re-hit their surface.
 //!
 //! ## IDs in a [`Hit`]
 //! - `instance`: index into the `instances` given to [`GeometryScene::build`].
@@ -28,9 +26,8 @@ use std::ops::Range;
 use std::sync::Arc;
 use std::time::Duration;
 
-use glam::{DMat3, DMat4, Mat3, UVec2, Vec2, Vec3, Vec3A, Vec4};
+use glam::{DMat3, DMat4, Mat3, Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::cwbvh::CwBvh;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
@@ -44,7 +41,7 @@ use crate::shapes::{
     coordinate_system, d_normalize, intersect_tri4, ElementHit, ShapeRay, SurfaceDerivatives, SurfaceGeom, Tri4,
 };
 use crate::transform::Transform;
-use crate::wide::{octant, xor_permute, NodeRay, WideNode, FAR_SCALE};
+use crate::wide::{any_hit, closest_first, octant, NodeRay, WideNode};
 use crate::GeometryError;
 
 /// A ray–scene intersection: anything that answers closest-hit and occlusion queries.
@@ -222,22 +219,48 @@ struct InstanceData {
 pub struct GeometryScene {
     objects: Vec<Blas>,
     instances: Vec<InstanceData>,
-    tlas: CwBvh,
-    /// Instance index per top-level BVH slot.
-    tlas_slot_instance: Vec<u32>,
+    /// Top-level BVH over the static instances; its slots hold instance indices.
+    tlas: TopLevel,
     /// Moving instances; in a [`Hit`] they follow the static ones (`instance = instances.len() + k`).
     moving: Vec<MovingInstance>,
-    /// Top-level BVH over the moving instances' motion bounds.
-    moving_tlas: CwBvh,
-    /// Moving-instance index per slot of `moving_tlas`.
-    moving_slot: Vec<u32>,
+    /// Top-level BVH over the moving instances' motion bounds; its slots hold indices into `moving`.
+    moving_tlas: TopLevel,
     bounds: Bounds3,
     build_time: Duration,
 }
 
+/// A top-level BVH: decoded 8-wide nodes (as the objects' own, see the `wide` module) whose leaf slots hold
+/// instances.
+struct TopLevel {
+    nodes: Vec<WideNode>,
+    /// The instance (an index into the list the BVH was built over) in each leaf slot.
+    slot: Vec<u32>,
+}
+
+impl TopLevel {
+    /// The BVH over boxes `aabbs` of the instances `ids` (one box per instance, in the same order).
+    fn build(aabbs: &[Aabb], ids: &[u32]) -> Self {
+        let bvh = build_bvh(aabbs);
+        let slot = bvh.primitive_indices.iter().map(|&k| ids[k as usize]).collect();
+        Self { nodes: bvh.nodes.iter().map(WideNode::decode).collect(), slot }
+    }
+
+    /// The instances in leaf slots `base + i` for the bits `i` of `mask`.
+    #[inline(always)]
+    fn instances(&self, base: u32, mut mask: u32) -> impl Iterator<Item = u32> + '_ {
+        std::iter::from_fn(move || {
+            (mask != 0).then(|| {
+                let i = mask.trailing_zeros();
+                mask &= mask - 1;
+                self.slot[(base + i) as usize]
+            })
+        })
+    }
+}
+
 /// The BVH box of a primitive: its bounds grown by a few ulps of their magnitude, so the rounding in the
 /// compressed child boxes can never leave part of the primitive outside.
-fn to_aabb(b: &Bounds3) -> Aabb {
+pub(crate) fn to_aabb(b: &Bounds3) -> Aabb {
     let grow = (b.min.abs().max(b.max.abs())) * (4.0 * f32::EPSILON) + Vec3::splat(f32::MIN_POSITIVE);
     Aabb::new(Vec3A::from(b.min - grow), Vec3A::from(b.max + grow))
 }
@@ -248,7 +271,7 @@ fn build_params(count: usize) -> BvhBuildParams {
     BvhBuildParams::medium_build()
 }
 
-fn build_bvh(aabbs: &[Aabb]) -> CwBvh {
+pub(crate) fn build_bvh(aabbs: &[Aabb]) -> CwBvh {
     if aabbs.is_empty() {
         return CwBvh::default();
     }
@@ -345,103 +368,6 @@ fn locate_in(starts: &[u32], guide: &[u32], prim: u32) -> (u32, u32) {
     (s as u32, prim - starts[s])
 }
 
-/// Slab test of the ray against the eight quantized child boxes of a top-level `node`; returns `obvhs`'s hit mask.
-///
-/// Each box plane is first decoded to a float (`p + q·e`, with `q·e` exact), then `(plane − o) · (1/d)` is
-/// evaluated, so every slab distance carries only a relative error of a few ulps and pbrt's `1 + 2γ(3)` widening of
-/// the far distance makes the test conservative (no ray that touches a box is culled, even one grazing a box face
-/// from an origin on that face). Primitive boxes are grown by a few ulps before the build (see [`to_aabb`]) to
-/// cover the rounding of the quantized child boxes.
-#[inline(always)]
-fn node_hits(node: &CwBvhNode, r: &NodeRay, t_max: f32, oct_inv4: u32) -> u32 {
-    let (mask8, _) = child_slabs(node, r, t_max);
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
-    // Branch-free over the eight children (a missed child contributes no bits), so that neither coherent nor
-    // incoherent rays pay for mispredicted branches.
-    let mut hit_mask = 0u32;
-    for child in 0..8 {
-        let keep = 0u32.wrapping_sub((mask8 >> child) & 1);
-        let child_bits = ((child_bits8 >> (child * 8)) as u32) & 0xff & keep;
-        let bit_index = ((bit_index8 >> (child * 8)) as u32) & 0x1f;
-        hit_mask |= child_bits << bit_index;
-    }
-    hit_mask
-}
-
-/// The slab test of [`node_hits`] itself: bit `i` of the mask is set if the ray meets child `i`'s box with
-/// `t < t_max`, and the second value holds each child's entry distance (clamped to 0).
-#[inline(always)]
-fn child_slabs(node: &CwBvhNode, r: &NodeRay, t_max: f32) -> (u32, [Vec4; 2]) {
-    let e = node.compute_extent();
-    let (ex, ey, ez) = (Vec4::splat(e.x), Vec4::splat(e.y), Vec4::splat(e.z));
-    let (px, py, pz) = (Vec4::splat(node.p.x), Vec4::splat(node.p.y), Vec4::splat(node.p.z));
-    let (ox, oy, oz) = (Vec4::splat(r.o.x), Vec4::splat(r.o.y), Vec4::splat(r.o.z));
-    let (ix, iy, iz) = (Vec4::splat(r.inv_d.x), Vec4::splat(r.inv_d.y), Vec4::splat(r.inv_d.z));
-    let t_max4 = Vec4::splat(t_max);
-    let mut mask = 0u32;
-    let mut t_near = [Vec4::ZERO; 2];
-    for (i, near) in t_near.iter_mut().enumerate() {
-        let q = |a: &[u8; 8]| Vec4::new(a[4 * i] as f32, a[4 * i + 1] as f32, a[4 * i + 2] as f32, a[4 * i + 3] as f32);
-        let pick = |lo: Vec4, hi: Vec4, neg: bool| if neg { (hi, lo) } else { (lo, hi) };
-        let (x0, x1) = pick(q(&node.child_min_x), q(&node.child_max_x), r.neg[0]);
-        let (y0, y1) = pick(q(&node.child_min_y), q(&node.child_max_y), r.neg[1]);
-        let (z0, z1) = pick(q(&node.child_min_z), q(&node.child_max_z), r.neg[2]);
-        let tx0 = ((x0 * ex + px) - ox) * ix;
-        let tx1 = ((x1 * ex + px) - ox) * ix;
-        let ty0 = ((y0 * ey + py) - oy) * iy;
-        let ty1 = ((y1 * ey + py) - oy) * iy;
-        let tz0 = ((z0 * ez + pz) - oz) * iz;
-        let tz1 = ((z1 * ez + pz) - oz) * iz;
-        let t0 = tx0.max(ty0).max(tz0).max(Vec4::ZERO);
-        let t1 = (tx1.min(ty1).min(tz1) * FAR_SCALE).min(t_max4);
-        mask |= t0.cmple(t1).bitmask() << (4 * i);
-        *near = t0;
-    }
-    (mask, t_near)
-}
-
-/// Entries of the nearest-first traversal stack: a node index and the distance at which the ray enters its box.
-/// A fixed array that spills into a vector (which never allocates unless the fixed part is full), so that no tree
-/// depth can overflow it.
-struct NodeStack {
-    items: [(u32, f32); NODE_STACK],
-    len: usize,
-    spill: Vec<(u32, f32)>,
-}
-
-/// Fixed part of [`NodeStack`]: a BVH8 visit pushes at most 7 entries more than it pops, so this covers trees
-/// nine levels deep even when every child is hit.
-const NODE_STACK: usize = 64;
-
-impl NodeStack {
-    #[inline(always)]
-    fn new() -> Self {
-        Self { items: [(0, 0.0); NODE_STACK], len: 0, spill: Vec::new() }
-    }
-
-    #[inline(always)]
-    fn push(&mut self, e: (u32, f32)) {
-        if self.len < NODE_STACK {
-            self.items[self.len] = e;
-            self.len += 1;
-        } else {
-            self.spill.push(e);
-        }
-    }
-
-    #[inline(always)]
-    fn pop(&mut self) -> Option<(u32, f32)> {
-        if let Some(e) = self.spill.pop() {
-            return Some(e);
-        }
-        if self.len == 0 {
-            return None;
-        }
-        self.len -= 1;
-        Some(self.items[self.len])
-    }
-}
-
 /// Closest hit so far.
 #[derive(Clone, Copy)]
 struct Closest {
@@ -464,58 +390,15 @@ impl Closest {
 }
 
 impl Blas {
-    /// Closest hit in this object's space; updates `best` (and its `t`) when closer.
-    ///
-    /// Nearest first (as Embree and pbrt-v4 visit children): a node's hit leaves are tested at once, then its hit
-    /// inner children are pushed farthest first, and a popped node is skipped if the ray enters it beyond the
-    /// closest hit found since it was pushed (the same `t0 ≤ t_max` test the slab test makes).
+    /// Closest hit in this object's space; updates `best` (and its `t`) when closer. Nearest first
+    /// ([`closest_first`]).
     #[inline]
     fn closest(&self, o: Vec3, d: Vec3, instance: u32, best: &mut Closest) {
-        let nodes = &self.nodes;
-        if nodes.is_empty() {
-            return;
-        }
         let ray = ShapeRay::new(o, d);
-        let node_ray = NodeRay::new(o, d);
-        let mut stack = NodeStack::new();
-        let mut next = Some((0u32, 0.0f32));
-        while let Some((index, t_enter)) = next.take().or_else(|| stack.pop()) {
-            if t_enter > best.hit.t {
-                continue;
-            }
-            let node = &nodes[index as usize];
-            let (mut hit8, t_near) = node.slabs(&node_ray, best.hit.t);
-            let mut prims = 0u32;
-            let mut inner = [(0u32, 0.0f32); 8];
-            let mut n_inner = 0;
-            while hit8 != 0 {
-                let child = hit8.trailing_zeros() as usize;
-                hit8 &= hit8 - 1;
-                if node.inner & (1 << child) != 0 {
-                    let entry = (node.child[child], t_near[child]);
-                    // Insertion sort, nearest last (popped first).
-                    let mut k = n_inner;
-                    while k > 0 && inner[k - 1].1 < entry.1 {
-                        inner[k] = inner[k - 1];
-                        k -= 1;
-                    }
-                    inner[k] = entry;
-                    n_inner += 1;
-                } else {
-                    let meta = node.meta[child] as u32;
-                    prims |= (meta >> 5) << (meta & 31);
-                }
-            }
-            if prims != 0 {
-                self.closest_in_leaves(&ray, node.prim_base, prims, instance, best);
-            }
-            if n_inner > 0 {
-                for &e in &inner[..n_inner - 1] {
-                    stack.push(e);
-                }
-                next = Some(inner[n_inner - 1]);
-            }
-        }
+        closest_first(&self.nodes, &NodeRay::new(o, d), best.hit.t, |base, mask| {
+            self.closest_in_leaves(&ray, base, mask, instance, best);
+            best.hit.t
+        });
     }
 
     /// Tests the primitives `base + i` for the bits `i` of `mask` (a node's hit leaves) and updates `best`.
@@ -550,44 +433,13 @@ impl Blas {
         }
     }
 
-    /// True if anything in this object is hit with `0 < t < t_max`.
-    ///
-    /// A node's hit leaves are tested at once; its hit inner children are visited in the reverse of the octant
-    /// order (farthest-looking first). Any hit ends the search, so the nearest surfaces are not the best bet:
-    /// on the 1M-triangle benchmark this order beat nearest-first by distance (bounce rays 1.2 → 2.7 M/CPU-s, shadow
-    /// rays 2.1 → 2.6) and the octant order itself (bounce 1.6), and matched the unordered visit on shadow rays.
+    /// True if anything in this object is hit with `0 < t < t_max` ([`any_hit`]).
     #[inline]
     fn any(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
-        let nodes = &self.nodes;
-        if nodes.is_empty() {
-            return false;
-        }
         let ray = ShapeRay::new(o, d);
-        let node_ray = NodeRay::new(o, d);
-        let oct = octant(d) ^ 7; // the reverse of the octant order
-        let mut stack = NodeStack::new();
-        let mut next = Some((0u32, 0.0f32));
-        while let Some((index, _)) = next.take().or_else(|| stack.pop()) {
-            let node = &nodes[index as usize];
-            let (hit8, _) = node.slabs(&node_ray, t_max);
-            let prims = node.leaf_slots(hit8);
-            if prims != 0 && self.any_in_leaves(&ray, node.prim_base, prims, t_max) {
-                return true;
-            }
-            // Inner children in order of `c ^ oct`: pushed from the last to the second, the first visited next.
-            let mut order = xor_permute(hit8 & node.inner, oct);
-            if order != 0 {
-                let first = order.trailing_zeros();
-                order &= order - 1;
-                while order != 0 {
-                    let j = 31 - order.leading_zeros();
-                    order &= !(1 << j);
-                    stack.push((node.child[(j ^ oct) as usize], 0.0));
-                }
-                next = Some((node.child[(first ^ oct) as usize], 0.0));
-            }
-        }
-        false
+        any_hit(&self.nodes, &NodeRay::new(o, d), octant(d), t_max, |base, mask| {
+            self.any_in_leaves(&ray, base, mask, t_max)
+        })
     }
 
     /// True if any of the primitives `base + i` for the bits `i` of `mask` is hit with `0 < t < t_max`.
@@ -793,30 +645,16 @@ impl GeometryScene {
         let live: Vec<u32> =
             (0..instances.len() as u32).filter(|&i| !instances[i as usize].bounds.is_empty()).collect();
         let aabbs: Vec<Aabb> = live.iter().map(|&i| to_aabb(&instances[i as usize].bounds)).collect();
-        let mut tlas = build_bvh(&aabbs);
-        let tlas_slot_instance = tlas.primitive_indices.iter().map(|&k| live[k as usize]).collect();
-        tlas.primitive_indices = Vec::new();
+        let tlas = TopLevel::build(&aabbs, &live);
         let mut bounds = instances.iter().fold(Bounds3::EMPTY, |b, i| b.union(&i.bounds));
         // Moving instances: a top-level BVH of their own over the bounds of their whole motion.
         let moving_bounds: Vec<Bounds3> =
             moving.iter().map(|m| m.motion_bounds(&objects[m.object as usize].bounds)).collect();
         let live: Vec<u32> = (0..moving.len() as u32).filter(|&k| !moving_bounds[k as usize].is_empty()).collect();
         let aabbs: Vec<Aabb> = live.iter().map(|&k| to_aabb(&moving_bounds[k as usize])).collect();
-        let mut moving_tlas = build_bvh(&aabbs);
-        let moving_slot = moving_tlas.primitive_indices.iter().map(|&k| live[k as usize]).collect();
-        moving_tlas.primitive_indices = Vec::new();
+        let moving_tlas = TopLevel::build(&aabbs, &live);
         bounds = moving_bounds.iter().fold(bounds, |b, m| b.union(m));
-        Ok(Self {
-            objects,
-            instances,
-            tlas,
-            tlas_slot_instance,
-            moving,
-            moving_tlas,
-            moving_slot,
-            bounds,
-            build_time: start.elapsed(),
-        })
+        Ok(Self { objects, instances, tlas, moving, moving_tlas, bounds, build_time: start.elapsed() })
     }
 
     /// Wall-clock time [`GeometryScene::build`] took.
@@ -941,21 +779,19 @@ impl GeometryScene {
             return None;
         }
         let mut best = Closest::none(t_max);
-        if self.tlas_slot_instance.len() == 1 {
-            let i = self.tlas_slot_instance[0];
+        if self.tlas.slot.len() == 1 {
+            let i = self.tlas.slot[0];
             let inst = &self.instances[i as usize];
             let (o, d) = inst.to_instance(ray.o, ray.d);
             self.objects[inst.object as usize].closest(o, d, i, &mut best);
-        } else if !self.tlas.nodes.is_empty() {
-            let node_ray = NodeRay::new(ray.o, ray.d);
-            let tlas = &self.tlas;
-            let mut state = tlas.new_traversal(Vec3A::from(ray.d));
-            let mut node;
-            obvhs::traverse!(tlas, node, state, node_hits(node, &node_ray, best.hit.t, state.oct_inv4), {
-                let i = self.tlas_slot_instance[state.primitive_id as usize];
-                let inst = &self.instances[i as usize];
-                let (o, d) = inst.to_instance(ray.o, ray.d);
-                self.objects[inst.object as usize].closest(o, d, i, &mut best);
+        } else {
+            closest_first(&self.tlas.nodes, &NodeRay::new(ray.o, ray.d), best.hit.t, |base, mask| {
+                for i in self.tlas.instances(base, mask) {
+                    let inst = &self.instances[i as usize];
+                    let (o, d) = inst.to_instance(ray.o, ray.d);
+                    self.objects[inst.object as usize].closest(o, d, i, &mut best);
+                }
+                best.hit.t
             });
         }
         if !self.moving.is_empty() {
@@ -969,19 +805,14 @@ impl GeometryScene {
     #[cold]
     #[inline(never)]
     fn closest_moving(&self, ray: &Ray, best: &mut Closest) {
-        if self.moving_tlas.nodes.is_empty() {
-            return;
-        }
         let n_static = self.instances.len() as u32;
-        let node_ray = NodeRay::new(ray.o, ray.d);
-        let tlas = &self.moving_tlas;
-        let mut state = tlas.new_traversal(Vec3A::from(ray.d));
-        let mut node;
-        obvhs::traverse!(tlas, node, state, node_hits(node, &node_ray, best.hit.t, state.oct_inv4), {
-            let k = self.moving_slot[state.primitive_id as usize];
-            let inst = self.moving_at(n_static + k, ray.time);
-            let (o, d) = inst.to_instance(ray.o, ray.d);
-            self.objects[inst.object as usize].closest(o, d, n_static + k, best);
+        closest_first(&self.moving_tlas.nodes, &NodeRay::new(ray.o, ray.d), best.hit.t, |base, mask| {
+            for k in self.moving_tlas.instances(base, mask) {
+                let inst = self.moving_at(n_static + k, ray.time);
+                let (o, d) = inst.to_instance(ray.o, ray.d);
+                self.objects[inst.object as usize].closest(o, d, n_static + k, best);
+            }
+            best.hit.t
         });
     }
 
@@ -989,27 +820,14 @@ impl GeometryScene {
     #[cold]
     #[inline(never)]
     fn occluded_moving(&self, ray: &Ray, t_max: f32) -> bool {
-        if self.moving_tlas.nodes.is_empty() {
-            return false;
-        }
         let n_static = self.instances.len() as u32;
-        let node_ray = NodeRay::new(ray.o, ray.d);
-        let tlas = &self.moving_tlas;
-        let mut state = tlas.new_traversal(Vec3A::from(ray.d));
-        let mut node;
-        let mut hit = false;
-        'search: {
-            obvhs::traverse!(tlas, node, state, node_hits(node, &node_ray, t_max, state.oct_inv4), {
-                let k = self.moving_slot[state.primitive_id as usize];
+        any_hit(&self.moving_tlas.nodes, &NodeRay::new(ray.o, ray.d), octant(ray.d), t_max, |base, mask| {
+            self.moving_tlas.instances(base, mask).any(|k| {
                 let inst = self.moving_at(n_static + k, ray.time);
                 let (o, d) = inst.to_instance(ray.o, ray.d);
-                if self.objects[inst.object as usize].any(o, d, t_max) {
-                    hit = true;
-                    break 'search;
-                }
-            });
-        }
-        hit
+                self.objects[inst.object as usize].any(o, d, t_max)
+            })
+        })
     }
 
     /// The closest hit with `0 < t < t_max`, as [`Accel::intersect`] finds it, with the surface's first derivatives
@@ -1042,30 +860,18 @@ impl Accel for GeometryScene {
         if !self.moving.is_empty() && self.occluded_moving(ray, t_max) {
             return true;
         }
-        if self.tlas_slot_instance.len() == 1 {
-            let inst = &self.instances[self.tlas_slot_instance[0] as usize];
+        if self.tlas.slot.len() == 1 {
+            let inst = &self.instances[self.tlas.slot[0] as usize];
             let (o, d) = inst.to_instance(ray.o, ray.d);
             return self.objects[inst.object as usize].any(o, d, t_max);
         }
-        if self.tlas.nodes.is_empty() {
-            return false;
-        }
-        let node_ray = NodeRay::new(ray.o, ray.d);
-        let tlas = &self.tlas;
-        let mut state = tlas.new_traversal(Vec3A::from(ray.d));
-        let mut node;
-        let mut hit = false;
-        'search: {
-            obvhs::traverse!(tlas, node, state, node_hits(node, &node_ray, t_max, state.oct_inv4), {
-                let inst = &self.instances[self.tlas_slot_instance[state.primitive_id as usize] as usize];
+        any_hit(&self.tlas.nodes, &NodeRay::new(ray.o, ray.d), octant(ray.d), t_max, |base, mask| {
+            self.tlas.instances(base, mask).any(|i| {
+                let inst = &self.instances[i as usize];
                 let (o, d) = inst.to_instance(ray.o, ray.d);
-                if self.objects[inst.object as usize].any(o, d, t_max) {
-                    hit = true;
-                    break 'search;
-                }
-            });
-        }
-        hit
+                self.objects[inst.object as usize].any(o, d, t_max)
+            })
+        })
     }
 
     fn bounds(&self) -> Bounds3 {

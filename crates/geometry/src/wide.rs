@@ -6,6 +6,9 @@
 //! and an add each). Decoded nodes take 256 bytes but leave the slab test two operations per plane. The planes are
 //! decoded exactly as the compressed test decoded them (`p + q·e` in f32, with `q·e` exact), so the slab test
 //! answers the same, bit for bit, and the tree, its leaves and their order are the ones `obvhs` built.
+//!
+//! The two traversal loops over such nodes, [`closest_first`] and [`any_hit`], serve both levels of the scene's
+//! BVH: their caller tests the leaves (triangles and shapes of an object, or the instances of the top level).
 
 use glam::{Vec3, Vec3A, Vec4};
 use obvhs::cwbvh::node::CwBvhNode;
@@ -49,7 +52,7 @@ pub(crate) struct WideNode {
 }
 
 impl WideNode {
-    /// The decoded form of a compressed node of `nodes`.
+    /// The decoded form of a compressed node.
     pub(crate) fn decode(node: &CwBvhNode) -> Self {
         let e = node.compute_extent();
         let p = node.p;
@@ -136,5 +139,221 @@ pub(crate) fn xor_permute(m: u32, x: u32) -> u32 {
         ((m & 0x0f) << 4) | ((m >> 4) & 0x0f)
     } else {
         m
+    }
+}
+
+/// Entries of the traversal stack: a node index and the distance at which the ray enters its box. A fixed array
+/// that spills into a vector (which never allocates unless the fixed part is full), so that no tree depth can
+/// overflow it.
+struct NodeStack {
+    items: [(u32, f32); NODE_STACK],
+    len: usize,
+    spill: Vec<(u32, f32)>,
+}
+
+/// Fixed part of [`NodeStack`]: a BVH8 visit pushes at most 7 entries more than it pops, so this covers trees
+/// nine levels deep even when every child is hit.
+const NODE_STACK: usize = 64;
+
+impl NodeStack {
+    #[inline(always)]
+    fn new() -> Self {
+        Self { items: [(0, 0.0); NODE_STACK], len: 0, spill: Vec::new() }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, e: (u32, f32)) {
+        if self.len < NODE_STACK {
+            self.items[self.len] = e;
+            self.len += 1;
+        } else {
+            self.spill.push(e);
+        }
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        if let Some(e) = self.spill.pop() {
+            return Some(e);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.items[self.len])
+    }
+}
+
+/// Closest-hit traversal of `nodes` (root first) for the ray `r`, nearest first (as Embree and pbrt-v4 visit
+/// children): a node's hit leaves are handed at once to `leaves(prim_base, slots)` (bit `i` of `slots` for leaf
+/// slot `prim_base + i`), which tests them and returns the closest distance found so far (`t_max` to begin
+/// with); then the node's hit inner children are pushed farthest first, and a popped node is skipped if the ray
+/// enters it beyond the closest hit found since it was pushed (the same `t0 ≤ t_max` test the slab test makes).
+#[inline(always)]
+pub(crate) fn closest_first(nodes: &[WideNode], r: &NodeRay, mut t_max: f32, mut leaves: impl FnMut(u32, u32) -> f32) {
+    if nodes.is_empty() {
+        return;
+    }
+    let mut stack = NodeStack::new();
+    let mut next = Some((0u32, 0.0f32));
+    while let Some((index, t_enter)) = next.take().or_else(|| stack.pop()) {
+        if t_enter > t_max {
+            continue;
+        }
+        let node = &nodes[index as usize];
+        let (hit8, t_near) = node.slabs(r, t_max);
+        let slots = node.leaf_slots(hit8);
+        if slots != 0 {
+            t_max = leaves(node.prim_base, slots);
+        }
+        let mut inner_hits = hit8 & node.inner;
+        let mut inner = [(0u32, 0.0f32); 8];
+        let mut n_inner = 0;
+        while inner_hits != 0 {
+            let child = inner_hits.trailing_zeros() as usize;
+            inner_hits &= inner_hits - 1;
+            let entry = (node.child[child], t_near[child]);
+            // Insertion sort, nearest last (popped first).
+            let mut k = n_inner;
+            while k > 0 && inner[k - 1].1 < entry.1 {
+                inner[k] = inner[k - 1];
+                k -= 1;
+            }
+            inner[k] = entry;
+            n_inner += 1;
+        }
+        if n_inner > 0 {
+            for &e in &inner[..n_inner - 1] {
+                stack.push(e);
+            }
+            next = Some(inner[n_inner - 1]);
+        }
+    }
+}
+
+/// Occlusion traversal of `nodes` (root first) for the ray `r` of octant `oct` ([`octant`]): true as soon as
+/// `leaves(prim_base, slots)` (as for [`closest_first`]) reports a hit with `t < t_max`.
+///
+/// A node's hit leaves are tested at once; its hit inner children are visited in the reverse of the octant order
+/// (farthest-looking first). Any hit ends the search, so the nearest surfaces are not the best bet: on the
+/// 1M-triangle benchmark this order beat nearest-first by distance (bounce rays 1.2 → 2.7 M/CPU-s, shadow rays 2.1
+/// → 2.6) and the octant order itself (bounce 1.6), and matched the unordered visit on shadow rays.
+#[inline(always)]
+pub(crate) fn any_hit(
+    nodes: &[WideNode],
+    r: &NodeRay,
+    oct: u32,
+    t_max: f32,
+    mut leaves: impl FnMut(u32, u32) -> bool,
+) -> bool {
+    if nodes.is_empty() {
+        return false;
+    }
+    let oct = oct ^ 7; // the reverse of the octant order
+    let mut stack = NodeStack::new();
+    let mut next = Some((0u32, 0.0f32));
+    while let Some((index, _)) = next.take().or_else(|| stack.pop()) {
+        let node = &nodes[index as usize];
+        let (hit8, _) = node.slabs(r, t_max);
+        let slots = node.leaf_slots(hit8);
+        if slots != 0 && leaves(node.prim_base, slots) {
+            return true;
+        }
+        // Inner children in order of `c ^ oct`: pushed from the last to the second, the first visited next.
+        let mut order = xor_permute(hit8 & node.inner, oct);
+        if order != 0 {
+            let first = order.trailing_zeros();
+            order &= order - 1;
+            while order != 0 {
+                let j = 31 - order.leading_zeros();
+                order &= !(1 << j);
+                stack.push((node.child[(j ^ oct) as usize], 0.0));
+            }
+            next = Some((node.child[(first ^ oct) as usize], 0.0));
+        }
+    }
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{build_bvh, to_aabb};
+    use crate::bounds::Bounds3;
+    use obvhs::aabb::Aabb;
+
+    #[test]
+    fn xor_permute_moves_each_bit_to_its_index_xor_x() {
+        for m in 0..256u32 {
+            for x in 0..8u32 {
+                let want = (0..8).filter(|c| m & (1 << c) != 0).fold(0, |acc, c| acc | (1 << (c ^ x)));
+                assert_eq!(xor_permute(m, x), want, "mask {m:#010b}, x {x}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_slab_test_keeps_every_child_box_the_ray_meets_and_reports_where_it_enters() {
+        // Random boxes at several scales and offsets (far from the origin too); rays from inside and outside, some
+        // axis-parallel, with finite and infinite t_max. Each child box is intersected exactly (f64) as reference.
+        let mut state = 987_654_321u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        for (scale, offset) in [(1.0f32, 0.0f32), (0.01, 5.0), (300.0, -1e4)] {
+            let aabbs: Vec<Aabb> = (0..2000)
+                .map(|_| {
+                    let c = Vec3::new(next(), next(), next()) * scale + Vec3::splat(offset);
+                    let h = Vec3::new(next(), next(), next()) * 0.05 * scale;
+                    to_aabb(&Bounds3 { min: c - h, max: c + h })
+                })
+                .collect();
+            let nodes: Vec<WideNode> = build_bvh(&aabbs).nodes.iter().map(WideNode::decode).collect();
+            assert!(nodes.len() > 10);
+            let (mut met, mut reported) = (0, 0);
+            for k in 0..400 {
+                let o = Vec3::new(next(), next(), next()) * 1.4 * scale + Vec3::splat(offset - 0.2 * scale);
+                let mut d = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+                if k % 7 == 0 {
+                    d = Vec3::new(0.0, 0.0, if k % 2 == 0 { 1.0 } else { -1.0 });
+                }
+                let r = NodeRay::new(o, d);
+                let t_max = if k % 3 == 0 { f32::INFINITY } else { next() * scale };
+                for node in &nodes {
+                    let (mask, t_near) = node.slabs(&r, t_max);
+                    for (c, &t_near) in t_near.iter().enumerate() {
+                        // The exact entry and exit distances of child c's box (an empty slot has none).
+                        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+                        for a in 0..3 {
+                            let (lo, hi) = (node.planes[a][0][c] as f64, node.planes[a][1][c] as f64);
+                            let (oa, da) = (o[a] as f64, d[a] as f64);
+                            if da == 0.0 {
+                                if oa < lo || oa > hi {
+                                    t0 = f64::INFINITY;
+                                }
+                                continue;
+                            }
+                            let (ta, tb) = ((lo - oa) / da, (hi - oa) / da);
+                            t0 = t0.max(ta.min(tb));
+                            t1 = t1.min(ta.max(tb));
+                        }
+                        let meets = t0 <= t1 && t0 < t_max as f64;
+                        let hit = mask & (1 << c) != 0;
+                        // Conservative: a box the ray meets before t_max is never culled.
+                        assert!(!meets || hit, "child {c} culled: t0 {t0}, t1 {t1}, t_max {t_max}");
+                        if hit {
+                            // ... and what it keeps it meets, up to the test's rounding, entering where it says.
+                            let tol = 1e-5 * t1.abs().max(t0.abs()).max(1e-30);
+                            assert!(t0 <= t1 + tol, "child {c} kept: t0 {t0}, t1 {t1}");
+                            assert!((t_near as f64 - t0).abs() <= tol, "child {c}: {t_near} vs {t0}");
+                            reported += 1;
+                        }
+                        met += usize::from(meets);
+                    }
+                }
+            }
+            assert!(met > 1000 && reported >= met, "{met} boxes met, {reported} kept at scale {scale}");
+        }
     }
 }
