@@ -1,14 +1,14 @@
-//! The bottom-level BVH's nodes as the traversal reads them: `obvhs`'s compressed 8-wide nodes with their child
-//! boxes decoded to floats once, at build time.
+//! The BVH nodes as the traversal reads them: `obvhs`'s compressed 8-wide nodes with their child boxes decoded to
+//! floats once, at build time, and the two traversal loops over them.
 //!
 //! A compressed node stores each child box plane as an 8-bit multiple of a power of two above the node's corner,
 //! so that a node fits in 80 bytes; testing a ray against it first decodes all 48 planes (a conversion, a multiply
 //! and an add each). Decoded nodes take 256 bytes but leave the slab test two operations per plane. The planes are
-//! decoded exactly as the compressed test decoded them (`p + q·e` in f32, with `q·e` exact), so the slab test
-//! answers the same, bit for bit, and the tree, its leaves and their order are the ones `obvhs` built.
+//! decoded as the compressed layout defines them (`p + q·e` in f32, with `q·e` exact, which the BVH's primitive
+//! boxes are grown to cover), and the tree, its leaves and their order are the ones `obvhs` built.
 //!
-//! The two traversal loops over such nodes, [`closest_first`] and [`any_hit`], serve both levels of the scene's
-//! BVH: their caller tests the leaves (triangles and shapes of an object, or the instances of the top level).
+//! The two loops, [`closest_first`] and [`any_hit`], serve both levels of the scene's BVH: their caller tests the
+//! leaves (triangles and shapes of an object, or the instances of the top level).
 
 use glam::{Vec3, Vec3A, Vec4};
 use obvhs::cwbvh::node::CwBvhNode;
