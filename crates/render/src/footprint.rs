@@ -1,5 +1,5 @@
-//! Ray footprints on surfaces: how a hit point and its (u, v) change from one pixel to the next, which sizes the
-//! filters of `trilinear` and `ewa` image textures (pbrt-v4's `SurfaceInteraction::ComputeDifferentials` and
+//! Ray footprints on surfaces: how a hit point and its (u, v) change from one pixel to the next, which picks the MIP
+//! level or sizes the filter of image textures (pbrt-v4's `SurfaceInteraction::ComputeDifferentials` and
 //! `CameraBase::Approximate_dp_dxy`).
 //!
 //! A camera ray's hit uses the camera ray's own differentials: the rays one pixel to the right and one pixel down
@@ -9,8 +9,8 @@
 //! cover the pixel. dp/dx and dp/dy then give (du/dx, dv/dx) and (du/dy, dv/dy) by least squares against the
 //! surface's ∂p/∂u and ∂p/∂v.
 //!
-//! Only scenes with such textures compute footprints ([`crate::RenderScene::footprints`]); the others evaluate
-//! every texture at a point, as before.
+//! Only hits on materials that read an image map compute footprints ([`crate::RenderScene::reads_footprint`]);
+//! the others evaluate every texture at a point.
 
 use glam::{Quat, Vec2, Vec3};
 

@@ -296,8 +296,8 @@ pub struct RenderScene {
     /// The shutter interval `[open, close]` when something moves (the camera or some geometry), `None` when
     /// nothing does: then no time is drawn and every ray is traced at time 0.
     pub motion: Option<[f32; 2]>,
-    /// Ray footprints for image maps, which read their MIP maps by them; `None` when the scene has none: then
-    /// textures are evaluated at points and hits compute no footprint.
+    /// Ray footprints for image maps, which read their MIP maps by them; `None` when no material reads an image
+    /// map: then textures are evaluated at points and hits compute no footprint.
     pub footprints: Option<crate::footprint::Footprints>,
     /// Per material, whether its textures read the footprint (see [`RenderScene::reads_footprint`]); materials
     /// beyond the end of the list are taken to read it.

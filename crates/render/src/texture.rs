@@ -4,7 +4,7 @@
 //!
 //! Image maps read a MIP map ([`mipmap`]) as pbrt-v4 does: `point` and `bilinear` in the level the ray's footprint
 //! in (s, t) picks, `trilinear` and `ewa` filtering over it; the footprint comes from the context's screen-space
-//! derivatives (filled in only for scenes that have an image map: [`crate::footprint`]). The other textures are
+//! derivatives (filled in only at hits on materials that read an image map: [`crate::footprint`]). The other textures are
 //! evaluated at a point (pbrt-v4's lookups with a vanishing filter footprint): checkerboards are sharp and noise
 //! sums all its octaves, and the pixel filter's supersampling does the antialiasing.
 

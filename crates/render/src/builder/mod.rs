@@ -149,7 +149,9 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     scene.motion = motion;
     scene.light_media = light_media;
     scene.normal_perturbations = materials.perturbations;
-    if textures.need_footprints() {
+    // Footprints only where some material reads an image map (an image used only as an alpha or bump map needs
+    // none).
+    if materials.reads_footprint.iter().any(|&r| r) {
         scene.footprints = Some(crate::footprint::Footprints::new(&scene.camera, spp));
         scene.material_reads_footprint = materials.reads_footprint;
     }

@@ -286,12 +286,6 @@ impl Textures {
         self.mipmaps.borrow_mut().entry(key).or_insert_with(|| Arc::new(MipMap::new(image, wrap))).clone()
     }
 
-    /// Whether some image texture reads its MIP map by ray footprints (every image map does): only then do hits
-    /// compute them.
-    pub(super) fn need_footprints(&self) -> bool {
-        !self.mipmaps.borrow().is_empty()
-    }
-
     fn float_texture(&self, te: &TextureEntity) -> Result<FloatTexture> {
         let (e, rft) = (&te.entity, &te.render_from_texture);
         let (p, loc) = (&e.params, &e.loc);
