@@ -9,8 +9,8 @@
 //! - [`bilinear`]: [`BilinearMesh`], bilinear patches intersected exactly (Reshetov 2019), and their sampling.
 //! - [`shapes`]: [`Shape`], which answers intersection, surface-geometry and sampling queries ([`ShapeSample`]) for
 //!   every kind of shape ([`Sphere`], [`Disk`], triangles, bilinear patches), one file per kind.
-//! - [`accel`]: the [`Accel`] trait and [`GeometryScene`], a two-level BVH (wide BVHs built by `obvhs`) with
-//!   instancing.
+//! - [`accel`]: the [`Accel`] trait and [`GeometryScene`], a two-level BVH (8-wide BVHs collapsed from `obvhs`'s
+//!   binary ones) with instancing.
 //! - [`animated`]: [`AnimatedTransform`], transforms that move during the shutter (pbrt-v4's decomposition into
 //!   translation, rotation and stretch), and the bounds of what they move.
 
@@ -21,6 +21,7 @@ pub mod accel;
 pub mod animated;
 pub mod bilinear;
 pub mod bounds;
+mod collapse;
 pub mod gzip;
 pub mod mesh;
 pub mod ply;

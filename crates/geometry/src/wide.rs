@@ -1,17 +1,17 @@
-//! The BVH nodes as the traversal reads them: `obvhs`'s compressed 8-wide nodes with their child boxes decoded to
-//! floats once, at build time, and the two traversal loops over them.
+//! The BVH nodes as the traversal reads them (8-wide, with float child boxes; built in the `collapse` module) and
+//! the two traversal loops over them.
 //!
-//! A compressed node stores each child box plane as an 8-bit multiple of a power of two above the node's corner,
-//! so that a node fits in 80 bytes; testing a ray against it first decodes all 48 planes (a conversion, a multiply
-//! and an add each). Decoded nodes take 256 bytes but leave the slab test two operations per plane. The planes are
-//! decoded as the compressed layout defines them (`p + q·e` in f32, with `q·e` exact, which the BVH's primitive
-//! boxes are grown to cover), and the tree, its leaves and their order are the ones `obvhs` built.
+//! A node holds its eight child boxes as planes grouped by axis and side, so that the slab test reads them four
+//! children per vector; it takes 256 bytes, four cache lines. (`obvhs`'s compressed 80-byte nodes, which the
+//! project used before, quantise each plane to 8 bits and cost a conversion and a multiply-add per plane and visit.)
 //!
 //! The two loops, [`closest_first`] and [`any_hit`], serve both levels of the scene's BVH: their caller tests the
 //! leaves (triangles and shapes of an object, or the instances of the top level).
 
 use glam::{Vec3, Vec3A, Vec4};
-use obvhs::cwbvh::node::CwBvhNode;
+use obvhs::aabb::Aabb;
+
+use crate::bounds::Bounds3;
 
 /// Far-distance widening so float error never culls a box the ray touches (pbrt-v4's `1 + 2γ(3)`).
 pub(crate) const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
@@ -33,62 +33,75 @@ impl NodeRay {
     }
 }
 
-/// One 8-wide node with decoded child boxes. Four cache lines, aligned to them.
+/// One 8-wide node: its child boxes as float planes, and where each child is. Four cache lines, aligned to them.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(crate) struct WideNode {
     /// `planes[axis][side][child]`: child boxes' minimum (side 0) and maximum (side 1) planes. Empty child slots
-    /// have a minimum above the maximum, so no ray meets them.
+    /// have a minimum of +∞ and a maximum of −∞, so no ray meets them.
     planes: [[[f32; 8]; 2]; 3],
-    /// The node index of each inner child (unused for leaves and empty slots).
-    pub(crate) child: [u32; 8],
-    /// `obvhs`'s child metadata: for a leaf, its primitive count in unary in the top 3 bits and the first
-    /// primitive's offset from `prim_base` below; for an inner child `0b001_xxxxx`; 0 for an empty slot.
-    pub(crate) meta: [u8; 8],
-    /// The first leaf slot of this node's leaves.
-    pub(crate) prim_base: u32,
+    /// For an inner child its node index; for a leaf its first slot (the leaf's primitives are `count` slots from
+    /// there); 0 for an empty slot.
+    child: [u32; 8],
+    /// The primitive count of each leaf child (0 for inner children and empty slots).
+    count: [u8; 8],
     /// Bit `c` set if child `c` is an inner node.
     pub(crate) inner: u32,
 }
 
 impl WideNode {
-    /// The decoded form of a compressed node.
-    pub(crate) fn decode(node: &CwBvhNode) -> Self {
-        let e = node.compute_extent();
-        let p = node.p;
-        let mut planes = [[[0.0f32; 8]; 2]; 3];
-        let mut child = [0u32; 8];
-        let mut inner = 0u32;
-        for c in 0..8 {
-            // The same two roundings as the compressed slab test: q·e is exact (e is a power of two), then + p.
-            planes[0][0][c] = node.child_min_x[c] as f32 * e.x + p.x;
-            planes[0][1][c] = node.child_max_x[c] as f32 * e.x + p.x;
-            planes[1][0][c] = node.child_min_y[c] as f32 * e.y + p.y;
-            planes[1][1][c] = node.child_max_y[c] as f32 * e.y + p.y;
-            planes[2][0][c] = node.child_min_z[c] as f32 * e.z + p.z;
-            planes[2][1][c] = node.child_max_z[c] as f32 * e.z + p.z;
-            let meta = node.child_meta[c] as u32;
-            if meta & 0b1_1000 == 0b1_1000 {
-                let slot = (meta & 31) - 24;
-                let below = (node.imask as u32) & ((1 << slot) - 1);
-                child[c] = node.child_base_idx + below.count_ones();
-                inner |= 1 << c;
-            }
+    /// A node with eight empty slots.
+    pub(crate) const EMPTY: Self =
+        Self { planes: [[[f32::INFINITY; 8], [f32::NEG_INFINITY; 8]]; 3], child: [0; 8], count: [0; 8], inner: 0 };
+
+    /// Sets child `c`'s box.
+    pub(crate) fn set_box(&mut self, c: usize, b: &Aabb) {
+        for axis in 0..3 {
+            self.planes[axis][0][c] = b.min[axis];
+            self.planes[axis][1][c] = b.max[axis];
         }
-        Self { planes, child, meta: node.child_meta, prim_base: node.primitive_base_idx, inner }
     }
 
-    /// The node's leaf slots among the children of `mask`: bit `i` stands for slot `prim_base + i`.
+    /// Makes child `c` an inner node: node `index`.
+    pub(crate) fn set_inner(&mut self, c: usize, index: u32) {
+        self.child[c] = index;
+        self.count[c] = 0;
+        self.inner |= 1 << c;
+    }
+
+    /// Makes child `c` a leaf of the `count` primitives in slots `first..first + count` (`count` 1 to 255).
+    pub(crate) fn set_leaf(&mut self, c: usize, first: u32, count: u32) {
+        assert!((1..=255).contains(&count), "a BVH leaf holds 1 to 255 primitives, not {count}");
+        self.child[c] = first;
+        self.count[c] = count as u8;
+        self.inner &= !(1 << c);
+    }
+
+    /// Child `c`'s box, if the slot is not empty.
+    pub(crate) fn child_box(&self, c: usize) -> Option<Bounds3> {
+        let p = &self.planes;
+        let min = Vec3::new(p[0][0][c], p[1][0][c], p[2][0][c]);
+        let max = Vec3::new(p[0][1][c], p[1][1][c], p[2][1][c]);
+        (min.x <= max.x).then_some(Bounds3 { min, max })
+    }
+
+    /// Child `c`'s node index, if it is an inner node.
+    #[cfg(test)]
+    pub(crate) fn inner_child(&self, c: usize) -> Option<u32> {
+        (self.inner & (1 << c) != 0).then_some(self.child[c])
+    }
+
+    /// The leaves among the children of `mask` as (first slot, primitive count), in slot order.
     #[inline(always)]
-    pub(crate) fn leaf_slots(&self, mask: u32) -> u32 {
+    pub(crate) fn leaves(&self, mask: u32) -> impl Iterator<Item = (u32, u32)> + '_ {
         let mut leaves = mask & !self.inner;
-        let mut slots = 0u32;
-        while leaves != 0 {
-            let meta = self.meta[leaves.trailing_zeros() as usize] as u32;
-            leaves &= leaves - 1;
-            slots |= (meta >> 5) << (meta & 31);
-        }
-        slots
+        std::iter::from_fn(move || {
+            (leaves != 0).then(|| {
+                let c = leaves.trailing_zeros() as usize;
+                leaves &= leaves - 1;
+                (self.child[c], self.count[c] as u32)
+            })
+        })
     }
 
     /// Slab test of the ray against the eight child boxes: bit `i` of the mask is set if the ray meets child
@@ -122,9 +135,9 @@ impl WideNode {
     }
 }
 
-/// The ray's octant as `obvhs` orders a node's children by it: bit 2 for a negative x direction, bit 1 for y, bit
-/// 0 for z. Child `c` of a node lies roughly `c ^ octant` steps behind the first one the ray meets (the builder put
-/// in slot `s` the child nearest to where rays of octant `s` come from).
+/// The ray's octant as the collapse orders a node's children by it: bit 2 for a negative x direction, bit 1 for
+/// y, bit 0 for z. Child `c` of a node lies roughly `c ^ octant` steps behind the first one the ray meets (the
+/// builder put in slot `s` the child nearest to where rays of octant `s` come from).
 #[inline]
 pub(crate) fn octant(d: Vec3) -> u32 {
     ((d.x < 0.0) as u32) << 2 | ((d.y < 0.0) as u32) << 1 | (d.z < 0.0) as u32
@@ -185,12 +198,17 @@ impl NodeStack {
 }
 
 /// Closest-hit traversal of `nodes` (root first) for the ray `r`, nearest first (as Embree and pbrt-v4 visit
-/// children): a node's hit leaves are handed at once to `leaves(prim_base, slots)` (bit `i` of `slots` for leaf
-/// slot `prim_base + i`), which tests them and returns the closest distance found so far (`t_max` to begin
-/// with); then the node's hit inner children are pushed farthest first, and a popped node is skipped if the ray
+/// children): a node's hit leaves are handed at once to `leaves(node, mask)` (bit `c` of `mask` for each child
+/// the ray meets; [`WideNode::leaves`] lists the leaves among them), which tests them and returns the closest
+/// distance found so far (`t_max` to begin with); then the node's hit inner children are pushed farthest first, and a popped node is skipped if the ray
 /// enters it beyond the closest hit found since it was pushed (the same `t0 ≤ t_max` test the slab test makes).
 #[inline(always)]
-pub(crate) fn closest_first(nodes: &[WideNode], r: &NodeRay, mut t_max: f32, mut leaves: impl FnMut(u32, u32) -> f32) {
+pub(crate) fn closest_first(
+    nodes: &[WideNode],
+    r: &NodeRay,
+    mut t_max: f32,
+    mut leaves: impl FnMut(&WideNode, u32) -> f32,
+) {
     if nodes.is_empty() {
         return;
     }
@@ -202,9 +220,8 @@ pub(crate) fn closest_first(nodes: &[WideNode], r: &NodeRay, mut t_max: f32, mut
         }
         let node = &nodes[index as usize];
         let (hit8, t_near) = node.slabs(r, t_max);
-        let slots = node.leaf_slots(hit8);
-        if slots != 0 {
-            t_max = leaves(node.prim_base, slots);
+        if hit8 & !node.inner != 0 {
+            t_max = leaves(node, hit8);
         }
         let mut inner_hits = hit8 & node.inner;
         let mut inner = [(0u32, 0.0f32); 8];
@@ -232,7 +249,7 @@ pub(crate) fn closest_first(nodes: &[WideNode], r: &NodeRay, mut t_max: f32, mut
 }
 
 /// Occlusion traversal of `nodes` (root first) for the ray `r` of octant `oct` ([`octant`]): true as soon as
-/// `leaves(prim_base, slots)` (as for [`closest_first`]) reports a hit with `t < t_max`.
+/// `leaves(node, mask)` (as for [`closest_first`]) reports a hit with `t < t_max`.
 ///
 /// A node's hit leaves are tested at once; its hit inner children are visited in the reverse of the octant order
 /// (farthest-looking first). Any hit ends the search, so the nearest surfaces are not the best bet: on the
@@ -244,7 +261,7 @@ pub(crate) fn any_hit(
     r: &NodeRay,
     oct: u32,
     t_max: f32,
-    mut leaves: impl FnMut(u32, u32) -> bool,
+    mut leaves: impl FnMut(&WideNode, u32) -> bool,
 ) -> bool {
     if nodes.is_empty() {
         return false;
@@ -255,8 +272,7 @@ pub(crate) fn any_hit(
     while let Some((index, _)) = next.take().or_else(|| stack.pop()) {
         let node = &nodes[index as usize];
         let (hit8, _) = node.slabs(r, t_max);
-        let slots = node.leaf_slots(hit8);
-        if slots != 0 && leaves(node.prim_base, slots) {
+        if hit8 & !node.inner != 0 && leaves(node, hit8) {
             return true;
         }
         // Inner children in order of `c ^ oct`: pushed from the last to the second, the first visited next.
@@ -278,8 +294,9 @@ pub(crate) fn any_hit(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::{build_bvh, to_aabb};
+    use crate::accel::to_aabb;
     use crate::bounds::Bounds3;
+    use crate::collapse::WideBvh;
     use obvhs::aabb::Aabb;
 
     #[test]
@@ -309,7 +326,7 @@ mod tests {
                     to_aabb(&Bounds3 { min: c - h, max: c + h })
                 })
                 .collect();
-            let nodes: Vec<WideNode> = build_bvh(&aabbs).nodes.iter().map(WideNode::decode).collect();
+            let nodes: Vec<WideNode> = WideBvh::build(&aabbs, 4, 4).nodes;
             assert!(nodes.len() > 10);
             let (mut met, mut reported) = (0, 0);
             for k in 0..400 {
@@ -328,6 +345,9 @@ mod tests {
                         for a in 0..3 {
                             let (lo, hi) = (node.planes[a][0][c] as f64, node.planes[a][1][c] as f64);
                             let (oa, da) = (o[a] as f64, d[a] as f64);
+                            if lo > hi {
+                                t0 = f64::INFINITY; // an empty slot
+                            }
                             if da == 0.0 {
                                 if oa < lo || oa > hi {
                                     t0 = f64::INFINITY;
