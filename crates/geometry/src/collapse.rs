@@ -62,8 +62,9 @@ fn half_area(b: &Aabb) -> f32 {
 
 impl WideBvh {
     /// The BVH over the boxes `aabbs`: leaves of at most `max_leaf` primitives (1 to 255), each starting at a
-    /// slot that is a multiple of `block`.
-    pub(crate) fn build(aabbs: &[Aabb], max_leaf: u32, block: u32) -> Self {
+    /// slot that is a multiple of `block`. `tested_alone[p]` marks primitives not tested a block at a time (the
+    /// shapes other than triangles, each its own test in a leaf); an empty slice marks none.
+    pub(crate) fn build(aabbs: &[Aabb], max_leaf: u32, block: u32, tested_alone: &[bool]) -> Self {
         assert!((1..=255).contains(&max_leaf) && block >= 1);
         if aabbs.is_empty() {
             return Self { nodes: Vec::new(), slots: Vec::new() };
@@ -82,13 +83,17 @@ impl WideBvh {
                 todo.extend([left(i), left(i) + 1]);
             }
         }
-        let mut count = vec![0u32; b2.len()];
+        // Per binary node: primitives under it, and how many of those are tested alone.
+        let mut count = vec![[0u32; 2]; b2.len()];
         for &i in preorder.iter().rev() {
             let n = &b2[i as usize];
             count[i as usize] = if n.is_leaf() {
-                n.prim_count
+                let prims = &bvh2.primitive_indices[n.first_index as usize..(n.first_index + n.prim_count) as usize];
+                let alone = prims.iter().filter(|&&p| tested_alone.get(p as usize) == Some(&true)).count();
+                [n.prim_count, alone as u32]
             } else {
-                count[n.first_index as usize] + count[n.first_index as usize + 1]
+                let (l, r) = (count[n.first_index as usize], count[n.first_index as usize + 1]);
+                [l[0] + r[0], l[1] + r[1]]
             };
         }
         // The least cost of each subtree in 1 to 8 slots, bottom-up.
@@ -163,12 +168,16 @@ const NODE_COST: f32 = 1.0;
 /// Measured on the 1M-triangle benchmark: 0.5 was faster than 1 (smaller leaves, more nodes) on every query by
 /// 2–8%, and than 0.35 and 0.25 (bigger leaves) by as much on most.
 const BLOCK_COST: f32 = 0.5;
+/// The test of a primitive that is not a triangle (a sphere, disk or bilinear patch, in f64), as much as a node
+/// visit: with the block cost, `scenes/metals.pbrt` put its four spheres in one leaf that every ray tested, 14%
+/// slower than leaves of one sphere each.
+const SHAPE_COST: f32 = 1.0;
 
 /// The binary BVH being collapsed, with the table of the optimal collapse.
 struct Collapser<'a> {
     b2: &'a [Bvh2Node],
-    /// Primitives under each binary node.
-    count: Vec<u32>,
+    /// Primitives under each binary node, and how many of them are tested alone.
+    count: Vec<[u32; 2]>,
     /// `dist[i][j - 1]`: the least surface-area cost of storing subtree `i` in at most `j` child slots of a wide
     /// node (as one leaf, one wide node, or spread over several slots by its children).
     dist: Vec<[f32; 8]>,
@@ -185,12 +194,14 @@ impl Collapser<'_> {
         self.b2[i as usize].is_leaf()
     }
 
-    /// Subtree `i` as one leaf: its blocks' tests. Only for at most `max_leaf` primitives, or a binary leaf (which
-    /// cannot be opened; PLOC makes leaves of one primitive, so this does not arise from [`binary_bvh`]).
+    /// Subtree `i` as one leaf: its blocks' tests and those of the primitives tested alone. Only for at most
+    /// `max_leaf` primitives, or a binary leaf (which cannot be opened; PLOC makes leaves of one primitive, so this
+    /// does not arise from [`binary_bvh`]).
     fn leaf_cost(&self, i: u32) -> f32 {
-        let count = self.count[i as usize];
+        let [count, alone] = self.count[i as usize];
         if count <= self.max_leaf || self.is_binary_leaf(i) {
-            half_area(self.b2[i as usize].aabb()) * BLOCK_COST * count.div_ceil(self.block) as f32
+            let tests = BLOCK_COST * (count - alone).div_ceil(self.block) as f32 + SHAPE_COST * alone as f32;
+            half_area(self.b2[i as usize].aabb()) * tests
         } else {
             f32::INFINITY
         }
@@ -305,7 +316,7 @@ mod tests {
     fn every_primitive_is_in_one_aligned_leaf_inside_its_parents_boxes() {
         for (n, max_leaf, block) in [(1, 8, 4), (5, 8, 4), (37, 8, 4), (3000, 8, 4), (500, 1, 1), (2, 1, 1)] {
             let aabbs = boxes(n, 7 + n as u32);
-            let bvh = WideBvh::build(&aabbs, max_leaf, block);
+            let bvh = WideBvh::build(&aabbs, max_leaf, block, &[]);
             assert_eq!(bvh.slots.len() % block as usize, 0);
             let mut seen = vec![0u32; n];
             // (node, the box its parent gives it): every child box lies inside its parent's.
@@ -336,5 +347,25 @@ mod tests {
             assert_eq!(visited, bvh.nodes.len(), "every node is reached once");
             assert!(seen.iter().all(|&k| k == 1), "every primitive in exactly one leaf ({n} primitives)");
         }
+    }
+
+    #[test]
+    fn shapes_tested_alone_get_leaves_of_their_own_where_triangles_share_a_block() {
+        // Four unit boxes two apart on a line, as the four spheres of scenes/metals.pbrt.
+        let aabbs: Vec<Aabb> = (0..4)
+            .map(|k| {
+                let c = Vec3::new(3.0 * k as f32, 0.0, 0.0);
+                to_aabb(&Bounds3 { min: c - Vec3::splat(0.5), max: c + Vec3::splat(0.5) })
+            })
+            .collect();
+        // The leaves' primitive counts (empty slots report 0).
+        let leaves = |alone: &[bool]| {
+            let bvh = WideBvh::build(&aabbs, 8, 4, alone);
+            bvh.nodes.iter().flat_map(|n| n.leaves(0xff).map(|(_, count)| count)).filter(|&c| c > 0).collect::<Vec<_>>()
+        };
+        // As triangles: one block holds them all, cheaper than four tests of a block each.
+        assert_eq!(leaves(&[]), vec![4]);
+        // As shapes tested one by one: a leaf each, so that a ray tests only the ones whose box it meets.
+        assert_eq!(leaves(&[true; 4]), vec![1, 1, 1, 1]);
     }
 }

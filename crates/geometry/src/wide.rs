@@ -326,7 +326,7 @@ mod tests {
                     to_aabb(&Bounds3 { min: c - h, max: c + h })
                 })
                 .collect();
-            let nodes: Vec<WideNode> = WideBvh::build(&aabbs, 4, 4).nodes;
+            let nodes: Vec<WideNode> = WideBvh::build(&aabbs, 8, 4, &[]).nodes;
             assert!(nodes.len() > 10);
             let (mut met, mut reported) = (0, 0);
             for k in 0..400 {
