@@ -97,7 +97,14 @@ impl WideBvh {
             };
         }
         // The least cost of each subtree in 1 to 8 slots, bottom-up.
-        let mut c = Collapser { b2, count, dist: vec![[0.0; 8]; b2.len()], max_leaf, block };
+        let mut c = Collapser {
+            b2,
+            count,
+            dist: vec![[0.0; 8]; b2.len()],
+            max_leaf,
+            block,
+            block_cost: block_cost(aabbs.len()),
+        };
         for &i in preorder.iter().rev() {
             c.compute(i);
         }
@@ -162,14 +169,23 @@ impl WideBvh {
     }
 }
 
-/// Cost of a node visit and of a leaf block's test in the surface-area heuristic (per unit of surface area, as a
-/// fraction of the parent's).
+/// Cost of a node visit in the surface-area heuristic (per unit of surface area, as a fraction of the parent's).
 const NODE_COST: f32 = 1.0;
-/// Measured on the 1M-triangle benchmark: 0.5 was faster than 1 (smaller leaves, more nodes) on every query by
-/// 2–8%, and than 0.35 and 0.25 (bigger leaves) by as much on most.
-const BLOCK_COST: f32 = 0.5;
+/// Cost of a leaf block's test, by the BVH's size: blocks are cheaper against nodes in big BVHs, whose node visits
+/// miss the caches. Measured: on the 1M-triangle benchmark 0.5 was faster than 1 (smaller leaves, more nodes) on
+/// every query by 2–8%, and than 0.35 and 0.25 (bigger leaves) by as much on most; on killeroo-simple (17k
+/// triangles) and `scenes/prism-beam.pbrt` (36) 1 was 2% and 3.5% faster than 0.5.
+fn block_cost(primitives: usize) -> f32 {
+    if primitives >= BIG_BVH {
+        0.5
+    } else {
+        1.0
+    }
+}
+/// Primitives from which a BVH counts as big for [`block_cost`].
+const BIG_BVH: usize = 1 << 19;
 /// The test of a primitive that is not a triangle (a sphere, disk or bilinear patch, in f64), as much as a node
-/// visit: with the block cost, `scenes/metals.pbrt` put its four spheres in one leaf that every ray tested, 14%
+/// visit: with the cost of a block, `scenes/metals.pbrt` put its four spheres in one leaf that every ray tested, 14%
 /// slower than leaves of one sphere each.
 const SHAPE_COST: f32 = 1.0;
 
@@ -183,6 +199,7 @@ struct Collapser<'a> {
     dist: Vec<[f32; 8]>,
     max_leaf: u32,
     block: u32,
+    block_cost: f32,
 }
 
 impl Collapser<'_> {
@@ -200,7 +217,7 @@ impl Collapser<'_> {
     fn leaf_cost(&self, i: u32) -> f32 {
         let [count, alone] = self.count[i as usize];
         if count <= self.max_leaf || self.is_binary_leaf(i) {
-            let tests = BLOCK_COST * (count - alone).div_ceil(self.block) as f32 + SHAPE_COST * alone as f32;
+            let tests = self.block_cost * (count - alone).div_ceil(self.block) as f32 + SHAPE_COST * alone as f32;
             half_area(self.b2[i as usize].aabb()) * tests
         } else {
             f32::INFINITY
