@@ -15,7 +15,8 @@
 //! nodes and 680k leaves of 1.5, and Embree 61k nodes and 250k leaves of 3.7 (its `verbose=2` statistics). A
 //! greedy collapse (open the largest child while slots are free, in the manner of Embree's wide builders) came
 //! close on that mesh but put small scenes of large, overlapping triangles in one node whose leaves every ray
-//! tested: 6.3 blocks per camera or light ray on `scenes/prism-beam.pbrt`, against 2.5 now.
+//! tested: 6.3 blocks per camera or light ray on `scenes/prism-beam.pbrt`, against 2.5 with the table (at a block
+//! cost of 0.5).
 //!
 //! The children of a node are put in slots by the ray octants that meet them first, as Ylitie et al. assign them
 //! (section 3.2): slot `s` gets the child farthest against the direction of octant `s` (greedily, cheapest pair
@@ -315,11 +316,7 @@ mod tests {
 
     /// Random boxes: many small ones and a few that span the scene (as a room's walls around small objects).
     fn boxes(n: usize, seed: u32) -> Vec<Aabb> {
-        let mut state = seed;
-        let mut next = || {
-            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (state >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut next = crate::test_floats(seed);
         (0..n)
             .map(|k| {
                 let c = Vec3::new(next(), next(), next()) * 10.0;

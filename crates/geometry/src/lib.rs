@@ -31,6 +31,17 @@ pub mod subdiv;
 pub mod transform;
 mod wide;
 
+/// Uniform floats in [0, 1) from a 32-bit linear congruential generator (Numerical Recipes' constants) seeded with
+/// `seed`: reproducible random inputs for the crate's tests.
+#[cfg(test)]
+pub(crate) fn test_floats(seed: u32) -> impl FnMut() -> f32 {
+    let mut state = seed;
+    move || {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (state >> 8) as f32 / (1u32 << 24) as f32
+    }
+}
+
 pub use accel::{Accel, GeometryScene, Hit, Instance, MovingInstance, Object, Shape};
 pub use animated::AnimatedTransform;
 pub use bilinear::BilinearMesh;

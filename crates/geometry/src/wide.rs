@@ -313,11 +313,7 @@ mod tests {
     fn the_slab_test_keeps_every_child_box_the_ray_meets_and_reports_where_it_enters() {
         // Random boxes at several scales and offsets (far from the origin too); rays from inside and outside, some
         // axis-parallel, with finite and infinite t_max. Each child box is intersected exactly (f64) as reference.
-        let mut state = 987_654_321u32;
-        let mut next = || {
-            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (state >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut next = crate::test_floats(987_654_321);
         for (scale, offset) in [(1.0f32, 0.0f32), (0.01, 5.0), (300.0, -1e4)] {
             let aabbs: Vec<Aabb> = (0..2000)
                 .map(|_| {
