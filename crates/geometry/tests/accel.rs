@@ -97,8 +97,8 @@ fn bvh_matches_brute_force() {
                     // brute force from the mesh.
                     assert_eq!((a.p, a.p_error, a.n, a.ns, a.uv), (b.p, b.p_error, b.n, b.ns, b.uv), "ray {i}");
                     assert_eq!(
-                        (a.dpdu, a.tangent, a.shading_dpdu, a.shading_dpdv),
-                        (b.dpdu, b.tangent, b.shading_dpdu, b.shading_dpdv),
+                        (a.dpdu, a.tangent(), a.shading_dpdu, a.shading_dpdv),
+                        (b.dpdu, b.tangent(), b.shading_dpdu, b.shading_dpdv),
                         "ray {i}"
                     );
                     hits += 1;
@@ -368,7 +368,7 @@ fn hit_geometry_of_a_mesh_with_normals_and_uvs() {
     assert!((h.n + Vec3::Z).length() < 1e-6 && (h.ns + Vec3::Z).length() < 1e-6);
     assert!((h.uv - Vec2::new(0.5, 0.5)).length() < 1e-6);
     assert!((h.dpdu - Vec3::new(0.5, 0.0, 0.0)).length() < 1e-6, "{:?}", h.dpdu);
-    assert!(h.tangent.dot(h.ns).abs() < 1e-6 && (h.tangent.length() - 1.0).abs() < 1e-6);
+    assert!(h.tangent().dot(h.ns).abs() < 1e-6 && (h.tangent().length() - 1.0).abs() < 1e-6);
 }
 
 /// A cube [-1, 1]³ with outward per-vertex normals (4 vertices per face).

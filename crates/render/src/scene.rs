@@ -60,7 +60,8 @@ pub struct SurfaceHit {
     pub ns: Vec3,
     /// Surface (u, v).
     pub uv: Vec2,
-    /// Tangent for the shading frame.
+    /// Tangent the shading frame starts from (any length; the frame makes it perpendicular to `ns` and normalises
+    /// it, see `Frame::from_z_and_tangent`): ∂p/∂u, or after bump mapping the perturbed shading ∂p/∂u.
     pub dpdu: Vec3,
     /// The surface's own ∂p/∂u and ∂p/∂v with respect to its texture (u, v) (pbrt-v4's `SurfaceInteraction::dpdu`,
     /// `dpdv`): how far (u, v) moves when the point does, for image textures' filter footprints.
@@ -173,7 +174,7 @@ impl SceneGeometry {
             n: hit.n,
             ns: hit.ns,
             uv: hit.uv,
-            dpdu: hit.tangent,
+            dpdu: hit.dpdu,
             surface_dpdu: hit.dpdu,
             surface_dpdv: hit.dpdv,
             shading_dpdu: hit.shading_dpdu,
