@@ -40,6 +40,7 @@ pub use crate::shapes::Shape;
 use crate::shapes::{
     coordinate_system, d_normalize, intersect_tri4, ElementHit, ShapeRay, SurfaceDerivatives, SurfaceGeom, Tri4,
 };
+use crate::simd::{with_best_simd, Portable};
 use crate::transform::Transform;
 use crate::wide::{any_hit, closest_first, octant, NodeRay, WideNode};
 use crate::GeometryError;
@@ -377,13 +378,15 @@ impl Blas {
     /// ([`closest_first`]).
     #[inline]
     fn closest(&self, o: Vec3, d: Vec3, instance: u32, best: &mut Closest) {
-        let ray = ShapeRay::new(o, d);
-        closest_first(&self.nodes, &NodeRay::new(o, d), best.hit.t, |node, mask| {
-            for (first, count) in node.leaves(mask) {
-                self.closest_in_leaf(&ray, first, count, instance, best);
-            }
-            best.hit.t
-        });
+        with_best_simd!(test => {
+            let ray = ShapeRay::new(o, d);
+            closest_first(test, &self.nodes, &NodeRay::new(o, d), best.hit.t, |node, mask| {
+                for (first, count) in node.leaves(mask) {
+                    self.closest_in_leaf(&ray, first, count, instance, best);
+                }
+                best.hit.t
+            })
+        })
     }
 
     /// Tests the leaf of the `count` primitives from slot `first` (a multiple of four) and updates `best`.
@@ -421,9 +424,11 @@ impl Blas {
     /// True if anything in this object is hit with `0 < t < t_max` ([`any_hit`]).
     #[inline]
     fn any(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
-        let ray = ShapeRay::new(o, d);
-        any_hit(&self.nodes, &NodeRay::new(o, d), octant(d), t_max, |node, mask| {
-            node.leaves(mask).any(|(first, count)| self.any_in_leaf(&ray, first, count, t_max))
+        with_best_simd!(test => {
+            let ray = ShapeRay::new(o, d);
+            any_hit(test, &self.nodes, &NodeRay::new(o, d), octant(d), t_max, |node, mask| {
+                node.leaves(mask).any(|(first, count)| self.any_in_leaf(&ray, first, count, t_max))
+            })
         })
     }
 
@@ -744,7 +749,7 @@ impl GeometryScene {
             let (o, d) = inst.to_instance(ray.o, ray.d);
             self.objects[inst.object as usize].closest(o, d, i, &mut best);
         } else {
-            closest_first(&self.tlas.nodes, &NodeRay::new(ray.o, ray.d), best.hit.t, |node, mask| {
+            closest_first(Portable, &self.tlas.nodes, &NodeRay::new(ray.o, ray.d), best.hit.t, |node, mask| {
                 for i in self.tlas.instances(node, mask) {
                     let inst = &self.instances[i as usize];
                     let (o, d) = inst.to_instance(ray.o, ray.d);
@@ -765,7 +770,7 @@ impl GeometryScene {
     #[inline(never)]
     fn closest_moving(&self, ray: &Ray, best: &mut Closest) {
         let n_static = self.instances.len() as u32;
-        closest_first(&self.moving_tlas.nodes, &NodeRay::new(ray.o, ray.d), best.hit.t, |node, mask| {
+        closest_first(Portable, &self.moving_tlas.nodes, &NodeRay::new(ray.o, ray.d), best.hit.t, |node, mask| {
             for k in self.moving_tlas.instances(node, mask) {
                 let inst = self.moving_at(n_static + k, ray.time);
                 let (o, d) = inst.to_instance(ray.o, ray.d);
@@ -780,7 +785,7 @@ impl GeometryScene {
     #[inline(never)]
     fn occluded_moving(&self, ray: &Ray, t_max: f32) -> bool {
         let n_static = self.instances.len() as u32;
-        any_hit(&self.moving_tlas.nodes, &NodeRay::new(ray.o, ray.d), octant(ray.d), t_max, |node, mask| {
+        any_hit(Portable, &self.moving_tlas.nodes, &NodeRay::new(ray.o, ray.d), octant(ray.d), t_max, |node, mask| {
             self.moving_tlas.instances(node, mask).any(|k| {
                 let inst = self.moving_at(n_static + k, ray.time);
                 let (o, d) = inst.to_instance(ray.o, ray.d);
@@ -824,7 +829,7 @@ impl Accel for GeometryScene {
             let (o, d) = inst.to_instance(ray.o, ray.d);
             return self.objects[inst.object as usize].any(o, d, t_max);
         }
-        any_hit(&self.tlas.nodes, &NodeRay::new(ray.o, ray.d), octant(ray.d), t_max, |node, mask| {
+        any_hit(Portable, &self.tlas.nodes, &NodeRay::new(ray.o, ray.d), octant(ray.d), t_max, |node, mask| {
             self.tlas.instances(node, mask).any(|i| {
                 let inst = &self.instances[i as usize];
                 let (o, d) = inst.to_instance(ray.o, ray.d);

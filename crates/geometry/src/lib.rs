@@ -14,7 +14,7 @@
 //! - [`animated`]: [`AnimatedTransform`], transforms that move during the shutter (pbrt-v4's decomposition into
 //!   translation, rotation and stretch), and the bounds of what they move.
 
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod accel;
@@ -27,6 +27,7 @@ pub mod mesh;
 pub mod ply;
 pub mod ray;
 pub mod shapes;
+pub mod simd;
 pub mod subdiv;
 pub mod transform;
 mod wide;
