@@ -31,6 +31,7 @@
 //! assert!((film.pixel_xyz(1, 2).y - 0.5).abs() < 0.1);
 //! ```
 
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 mod error;

@@ -98,9 +98,9 @@ pub struct Hit {
 }
 
 impl Hit {
-    /// Unit tangent perpendicular to `ns` (∂p/∂u made orthogonal to `ns`), for shading frames. Computed on demand:
-    /// the renderer's frames project and normalise ∂p/∂u themselves, and a square root per hit in the record was
-    /// 4% of a small glass scene's time.
+    /// Unit tangent perpendicular to `ns` (∂p/∂u made orthogonal to `ns`), for shading frames. Computed on
+    /// demand: the renderer's frames project and normalise ∂p/∂u themselves, and a square root per hit in the
+    /// record was about 3% of a small glass scene's time.
     pub fn tangent(&self) -> Vec3 {
         (self.dpdu - self.ns * self.ns.dot(self.dpdu)).try_normalize().unwrap_or_else(|| coordinate_system(self.ns).0)
     }

@@ -28,6 +28,7 @@
 //! assert_eq!(err.to_string(), "bad.pbrt:2:31: error: unterminated '[': the value list of \"float radius\" has no closing ']'");
 //! ```
 
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 mod error;

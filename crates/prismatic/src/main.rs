@@ -3,6 +3,8 @@
 //! A thin layer: it parses arguments, calls the library crates and prints. Errors are reported as one message and a
 //! non-zero exit status, never a panic.
 
+#![forbid(unsafe_code)]
+
 mod checkpoint;
 mod compare_cmd;
 mod ior_cmd;

@@ -24,6 +24,7 @@
 //! assert!(params.unused().is_empty());
 //! ```
 
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 mod entities;

@@ -18,6 +18,8 @@
 //! assert!(rgb.iter().all(|c| (c - 1.0).abs() < 1e-3));
 //! ```
 
+#![forbid(unsafe_code)]
+
 pub mod blackbody;
 pub mod cmf;
 pub mod color;
