@@ -933,7 +933,7 @@ fn check_png_palette(bytes: &[u8]) -> Result<(), String> {
     while let Some(head) = rest.get(..8) {
         let len = u32::from_be_bytes([head[0], head[1], head[2], head[3]]) as usize;
         let kind = &head[4..8];
-        if kind == b"PLTE" && len % 3 != 0 {
+        if kind == b"PLTE" && !len.is_multiple_of(3) {
             return Err(format!("PLTE chunk of {len} bytes: not a whole number of 3-byte palette entries"));
         }
         if kind == b"PLTE" && !(3..=768).contains(&len) {

@@ -467,7 +467,7 @@ fn indirect_lanes(b: &Tri4) -> u32 {
 /// index, lane mask) pairs.
 #[inline(always)]
 fn leaf_blocks(first: u32, count: u32) -> impl Iterator<Item = (usize, u32)> {
-    debug_assert!(first % 4 == 0 && (1..=8).contains(&count));
+    debug_assert!(first.is_multiple_of(4) && (1..=8).contains(&count));
     let block = (first >> 2) as usize;
     let lanes = [(1u32 << count.min(4)) - 1, (1u32 << count.saturating_sub(4)) - 1];
     (0..1 + usize::from(count > 4)).map(move |k| (block + k, lanes[k]))

@@ -46,7 +46,7 @@ impl<const N: usize> IndexedMeshData<N> {
     /// finite. The error names the first problem found.
     pub fn validate(&self) -> Result<(), GeometryError> {
         let err = |m: String| Err(GeometryError::InvalidMesh(format!("{}{m}", label::<N>())));
-        if self.indices.len() % N != 0 {
+        if !self.indices.len().is_multiple_of(N) {
             return err(format!("{} vertex indices is not a multiple of {N}", self.indices.len()));
         }
         let n = self.positions.len();

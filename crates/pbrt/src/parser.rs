@@ -483,7 +483,7 @@ impl Parser {
                     }
                 }
                 let n = ty.numbers_per_value();
-                if p.floats.len() % n != 0 {
+                if !p.floats.len().is_multiple_of(n) {
                     return Err(ParseError::new(
                         loc,
                         format!("parameter \"{decl}\" has {} numbers, which is not a multiple of {n}", p.floats.len()),

@@ -138,7 +138,7 @@ impl BeamPrism {
         let mut idx = vec![];
         let pos = |k: usize| {
             let i = k / 2;
-            [self.verts[i][0], if k % 2 == 0 { -1.0 } else { 1.0 }, self.verts[i][1]]
+            [self.verts[i][0], if k.is_multiple_of(2) { -1.0 } else { 1.0 }, self.verts[i][1]]
         };
         let mut tri = |a: usize, b: usize, c: usize, out: [f64; 3]| {
             let (p0, p1, p2) = (pos(a), pos(b), pos(c));

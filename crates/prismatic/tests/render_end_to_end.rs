@@ -177,7 +177,7 @@ LightSource "infinite" "rgb L" [ 1 1 1 ]
 /// Pixels of quadrant `q` of a 32×32 image, leaving out a 1-pixel margin along the quads' shared edges.
 fn quadrant_pixels(q: usize) -> Vec<(u32, u32)> {
     // Raster x grows with world x (LookAt from −z with up +y); raster y grows downwards (world −y).
-    let xs = if q % 2 == 0 { 0..15 } else { 17..32 };
+    let xs = if q.is_multiple_of(2) { 0..15 } else { 17..32 };
     let ys = if q < 2 { 0..15 } else { 17..32 };
     ys.flat_map(|y| xs.clone().map(move |x| (x, y))).collect()
 }

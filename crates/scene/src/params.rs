@@ -249,7 +249,7 @@ impl Param {
     }
 
     fn tuples<const N: usize>(&self) -> Result<Vec<[f64; N]>, SceneError> {
-        if self.floats.len() % N != 0 {
+        if !self.floats.len().is_multiple_of(N) {
             return Err(self.error(format!("{} numbers is not a multiple of {N}", self.floats.len())));
         }
         self.check_finite()?;

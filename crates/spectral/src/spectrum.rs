@@ -41,7 +41,7 @@ impl PiecewiseLinear {
 
     /// Builds a table from interleaved `λ₀, v₀, λ₁, v₁, …` pairs, as pbrt-v4 writes inline spectra.
     pub fn from_interleaved(pairs: &[f64]) -> Result<Self, SpectrumError> {
-        if pairs.len() % 2 != 0 {
+        if !pairs.len().is_multiple_of(2) {
             return Err(SpectrumError::BadTable(format!(
                 "interleaved wavelength/value list has odd length {}",
                 pairs.len()

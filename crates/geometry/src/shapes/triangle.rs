@@ -416,7 +416,7 @@ mod tests {
     /// A vertex: on a small integer grid half the time (so rays through grid points pass exactly through vertices
     /// and edges, where edge functions are exactly zero and the f64 fallback runs), random otherwise.
     fn vertex(rng: &mut Pcg32) -> Vec3 {
-        if rng.next_u32() % 2 == 0 {
+        if rng.next_u32().is_multiple_of(2) {
             Vec3::new((rng.next_u32() % 5) as f32, (rng.next_u32() % 5) as f32, (rng.next_u32() % 5) as f32 - 8.0)
         } else {
             Vec3::new(4.0 * uniform(rng), 4.0 * uniform(rng), -8.0 + 4.0 * uniform(rng))
