@@ -27,7 +27,7 @@ pub mod mesh;
 pub mod ply;
 pub mod ray;
 pub mod shapes;
-pub mod simd;
+mod simd;
 pub mod subdiv;
 pub mod transform;
 mod wide;
