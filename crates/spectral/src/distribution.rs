@@ -24,6 +24,8 @@ pub struct Distribution1D {
     max: f64,
     /// The bin width, `(max − min) / n`.
     dx: f64,
+    /// 1 / (cdf[j + 1] − cdf[j]) per bin (0 for empty bins).
+    inv_width: Vec<f64>,
 }
 
 /// One draw from a [`Distribution1D`].
@@ -92,7 +94,8 @@ impl Distribution1D {
                 (cdf.partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1) as u32
             })
             .collect();
-        Ok(Self { density, cdf, guide, integral, min, max, dx })
+        let inv_width = cdf.windows(2).map(|w| if w[1] > w[0] { 1.0 / (w[1] - w[0]) } else { 0.0 }).collect();
+        Ok(Self { density, cdf, guide, integral, min, max, dx, inv_width })
     }
 
     /// Number of bins.
@@ -133,8 +136,7 @@ impl Distribution1D {
         // count is 0 as in the binary search) gives the binary search's bin without its unpredictable branches:
         // renderers draw u at random, and this is one of four draws per camera sample.
         let j = (lo + self.cdf[lo + 1..=hi].iter().map(|&c| usize::from(c <= u)).sum::<usize>()).min(n - 1);
-        let width = self.cdf[j + 1] - self.cdf[j];
-        let t = if width > 0.0 { ((u - self.cdf[j]) / width).clamp(0.0, 1.0) } else { 0.0 };
+        let t = ((u - self.cdf[j]) * self.inv_width[j]).clamp(0.0, 1.0);
         let x = (self.min + (j as f64 + t) * self.dx).min(self.max);
         Sample1D { x, pdf: self.density[j], bin: j }
     }
@@ -170,6 +172,10 @@ impl Distribution1D {
     /// Draws a bin index with probability proportional to its value; returns the index, its probability and `u`
     /// remapped to [0, 1) within the bin (for reuse as a fresh uniform number).
     pub fn sample_discrete(&self, u: f64) -> (usize, f64, f64) {
+        if self.len() == 1 {
+            // One bin (a scene with one light): what the general path returns, without the search.
+            return (0, 1.0, u.clamp(0.0, 1.0 - f64::EPSILON));
+        }
         let s = self.sample(u);
         let p = self.bin_probability(s.bin);
         let remapped = if p > 0.0 { ((u - self.cdf[s.bin]) / p).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.0 };
