@@ -94,15 +94,20 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     if w.dot(n) < 0.0 {
         offset = -offset;
     }
-    let mut po = p + offset;
-    for i in 0..3 {
-        if offset[i] > 0.0 {
-            po[i] = next_float_up(po[i]);
-        } else if offset[i] < 0.0 {
-            po[i] = next_float_down(po[i]);
+    let po = p + offset;
+    // Both neighbours computed and one selected, so the compiler can use selects instead of branches on the
+    // offset's signs (which a path tracer's random directions make unpredictable).
+    let round = |x: f32, o: f32| {
+        let (up, down) = (next_float_up(x), next_float_down(x));
+        if o > 0.0 {
+            up
+        } else if o < 0.0 {
+            down
+        } else {
+            x
         }
-    }
-    po
+    };
+    Vec3::new(round(po.x, offset.x), round(po.y, offset.y), round(po.z, offset.z))
 }
 
 /// A ray leaving the surface point `sp` in direction `w` (normalized here), whose origin is offset so it never

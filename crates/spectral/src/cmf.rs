@@ -25,6 +25,8 @@ pub struct CmfTable {
     pub step: f64,
     /// The three functions at each grid point.
     pub values: Vec<[f64; 3]>,
+    /// 1 / `step` (a lookup per carried wavelength and path: a multiplication, not a division).
+    inv_step: f64,
 }
 
 impl CmfTable {
@@ -33,7 +35,8 @@ impl CmfTable {
         let c = cols.map(|c| t.column(c));
         let step = l[1] - l[0];
         debug_assert!(l.windows(2).all(|w| (w[1] - w[0] - step).abs() < 1e-9));
-        Self { lambda_min: l[0], step, values: (0..l.len()).map(|i| [c[0][i], c[1][i], c[2][i]]).collect() }
+        let values = (0..l.len()).map(|i| [c[0][i], c[1][i], c[2][i]]).collect();
+        Self { lambda_min: l[0], step, values, inv_step: 1.0 / step }
     }
 
     /// Last wavelength, nm.
@@ -48,7 +51,7 @@ impl CmfTable {
 
     /// The three functions at `lambda_nm`, linearly interpolated; zero outside the table.
     pub fn eval(&self, lambda_nm: f64) -> [f64; 3] {
-        let x = (lambda_nm - self.lambda_min) / self.step;
+        let x = (lambda_nm - self.lambda_min) * self.inv_step;
         let n = self.values.len();
         if !(x >= 0.0 && x <= (n - 1) as f64) {
             return [0.0; 3];

@@ -8,7 +8,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::cmf::{stiles_burch, stiles_burch_to_xyz, Observer};
+use crate::cmf::{stiles_burch, stiles_burch_to_xyz, CmfTable, Observer};
 use crate::color::{mul_mat_vec, Mat3, Xyz};
 use crate::distribution::Distribution1D;
 use crate::sampled::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
@@ -79,7 +79,10 @@ pub struct WavelengthSampler {
     cmf: Distribution1D,
     /// Stiles & Burch RGB → normalised XYZ of `observer`.
     sb_to_xyz: Mat3,
-    y_integral: f64,
+    /// The observer's x̄ȳz̄ table.
+    xyz_table: &'static CmfTable,
+    /// 1 / ∫ȳ dλ.
+    inv_y_integral: f64,
     /// `hero` draws from pbrt-v4's visible pdf instead of x̄ + ȳ + z̄.
     pbrt_hero: bool,
 }
@@ -101,7 +104,8 @@ impl WavelengthSampler {
             band_cdf,
             cmf: stiles_burch_pdf(),
             sb_to_xyz: stiles_burch_to_xyz(observer),
-            y_integral: observer.y_integral(),
+            xyz_table: observer.table(),
+            inv_y_integral: 1.0 / observer.y_integral(),
             pbrt_hero: false,
         }
     }
@@ -191,13 +195,13 @@ impl WavelengthSampler {
             _ => {
                 for i in 0..N_WAVELENGTHS {
                     if wl.is_active(i) {
-                        let cmf = self.observer.xyz_bar(wl.lambda(i) as f64);
+                        let cmf = self.xyz_table.eval(wl.lambda(i) as f64);
                         for c in 0..3 {
                             acc[c] += w[i] as f64 * cmf[c];
                         }
                     }
                 }
-                Xyz::from_array(acc.map(|v| v / self.y_integral))
+                Xyz::from_array(acc.map(|v| v * self.inv_y_integral))
             }
         }
     }
