@@ -302,6 +302,25 @@ pub(crate) fn closest_first(
             t_max = leaves(node, hit8);
         }
         let mut inner_hits = hit8 & node.inner;
+        // One or two inner children hit (the common cases) without the sort's data-dependent loop, whose branches
+        // the processor mispredicted (a tenth of the closest-hit time on camera rays); the same order as the sort.
+        if inner_hits.count_ones() <= 2 {
+            if inner_hits != 0 {
+                let a = inner_hits.trailing_zeros() as usize;
+                inner_hits &= inner_hits - 1;
+                let ea = (node.child[a], t_near[a]);
+                if inner_hits == 0 {
+                    next = Some(ea);
+                } else {
+                    let b = inner_hits.trailing_zeros() as usize;
+                    let eb = (node.child[b], t_near[b]);
+                    let (far, near) = if ea.1 < eb.1 { (eb, ea) } else { (ea, eb) };
+                    stack.push(far);
+                    next = Some(near);
+                }
+            }
+            continue;
+        }
         let mut inner = [(0u32, 0.0f32); 8];
         let mut n_inner = 0;
         while inner_hits != 0 {
@@ -355,7 +374,24 @@ pub(crate) fn any_hit(
             return true;
         }
         // Inner children in order of `c ^ oct`: pushed from the last to the second, the first visited next.
-        let mut order = xor_permute(hit8 & node.inner, oct);
+        let inner_hits = hit8 & node.inner;
+        if inner_hits.count_ones() <= 2 {
+            // The common cases without the loop (as in `closest_first`), in the same order.
+            if inner_hits != 0 {
+                let a = inner_hits.trailing_zeros();
+                let rest = inner_hits & (inner_hits - 1);
+                if rest == 0 {
+                    next = Some((node.child[a as usize], 0.0));
+                } else {
+                    let b = rest.trailing_zeros();
+                    let (first, second) = if a ^ oct < b ^ oct { (a, b) } else { (b, a) };
+                    stack.push((node.child[second as usize], 0.0));
+                    next = Some((node.child[first as usize], 0.0));
+                }
+            }
+            continue;
+        }
+        let mut order = xor_permute(inner_hits, oct);
         if order != 0 {
             let first = order.trailing_zeros();
             order &= order - 1;
