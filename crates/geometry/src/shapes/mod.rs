@@ -208,7 +208,7 @@ pub(crate) trait ShapeKind {
     fn area(&self, e: usize) -> f32;
 
     /// The vertices of element `e` if it is a plain triangle. The BVH stores these inline and intersects them with
-    /// [`intersect_inline_triangle`], which must give the same hit as [`ShapeKind::intersect_element`].
+    /// [`triangle::intersect_inline_triangle`], which must give the same hit as [`ShapeKind::intersect_element`].
     fn element_triangle(&self, e: usize) -> Option<[Vec3; 3]> {
         let _ = e;
         None

@@ -54,12 +54,12 @@ pub struct PathIntegrator {
     /// branches.
     pub split_dispersion: bool,
     /// Manifold next-event estimation through chains of smooth dielectric refractions, per wavelength
-    /// (Prismatic's `"bool manifoldnee"`, default false; see [`super::manifold`]). Unbiased: the BSDF-sampled
+    /// (Prismatic's `"bool manifoldnee"`, default false; see the `integrator::manifold` module). Unbiased: the BSDF-sampled
     /// paths it accounts for are left out of the path tracer's sum.
     pub manifold_nee: bool,
 }
 
-/// A camera-side estimator of radiance: what [`CameraPaths`] traces into each pixel.
+/// A camera-side estimator of radiance: what `CameraPaths` traces into each pixel.
 pub trait Radiance: Copy + Send + Sync {
     /// Radiance arriving at the camera along `o + t·d` at `time`, at the wavelengths of `wl` (which a dispersive
     /// surface may reduce to one); `first_hit` hears the first surface the path scatters at, for AOVs.

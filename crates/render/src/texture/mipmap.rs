@@ -148,7 +148,7 @@ impl MipMap {
     }
 
     /// pbrt-v4's `point` lookup: the texel nearest to `st` in the level the footprint picks
-    /// ([`MipMap::discrete_level`]).
+    /// (`MipMap::discrete_level`).
     pub fn nearest(&self, st: Vec2, dst0: Vec2, dst1: Vec2) -> [f32; 3] {
         match self.discrete_level(dst0, dst1) {
             Some(level) => self.level(level).nearest(st, self.wrap),
@@ -157,7 +157,7 @@ impl MipMap {
     }
 
     /// pbrt-v4's `bilinear` lookup: bilinear interpolation at `st` in the level the footprint picks
-    /// ([`MipMap::discrete_level`]).
+    /// (`MipMap::discrete_level`).
     pub fn bilinear(&self, st: Vec2, dst0: Vec2, dst1: Vec2) -> [f32; 3] {
         match self.discrete_level(dst0, dst1) {
             Some(level) => self.bilerp(level, st),
