@@ -33,6 +33,7 @@ use rayon::prelude::*;
 use crate::animated::{transform_bounds, AnimatedTransform};
 use crate::bounds::Bounds3;
 use crate::collapse::{WideBvh, EMPTY_SLOT};
+use crate::huge_pages::{moved_to_huge_pages, vec_in_huge_pages};
 
 use crate::mesh::TriangleMesh;
 use crate::ray::{gamma, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
@@ -293,28 +294,25 @@ impl Blas {
         let alone: Vec<bool> =
             prims.par_iter().map(|&(s, e)| shapes[s as usize].element_triangle(e as usize).is_none()).collect();
         let bvh = WideBvh::build(&aabbs, 8, 4, &alone);
-        let slots: Vec<Tri4> = bvh
-            .slots
-            .par_chunks(4)
-            .map(|chunk| {
-                let mut block = Tri4::empty(INDIRECT);
-                for (lane, &i) in chunk.iter().enumerate() {
-                    if i == EMPTY_SLOT {
-                        continue;
-                    }
-                    let (s, e) = prims[i as usize];
-                    match shapes[s as usize].element_triangle(e as usize) {
-                        Some(tri) => {
-                            block.set(lane, &tri);
-                            block.prim[lane] = i;
-                        }
-                        None => block.prim[lane] = i | INDIRECT,
-                    }
+        let mut slots: Vec<Tri4> = vec_in_huge_pages(bvh.slots.len().div_ceil(4));
+        slots.par_extend(bvh.slots.par_chunks(4).map(|chunk| {
+            let mut block = Tri4::empty(INDIRECT);
+            for (lane, &i) in chunk.iter().enumerate() {
+                if i == EMPTY_SLOT {
+                    continue;
                 }
-                block
-            })
-            .collect();
-        let nodes = bvh.nodes;
+                let (s, e) = prims[i as usize];
+                match shapes[s as usize].element_triangle(e as usize) {
+                    Some(tri) => {
+                        block.set(lane, &tri);
+                        block.prim[lane] = i;
+                    }
+                    None => block.prim[lane] = i | INDIRECT,
+                }
+            }
+            block
+        }));
+        let nodes = moved_to_huge_pages(bvh.nodes);
         let shape_guide = shape_guide(&shape_starts);
         Ok(Self { shapes, shape_starts, shape_guide, nodes, slots, bounds })
     }

@@ -23,6 +23,7 @@ pub mod bilinear;
 pub mod bounds;
 mod collapse;
 pub mod gzip;
+mod huge_pages;
 pub mod mesh;
 pub mod ply;
 pub mod ray;
