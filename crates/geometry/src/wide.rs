@@ -336,12 +336,11 @@ pub(crate) fn closest_first(
             inner[k] = entry;
             n_inner += 1;
         }
-        if n_inner > 0 {
-            for &e in &inner[..n_inner - 1] {
-                stack.push(e);
-            }
-            next = Some(inner[n_inner - 1]);
+        // Three or more here, so `inner` is not empty.
+        for &e in &inner[..n_inner - 1] {
+            stack.push(e);
         }
+        next = Some(inner[n_inner - 1]);
     }
 }
 
@@ -391,17 +390,16 @@ pub(crate) fn any_hit(
             }
             continue;
         }
+        // Three or more here.
         let mut order = xor_permute(inner_hits, oct);
-        if order != 0 {
-            let first = order.trailing_zeros();
-            order &= order - 1;
-            while order != 0 {
-                let j = 31 - order.leading_zeros();
-                order &= !(1 << j);
-                stack.push((node.child[(j ^ oct) as usize], 0.0));
-            }
-            next = Some((node.child[(first ^ oct) as usize], 0.0));
+        let first = order.trailing_zeros();
+        order &= order - 1;
+        while order != 0 {
+            let j = 31 - order.leading_zeros();
+            order &= !(1 << j);
+            stack.push((node.child[(j ^ oct) as usize], 0.0));
         }
+        next = Some((node.child[(first ^ oct) as usize], 0.0));
     }
     false
 }

@@ -13,7 +13,7 @@ use crate::{check_finite, SpectrumError};
 /// A piecewise-constant density over `[min, max]` with `n` equal bins.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Distribution1D {
-    /// The density in each bin, `func / integral` (stored divided: a draw then costs one division, not three).
+    /// The density in each bin, `func / integral` (stored, as are `dx` and `inv_width`, so a draw needs no division).
     density: Vec<f64>,
     cdf: Vec<f64>,
     /// Guide table: `guide[g]` is the bin holding u = g/G, so a search only scans the bins between two entries

@@ -79,7 +79,7 @@ pub struct WavelengthSampler {
     cmf: Distribution1D,
     /// Stiles & Burch RGB → normalised XYZ of `observer`.
     sb_to_xyz: Mat3,
-    /// The observer's x̄ȳz̄ table.
+    /// The observer's x̄ȳz̄ table (`Observer::table` would pass a lazy initialisation on every lookup).
     xyz_table: &'static CmfTable,
     /// 1 / ∫ȳ dλ.
     inv_y_integral: f64,
