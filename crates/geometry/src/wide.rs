@@ -8,6 +8,8 @@
 //! The two loops, [`closest_first`] and [`any_hit`], serve both levels of the scene's BVH: their caller tests the
 //! leaves (triangles and shapes of an object, or the instances of the top level).
 
+use std::mem::MaybeUninit;
+
 use glam::{Vec3, Vec4};
 use obvhs::aabb::Aabb;
 
@@ -235,9 +237,14 @@ pub(crate) fn xor_permute(m: u32, x: u32) -> u32 {
 /// Entries of the traversal stack: a node index and the distance at which the ray enters its box. A fixed array
 /// that spills into a vector (which never allocates unless the fixed part is full), so that no tree depth can
 /// overflow it.
+///
+/// The array is left uninitialised: zeroing its 512 bytes at the start of every query (a `memset` call) was about
+/// 115 of the ~2,800 instructions of a closest-hit query on the 1M-triangle benchmark.
 struct NodeStack {
-    items: [(u32, f32); NODE_STACK],
+    /// Entries `..len` have been written by [`NodeStack::push`]; the rest are uninitialised.
+    items: [MaybeUninit<(u32, f32)>; NODE_STACK],
     len: usize,
+    /// Entries pushed while the array was full (so never empty unless `len == NODE_STACK`).
     spill: Vec<(u32, f32)>,
 }
 
@@ -248,13 +255,13 @@ const NODE_STACK: usize = 64;
 impl NodeStack {
     #[inline(always)]
     fn new() -> Self {
-        Self { items: [(0, 0.0); NODE_STACK], len: 0, spill: Vec::new() }
+        Self { items: [const { MaybeUninit::uninit() }; NODE_STACK], len: 0, spill: Vec::new() }
     }
 
     #[inline(always)]
     fn push(&mut self, e: (u32, f32)) {
         if self.len < NODE_STACK {
-            self.items[self.len] = e;
+            self.items[self.len].write(e);
             self.len += 1;
         } else {
             self.spill.push(e);
@@ -263,14 +270,22 @@ impl NodeStack {
 
     #[inline(always)]
     fn pop(&mut self) -> Option<(u32, f32)> {
-        if let Some(e) = self.spill.pop() {
-            return Some(e);
+        if self.len == NODE_STACK {
+            if let Some(e) = self.spill.pop() {
+                return Some(e);
+            }
         }
         if self.len == 0 {
             return None;
         }
         self.len -= 1;
-        Some(self.items[self.len])
+        // SAFETY: entry `len` (the old `len - 1`) was written by `push`, which wrote every entry below `len`, and
+        // nothing has overwritten it since with anything but another written entry. Measured: see the type's
+        // doc comment.
+        #[allow(unsafe_code)]
+        unsafe {
+            Some(self.items[self.len].assume_init())
+        }
     }
 }
 
