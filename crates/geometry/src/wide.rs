@@ -24,18 +24,17 @@ pub(crate) const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 
 /// Ray data for the node test.
 pub(crate) struct NodeRay {
     o: [f32; 3],
-    inv_d: [f32; 3],
-    /// Per axis, which side's planes the ray meets first: 1 (the maxima) if it travels to −, else 0.
-    near: [usize; 3],
+    /// The negated reciprocal direction: the test computes `(o − plane) · (−1/d)`, which is `(plane − o) · (1/d)`
+    /// bit for bit but for the sign of a zero (rounding to nearest is symmetric), and lets the 8-wide build take
+    /// each plane row straight from memory as the subtrahend.
+    neg_inv_d: [f32; 3],
 }
 
 impl NodeRay {
     pub(crate) fn new(o: Vec3, d: Vec3) -> Self {
         // Clamp tiny components so no inf or NaN enters the slab test; 1e20 bounds keep every product finite.
         let inv = |x: f32| if x.abs() < 1e-20 { 1e20f32.copysign(x) } else { 1.0 / x };
-        let inv_d = [inv(d.x), inv(d.y), inv(d.z)];
-        // The slab order follows the sign of the inverse (so −0.0 components are handled consistently).
-        Self { o: o.to_array(), inv_d, near: inv_d.map(|x| usize::from(x < 0.0)) }
+        Self { o: o.to_array(), neg_inv_d: [-inv(d.x), -inv(d.y), -inv(d.z)] }
     }
 }
 
@@ -43,8 +42,8 @@ impl NodeRay {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(crate) struct WideNode {
-    /// `planes[axis][side][child]`: child boxes' minimum (side 0) and maximum (side 1) planes. Empty child slots
-    /// have a minimum of +∞ and a maximum of −∞, so no ray meets them.
+    /// `planes[axis][side][child]`: child boxes' minimum (side 0) and maximum (side 1) planes (+∞ and −∞ in an
+    /// empty slot, which the slab test masks out by `valid`).
     planes: [[[f32; 8]; 2]; 3],
     /// For an inner child its node index; for a leaf its first slot (the leaf's primitives are `count` slots from
     /// there); 0 for an empty slot.
@@ -53,12 +52,20 @@ pub(crate) struct WideNode {
     count: [u8; 8],
     /// Bit `c` set if child `c` is an inner node.
     pub(crate) inner: u32,
+    /// Bit `c` set if slot `c` holds a child: an empty slot's infinite planes give each axis the whole line as
+    /// its interval in [`WideNode::slabs4`]'s lesser/greater form, so the test masks it out instead.
+    valid: u32,
 }
 
 impl WideNode {
     /// A node with eight empty slots.
-    pub(crate) const EMPTY: Self =
-        Self { planes: [[[f32::INFINITY; 8], [f32::NEG_INFINITY; 8]]; 3], child: [0; 8], count: [0; 8], inner: 0 };
+    pub(crate) const EMPTY: Self = Self {
+        planes: [[[f32::INFINITY; 8], [f32::NEG_INFINITY; 8]]; 3],
+        child: [0; 8],
+        count: [0; 8],
+        inner: 0,
+        valid: 0,
+    };
 
     /// Sets child `c`'s box.
     pub(crate) fn set_box(&mut self, c: usize, b: &Aabb) {
@@ -66,6 +73,7 @@ impl WideNode {
             self.planes[axis][0][c] = b.min[axis];
             self.planes[axis][1][c] = b.max[axis];
         }
+        self.valid |= 1 << c;
     }
 
     /// Makes child `c` an inner node: node `index`.
@@ -88,7 +96,7 @@ impl WideNode {
         let p = &self.planes;
         let min = Vec3::new(p[0][0][c], p[1][0][c], p[2][0][c]);
         let max = Vec3::new(p[0][1][c], p[1][1][c], p[2][1][c]);
-        (min.x <= max.x).then_some(Bounds3 { min, max })
+        (self.valid & (1 << c) != 0).then_some(Bounds3 { min, max })
     }
 
     /// Child `c`'s node index, if it is an inner node.
@@ -116,29 +124,27 @@ impl WideNode {
     ///
     /// `(plane − o) · (1/d)` carries only a relative error of a few ulps, and pbrt's `1 + 2γ(3)` widening of the
     /// far distance makes the test conservative (no ray that touches a box is culled, even one grazing a box face
-    /// from an origin on that face).
+    /// from an origin on that face). Each axis's entry and exit are the lesser and greater of its two planes'
+    /// distances, which are ordered as the planes are (rounding is monotonic): the same values as choosing the
+    /// planes by the direction's sign, without the per-ray row offsets.
     #[inline(always)]
     fn slabs4(&self, r: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
         let [ox, oy, oz] = r.o.map(Vec4::splat);
-        let [ix, iy, iz] = r.inv_d.map(Vec4::splat);
-        let [nx, ny, nz] = r.near.map(|n| n & 1);
+        let [ix, iy, iz] = r.neg_inv_d.map(Vec4::splat);
         let t_max4 = Vec4::splat(t_max);
         let mut mask = 0u32;
         let mut t_near = [0.0f32; 8];
         for i in 0..2 {
             let load = |axis: usize, side: usize| Vec4::from_slice(&self.planes[axis][side][4 * i..4 * i + 4]);
-            let tx0 = (load(0, nx) - ox) * ix;
-            let tx1 = (load(0, 1 - nx) - ox) * ix;
-            let ty0 = (load(1, ny) - oy) * iy;
-            let ty1 = (load(1, 1 - ny) - oy) * iy;
-            let tz0 = (load(2, nz) - oz) * iz;
-            let tz1 = (load(2, 1 - nz) - oz) * iz;
-            let t0 = tx0.max(ty0).max(tz0).max(Vec4::ZERO);
-            let t1 = (tx1.min(ty1).min(tz1) * FAR_SCALE).min(t_max4);
+            let (xa, xb) = ((ox - load(0, 0)) * ix, (ox - load(0, 1)) * ix);
+            let (ya, yb) = ((oy - load(1, 0)) * iy, (oy - load(1, 1)) * iy);
+            let (za, zb) = ((oz - load(2, 0)) * iz, (oz - load(2, 1)) * iz);
+            let t0 = xa.min(xb).max(ya.min(yb)).max(za.min(zb)).max(Vec4::ZERO);
+            let t1 = (xa.max(xb).min(ya.max(yb)).min(za.max(zb)) * FAR_SCALE).min(t_max4);
             mask |= t0.cmple(t1).bitmask() << (4 * i);
             t0.write_to_slice(&mut t_near[4 * i..4 * i + 4]);
         }
-        (mask, t_near)
+        (mask & self.valid, t_near)
     }
 }
 
@@ -191,18 +197,20 @@ fn slabs8(node: &WideNode, r: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
         }
     }
     let p = &node.planes;
-    let [nx, ny, nz] = r.near.map(|n| n & 1);
     let dist = |plane: &[f32; 8], axis: usize| {
-        _mm256_mul_ps(_mm256_sub_ps(load(plane), _mm256_set1_ps(r.o[axis])), _mm256_set1_ps(r.inv_d[axis]))
+        _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(r.o[axis]), load(plane)), _mm256_set1_ps(r.neg_inv_d[axis]))
     };
+    let (xa, xb) = (dist(&p[0][0], 0), dist(&p[0][1], 0));
+    let (ya, yb) = (dist(&p[1][0], 1), dist(&p[1][1], 1));
+    let (za, zb) = (dist(&p[2][0], 2), dist(&p[2][1], 2));
     // Vec4's `max`/`min` are `maxps(self, rhs)`/`minps(self, rhs)`, kept in the same operand order here.
     let t0 = _mm256_max_ps(
-        _mm256_max_ps(_mm256_max_ps(dist(&p[0][nx], 0), dist(&p[1][ny], 1)), dist(&p[2][nz], 2)),
+        _mm256_max_ps(_mm256_max_ps(_mm256_min_ps(xa, xb), _mm256_min_ps(ya, yb)), _mm256_min_ps(za, zb)),
         _mm256_setzero_ps(),
     );
     let t1 = _mm256_min_ps(
         _mm256_mul_ps(
-            _mm256_min_ps(_mm256_min_ps(dist(&p[0][1 - nx], 0), dist(&p[1][1 - ny], 1)), dist(&p[2][1 - nz], 2)),
+            _mm256_min_ps(_mm256_min_ps(_mm256_max_ps(xa, xb), _mm256_max_ps(ya, yb)), _mm256_max_ps(za, zb)),
             _mm256_set1_ps(FAR_SCALE),
         ),
         _mm256_set1_ps(t_max),
@@ -211,7 +219,7 @@ fn slabs8(node: &WideNode, r: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
     let mut t_near = [0.0f32; 8];
     Vec4::from(_mm256_castps256_ps128(t0)).write_to_slice(&mut t_near[..4]);
     Vec4::from(_mm256_extractf128_ps::<1>(t0)).write_to_slice(&mut t_near[4..]);
-    (mask, t_near)
+    (mask & node.valid, t_near)
 }
 
 /// The ray's octant as the collapse orders a node's children by it: bit 2 for a negative x direction, bit 1 for
@@ -500,7 +508,7 @@ mod tests {
                         for a in 0..3 {
                             let (lo, hi) = (node.planes[a][0][c] as f64, node.planes[a][1][c] as f64);
                             let (oa, da) = (o[a] as f64, d[a] as f64);
-                            if lo > hi {
+                            if node.valid & (1 << c) == 0 {
                                 t0 = f64::INFINITY; // an empty slot
                             }
                             if da == 0.0 {
