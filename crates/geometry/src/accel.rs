@@ -43,7 +43,7 @@ use crate::shapes::{
 };
 use crate::simd::{with_best_simd, Portable};
 use crate::transform::Transform;
-use crate::wide::{any_hit, closest_first, octant, NodeRay, WideNode};
+use crate::wide::{any_hit, closest_first, octant, prefetch_lines, NodeRay, WideNode};
 use crate::GeometryError;
 
 /// A ray–scene intersection: anything that answers closest-hit and occlusion queries.
@@ -377,14 +377,25 @@ impl Blas {
     #[inline]
     fn closest(&self, o: Vec3, d: Vec3, instance: u32, best: &mut Closest) {
         with_best_simd!(test => {
-            let ray = ShapeRay::new(o, d);
-            closest_first(test, &self.nodes, &NodeRay::new(o, d), best.hit.t, |node, mask| {
+            let (ray, node_ray) = (ShapeRay::new(o, d), NodeRay::new(o, d));
+            let prefetch = |node: &WideNode, mask| self.prefetch_leaves(node, mask);
+            closest_first(test, &self.nodes, &node_ray, best.hit.t, prefetch, |node, mask| {
                 for (first, count) in node.leaves(mask) {
                     self.closest_in_leaf(&ray, first, count, instance, best);
                 }
                 best.hit.t
             })
         })
+    }
+
+    /// Asks the caches for the first block of each leaf among the children `mask` of `node`.
+    #[inline(always)]
+    fn prefetch_leaves(&self, node: &WideNode, mask: u32) {
+        for (first, _) in node.leaves(mask) {
+            if let Some(b) = self.slots.get((first >> 2) as usize) {
+                prefetch_lines(b);
+            }
+        }
     }
 
     /// Tests the leaf of the `count` primitives from slot `first` (a multiple of four) and updates `best`.
@@ -423,8 +434,9 @@ impl Blas {
     #[inline]
     fn any(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         with_best_simd!(test => {
-            let ray = ShapeRay::new(o, d);
-            any_hit(test, &self.nodes, &NodeRay::new(o, d), octant(d), t_max, |node, mask| {
+            let (ray, node_ray) = (ShapeRay::new(o, d), NodeRay::new(o, d));
+            let prefetch = |node: &WideNode, mask| self.prefetch_leaves(node, mask);
+            any_hit(test, &self.nodes, &node_ray, octant(d), t_max, prefetch, |node, mask| {
                 node.leaves(mask).any(|(first, count)| self.any_in_leaf(&ray, first, count, t_max))
             })
         })
@@ -747,14 +759,21 @@ impl GeometryScene {
             let (o, d) = inst.to_instance(ray.o, ray.d);
             self.objects[inst.object as usize].closest(o, d, i, &mut best);
         } else {
-            closest_first(Portable, &self.tlas.nodes, &NodeRay::new(ray.o, ray.d), best.hit.t, |node, mask| {
-                for i in self.tlas.instances(node, mask) {
-                    let inst = &self.instances[i as usize];
-                    let (o, d) = inst.to_instance(ray.o, ray.d);
-                    self.objects[inst.object as usize].closest(o, d, i, &mut best);
-                }
-                best.hit.t
-            });
+            closest_first(
+                Portable,
+                &self.tlas.nodes,
+                &NodeRay::new(ray.o, ray.d),
+                best.hit.t,
+                |_, _| {},
+                |node, mask| {
+                    for i in self.tlas.instances(node, mask) {
+                        let inst = &self.instances[i as usize];
+                        let (o, d) = inst.to_instance(ray.o, ray.d);
+                        self.objects[inst.object as usize].closest(o, d, i, &mut best);
+                    }
+                    best.hit.t
+                },
+            );
         }
         if !self.moving.is_empty() {
             self.closest_moving(ray, &mut best);
@@ -768,14 +787,21 @@ impl GeometryScene {
     #[inline(never)]
     fn closest_moving(&self, ray: &Ray, best: &mut Closest) {
         let n_static = self.instances.len() as u32;
-        closest_first(Portable, &self.moving_tlas.nodes, &NodeRay::new(ray.o, ray.d), best.hit.t, |node, mask| {
-            for k in self.moving_tlas.instances(node, mask) {
-                let inst = self.moving_at(n_static + k, ray.time);
-                let (o, d) = inst.to_instance(ray.o, ray.d);
-                self.objects[inst.object as usize].closest(o, d, n_static + k, best);
-            }
-            best.hit.t
-        });
+        closest_first(
+            Portable,
+            &self.moving_tlas.nodes,
+            &NodeRay::new(ray.o, ray.d),
+            best.hit.t,
+            |_, _| {},
+            |node, mask| {
+                for k in self.moving_tlas.instances(node, mask) {
+                    let inst = self.moving_at(n_static + k, ray.time);
+                    let (o, d) = inst.to_instance(ray.o, ray.d);
+                    self.objects[inst.object as usize].closest(o, d, n_static + k, best);
+                }
+                best.hit.t
+            },
+        );
     }
 
     /// True if a moving instance, placed where it is at the ray's time, is hit with `0 < t < t_max`.
@@ -783,13 +809,21 @@ impl GeometryScene {
     #[inline(never)]
     fn occluded_moving(&self, ray: &Ray, t_max: f32) -> bool {
         let n_static = self.instances.len() as u32;
-        any_hit(Portable, &self.moving_tlas.nodes, &NodeRay::new(ray.o, ray.d), octant(ray.d), t_max, |node, mask| {
-            self.moving_tlas.instances(node, mask).any(|k| {
-                let inst = self.moving_at(n_static + k, ray.time);
-                let (o, d) = inst.to_instance(ray.o, ray.d);
-                self.objects[inst.object as usize].any(o, d, t_max)
-            })
-        })
+        any_hit(
+            Portable,
+            &self.moving_tlas.nodes,
+            &NodeRay::new(ray.o, ray.d),
+            octant(ray.d),
+            t_max,
+            |_, _| {},
+            |node, mask| {
+                self.moving_tlas.instances(node, mask).any(|k| {
+                    let inst = self.moving_at(n_static + k, ray.time);
+                    let (o, d) = inst.to_instance(ray.o, ray.d);
+                    self.objects[inst.object as usize].any(o, d, t_max)
+                })
+            },
+        )
     }
 
     /// The closest hit with `0 < t < t_max`, as [`Accel::intersect`] finds it, with the surface's first derivatives
@@ -827,13 +861,21 @@ impl Accel for GeometryScene {
             let (o, d) = inst.to_instance(ray.o, ray.d);
             return self.objects[inst.object as usize].any(o, d, t_max);
         }
-        any_hit(Portable, &self.tlas.nodes, &NodeRay::new(ray.o, ray.d), octant(ray.d), t_max, |node, mask| {
-            self.tlas.instances(node, mask).any(|i| {
-                let inst = &self.instances[i as usize];
-                let (o, d) = inst.to_instance(ray.o, ray.d);
-                self.objects[inst.object as usize].any(o, d, t_max)
-            })
-        })
+        any_hit(
+            Portable,
+            &self.tlas.nodes,
+            &NodeRay::new(ray.o, ray.d),
+            octant(ray.d),
+            t_max,
+            |_, _| {},
+            |node, mask| {
+                self.tlas.instances(node, mask).any(|i| {
+                    let inst = &self.instances[i as usize];
+                    let (o, d) = inst.to_instance(ray.o, ray.d);
+                    self.objects[inst.object as usize].any(o, d, t_max)
+                })
+            },
+        )
     }
 
     fn bounds(&self) -> Bounds3 {
