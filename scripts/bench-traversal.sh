@@ -9,6 +9,8 @@
 #   scripts/bench-traversal.sh bounce           # only the benchmarks whose name matches (criterion's filter)
 #   TRAVERSAL_EMBREE_ROBUST=1 TRAVERSAL_EMBREE_QUALITY=high scripts/bench-traversal.sh   # Embree's other modes
 #   TRAVERSAL_CPU_TIME=1 scripts/bench-traversal.sh   # one thread, timed by the thread's CPU time (shared machines)
+#   INTERLEAVED=20 scripts/bench-traversal.sh   # one thread, project and Embree timed back to back in each of 20
+#                                               # rounds (CPU time): the ratio to a few per cent on a noisy machine
 #
 # Installs Embree (scripts/install-embree.sh) if it is missing. Numbers depend on the machine and its load.
 set -euo pipefail
@@ -20,6 +22,14 @@ if ! ldconfig -p 2>/dev/null | grep -q 'libembree3\.so\b'; then
 fi
 target=${CARGO_TARGET_DIR:-target}
 cargo build --release -q -p geometry --features embree --bench embree
+if [[ -n ${INTERLEAVED:-} ]]; then
+  for ((run = 1; run <= runs; run++)); do
+    echo "run $run of $runs" >&2
+    TRAVERSAL_INTERLEAVED=$INTERLEAVED cargo bench -q -p geometry --features embree --bench embree 2>/dev/null |
+      grep '^|'
+  done
+  exit
+fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 for ((run = 1; run <= runs; run++)); do
