@@ -43,7 +43,7 @@ use crate::shapes::{
 };
 use crate::simd::{with_best_simd, Portable};
 use crate::transform::Transform;
-use crate::wide::{any_hit, closest_first, octant, prefetch_lines, NodeRay, WideNode};
+use crate::wide::{any_hit, closest_first, octant, prefetch_leaf_blocks, NodeRay, WideNode};
 use crate::GeometryError;
 
 /// A ray–scene intersection: anything that answers closest-hit and occlusion queries.
@@ -378,7 +378,7 @@ impl Blas {
     fn closest(&self, o: Vec3, d: Vec3, instance: u32, best: &mut Closest) {
         with_best_simd!(test => {
             let (ray, node_ray) = (ShapeRay::new(o, d), NodeRay::new(o, d));
-            let prefetch = |node: &WideNode, mask| self.prefetch_leaves(node, mask);
+            let prefetch = |node: &WideNode, mask| prefetch_leaf_blocks(&self.slots, node, mask, LEAF_PREFETCH_LINES);
             closest_first(test, &self.nodes, &node_ray, best.hit.t, prefetch, |node, mask| {
                 for (first, count) in node.leaves(mask) {
                     self.closest_in_leaf(&ray, first, count, instance, best);
@@ -386,16 +386,6 @@ impl Blas {
                 best.hit.t
             })
         })
-    }
-
-    /// Asks the caches for the first block of each leaf among the children `mask` of `node`.
-    #[inline(always)]
-    fn prefetch_leaves(&self, node: &WideNode, mask: u32) {
-        for (first, _) in node.leaves(mask) {
-            if let Some(b) = self.slots.get((first >> 2) as usize) {
-                prefetch_lines(b);
-            }
-        }
     }
 
     /// Tests the leaf of the `count` primitives from slot `first` (a multiple of four) and updates `best`.
@@ -435,7 +425,7 @@ impl Blas {
     fn any(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         with_best_simd!(test => {
             let (ray, node_ray) = (ShapeRay::new(o, d), NodeRay::new(o, d));
-            let prefetch = |node: &WideNode, mask| self.prefetch_leaves(node, mask);
+            let prefetch = |node: &WideNode, mask| prefetch_leaf_blocks(&self.slots, node, mask, LEAF_PREFETCH_LINES);
             any_hit(test, &self.nodes, &node_ray, octant(d), t_max, prefetch, |node, mask| {
                 node.leaves(mask).any(|(first, count)| self.any_in_leaf(&ray, first, count, t_max))
             })
@@ -465,6 +455,10 @@ impl Blas {
         false
     }
 }
+
+/// Lines of a hit leaf's first block of four triangles asked for ahead of its test: a block is 160 bytes, three
+/// lines.
+const LEAF_PREFETCH_LINES: usize = 3;
 
 /// The lanes of a slot block whose primitives are intersected through their shapes.
 #[inline(always)]

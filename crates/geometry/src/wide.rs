@@ -381,38 +381,51 @@ pub(crate) fn closest_first<'n>(
     }
 }
 
-/// Asks the caches for the nodes of the inner children among `hit8` of `node` (their planes' three lines).
+/// Asks the caches for the nodes of the inner children among `hit8` of `node` (the first three of their four
+/// lines: the planes).
 #[inline(always)]
 fn prefetch_children(nodes: &[WideNode], node: &WideNode, hit8: u32) {
     let mut inner = hit8 & node.inner;
     while inner != 0 {
         let c = inner.trailing_zeros() as usize;
         inner &= inner - 1;
-        if let Some(n) = nodes.get(node.child[c] as usize) {
-            prefetch_lines(n);
-        }
+        prefetch_lines(nodes.as_ptr().wrapping_add(node.child[c] as usize), 3);
     }
 }
 
-/// Asks the caches for the first three 64-byte lines from `x` (a node's planes, a leaf block of four triangles).
+/// Asks the caches for the first `lines` lines of the first block of each leaf among the children `mask` of `node`,
+/// where a leaf's slots are kept in `blocks` of four (its first slot divided by four is its first block's index).
 #[inline(always)]
-pub(crate) fn prefetch_lines<T>(x: &T) {
+pub(crate) fn prefetch_leaf_blocks<T>(blocks: &[T], node: &WideNode, mask: u32, lines: usize) {
+    let mut leaves = mask & !node.inner;
+    while leaves != 0 {
+        let c = leaves.trailing_zeros() as usize;
+        leaves &= leaves - 1;
+        prefetch_lines(blocks.as_ptr().wrapping_add((node.child[c] >> 2) as usize), lines);
+    }
+}
+
+/// Asks the caches for `lines` 64-byte lines from `p`. Any address will do: the pointer is never dereferenced,
+/// so the callers compute it with `wrapping_add` and no bounds check (a stale or out-of-range address only wastes
+/// the prefetch).
+#[inline(always)]
+fn prefetch_lines<T>(p: *const T, lines: usize) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let p = (x as *const T).cast::<i8>();
-        // SAFETY: `_mm_prefetch` needs SSE, which every x86-64 processor has; a prefetch is a hint that reads
-        // nothing architecturally and cannot fault, whatever the address (`wrapping_add` keeps the pointer
-        // arithmetic defined). Measured: see `closest_first`'s doc comment and BENCHMARKS.md.
-        #[allow(unsafe_code)]
-        unsafe {
-            _mm_prefetch::<_MM_HINT_T0>(p);
-            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
-            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(128));
+        let p = p.cast::<i8>();
+        for line in 0..lines {
+            // SAFETY: `_mm_prefetch` needs SSE, which every x86-64 processor has; a prefetch is a hint that reads
+            // nothing architecturally and cannot fault, whatever the address (`wrapping_add` keeps the pointer
+            // arithmetic defined). Measured: see `closest_first`'s doc comment and BENCHMARKS.md.
+            #[allow(unsafe_code)]
+            unsafe {
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line));
+            }
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
+    let _ = (p, lines);
 }
 
 /// Occlusion traversal of `nodes` (root first) for the ray `r` of octant `oct` ([`octant`]): true as soon as
