@@ -453,15 +453,24 @@ pub(crate) fn any_hit(
     let mut stack = NodeStack::new();
     let mut next = Some((0u32, 0.0f32));
     let mut pending: Option<(&WideNode, u32)> = None;
-    while let Some((index, _)) = next.take().or_else(|| stack.pop()) {
-        let node = &nodes[index as usize];
-        let (hit8, _) = test.slabs(node, r, t_max);
-        prefetch_children(nodes, node, hit8);
+    loop {
+        // One call site of `leaves` (inside the loop, for the last node's leaves too), so that the compiler inlines
+        // it into the AVX2 build of the loop: occlusion of camera rays 8% faster, shadow rays 2.5% (BENCHMARKS.md).
+        // The same in `closest_first` made closest hits 2-3% slower, so it stays out of line there.
+        let visit = next.take().or_else(|| stack.pop()).map(|(index, _)| {
+            let node = &nodes[index as usize];
+            let (hit8, _) = test.slabs(node, r, t_max);
+            prefetch_children(nodes, node, hit8);
+            (node, hit8)
+        });
         if let Some((n, m)) = pending.take() {
             if leaves(n, m) {
                 return true;
             }
         }
+        let Some((node, hit8)) = visit else {
+            return false;
+        };
         if hit8 & !node.inner != 0 {
             prefetch(node, hit8);
             pending = Some((node, hit8));
@@ -495,7 +504,6 @@ pub(crate) fn any_hit(
         }
         next = Some((node.child[(first ^ oct) as usize], 0.0));
     }
-    pending.is_some_and(|(n, m)| leaves(n, m))
 }
 
 #[cfg(test)]
