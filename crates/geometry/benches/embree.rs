@@ -586,14 +586,15 @@ fn bench<M: Measurement>(c: &mut Criterion<M>, wall_clock: bool) {
 
 /// `TRAVERSAL_INTERLEAVED=N` (instead of criterion's benchmarks): for each set and query, `N` rounds on this
 /// thread, each tracing the whole set with the project and with Embree back to back (the order alternating
-/// between rounds; each timed pass after an untimed one of the same side) timed by the thread's CPU time; prints the median rates and the median of the rounds' ratios
-/// with its quartiles. The two timings of a round are a few tens of milliseconds apart, so the machine's drift,
-/// which moves criterion's separate benchmarks by ±10% on a shared machine, cancels in each ratio.
-/// `TRAVERSAL_LOG_ROUNDS=1` prints each round's two times.
+/// between rounds; each timed pass after an untimed one of the same side), timed by the thread's CPU time; prints
+/// the median rates and the median of the rounds' ratios with its quartiles. The two timings of a round are a few
+/// tens of milliseconds apart, so the machine's drift, which moves criterion's separate benchmarks by ±10% on a
+/// shared machine, cancels in each ratio. `TRAVERSAL_LOG_ROUNDS=1` prints each round's two times.
 fn interleaved(rounds: usize, sets: &[RaySet], ours: &GeometryScene, embree: &EmbreeScene) {
-    let median = |v: &mut Vec<f64>| {
+    // The value at fraction `f` of the sorted values (0.5: the median).
+    let quantile = |v: &mut Vec<f64>, f: f64| {
         v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
+        v[((v.len() - 1) as f64 * f).round() as usize]
     };
     println!("| query | rays | project Mrays/CPU-s | Embree Mrays/CPU-s | project / Embree, median (quartiles) |");
     println!("|---|---|---|---|---|");
@@ -638,10 +639,9 @@ fn interleaved(rounds: usize, sets: &[RaySet], ours: &GeometryScene, embree: &Em
                 }
             }
             let rate = |ns: f64| set.rays.len() as f64 / ns * 1e3;
-            let (o, e) = (rate(median(&mut ours_ns)), rate(median(&mut embree_ns)));
-            ratios.sort_by(f64::total_cmp);
-            let q = |f: f64| ratios[((ratios.len() - 1) as f64 * f).round() as usize];
-            println!("| {query} | {} | {o:.2} | {e:.2} | {:.3} ({:.3}–{:.3}) |", set.name, q(0.5), q(0.25), q(0.75));
+            let (o, e) = (rate(quantile(&mut ours_ns, 0.5)), rate(quantile(&mut embree_ns, 0.5)));
+            let [q1, q2, q3] = [0.25, 0.5, 0.75].map(|f| quantile(&mut ratios, f));
+            println!("| {query} | {} | {o:.2} | {e:.2} | {q2:.3} ({q1:.3}–{q3:.3}) |", set.name);
         }
     }
 }

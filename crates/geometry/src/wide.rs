@@ -340,6 +340,8 @@ pub(crate) fn closest_first<'n>(
             pending = Some((node, hit8));
         }
         let mut inner_hits = hit8 & node.inner;
+        // One or two inner children hit (the common cases) without the sort's data-dependent loop, whose branches
+        // the processor mispredicted (a tenth of the closest-hit time on camera rays); the same order as the sort.
         if inner_hits.count_ones() <= 2 {
             if inner_hits != 0 {
                 let a = inner_hits.trailing_zeros() as usize;
@@ -363,6 +365,7 @@ pub(crate) fn closest_first<'n>(
             let child = inner_hits.trailing_zeros() as usize;
             inner_hits &= inner_hits - 1;
             let entry = (node.child[child], t_near[child]);
+            // Insertion sort, nearest last (popped first).
             let mut k = n_inner;
             while k > 0 && inner[k - 1].1 < entry.1 {
                 inner[k] = inner[k - 1];
@@ -371,6 +374,7 @@ pub(crate) fn closest_first<'n>(
             inner[k] = entry;
             n_inner += 1;
         }
+        // Three or more here, so `inner` is not empty.
         for &e in &inner[..n_inner - 1] {
             stack.push(e);
         }
