@@ -589,7 +589,8 @@ fn bench<M: Measurement>(c: &mut Criterion<M>, wall_clock: bool) {
 /// between rounds; each timed pass after an untimed one of the same side), timed by the thread's CPU time; prints
 /// the median rates and the median of the rounds' ratios with its quartiles. The two timings of a round are a few
 /// tens of milliseconds apart, so the machine's drift, which moves criterion's separate benchmarks by ±10% on a
-/// shared machine, cancels in each ratio. `TRAVERSAL_LOG_ROUNDS=1` prints each round's two times.
+/// shared machine, cancels in each ratio. `TRAVERSAL_LOG_ROUNDS=1` prints each round's two times;
+/// `TRAVERSAL_ONLY=occluded_bounce` (say) runs only the queries whose `query_set` name contains it.
 fn interleaved(rounds: usize, sets: &[RaySet], ours: &GeometryScene, embree: &EmbreeScene) {
     // The value at fraction `f` of the sorted values (0.5: the median).
     let quantile = |v: &mut Vec<f64>, f: f64| {
@@ -598,8 +599,9 @@ fn interleaved(rounds: usize, sets: &[RaySet], ours: &GeometryScene, embree: &Em
     };
     println!("| query | rays | project Mrays/CPU-s | Embree Mrays/CPU-s | project / Embree, median (quartiles) |");
     println!("|---|---|---|---|---|");
+    let only = std::env::var("TRAVERSAL_ONLY").unwrap_or_default();
     for query in ["closest", "occluded"] {
-        for set in sets {
+        for set in sets.iter().filter(|s| format!("{query}_{}", s.name).contains(&only)) {
             let time = |embree_side: bool| {
                 let start = ThreadCpuTime::now_ns();
                 let mut n = 0usize;

@@ -407,15 +407,25 @@ impl Blas {
                     };
                 }
             }
-            let mut rest = lanes & indirect;
-            while rest != 0 {
-                let lane = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                let prim = b.prim[lane] & !INDIRECT;
-                let (s, e) = self.locate(prim);
-                if let Some(hit) = self.shapes[s as usize].intersect_element(e as usize, ray, best.hit.t) {
-                    *best = Closest { hit, instance, prim, slot: NO_SLOT };
-                }
+            if lanes & indirect != 0 {
+                self.closest_indirect(ray, b, lanes & indirect, instance, best);
+            }
+        }
+    }
+
+    /// [`Blas::closest_in_leaf`] for the lanes `lanes` of block `b` whose primitives are intersected through their
+    /// shapes. Out of line, so that the triangles' loop does not carry this code's registers and setup (its f64
+    /// copies of the ray were computed for every query).
+    #[inline(never)]
+    fn closest_indirect(&self, ray: &ShapeRay, b: &Tri4, lanes: u32, instance: u32, best: &mut Closest) {
+        let mut rest = lanes;
+        while rest != 0 {
+            let lane = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let prim = b.prim[lane] & !INDIRECT;
+            let (s, e) = self.locate(prim);
+            if let Some(hit) = self.shapes[s as usize].intersect_element(e as usize, ray, best.hit.t) {
+                *best = Closest { hit, instance, prim, slot: NO_SLOT };
             }
         }
     }
@@ -442,14 +452,24 @@ impl Blas {
             if tris != 0 && intersect_tri4(&ray.tri, b, tris, t_max).mask != 0 {
                 return true;
             }
-            let mut rest = lanes & indirect;
-            while rest != 0 {
-                let lane = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                let (s, e) = self.locate(b.prim[lane] & !INDIRECT);
-                if self.shapes[s as usize].occludes_element(e as usize, ray, t_max) {
-                    return true;
-                }
+            if lanes & indirect != 0 && self.any_indirect(ray, b, lanes & indirect, t_max) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// [`Blas::any_in_leaf`] for the lanes `lanes` of block `b` whose primitives are intersected through their
+    /// shapes; out of line as [`Blas::closest_indirect`].
+    #[inline(never)]
+    fn any_indirect(&self, ray: &ShapeRay, b: &Tri4, lanes: u32, t_max: f32) -> bool {
+        let mut rest = lanes;
+        while rest != 0 {
+            let lane = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let (s, e) = self.locate(b.prim[lane] & !INDIRECT);
+            if self.shapes[s as usize].occludes_element(e as usize, ray, t_max) {
+                return true;
             }
         }
         false

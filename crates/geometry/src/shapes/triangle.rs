@@ -38,6 +38,8 @@ impl TriRay {
         };
         let kx = (kz + 1) % 3;
         let ky = (kx + 1) % 3;
+        // Indexed as arrays: `Vec3`'s indexing is a `match`, a chain of branches on the random axes of bounce rays.
+        let (o, d) = (o.to_array(), d.to_array());
         let dz = d[kz];
         Self { k: [kx, ky, kz], o: [o[kx], o[ky], o[kz]], s: Vec3::new(-d[kx] / dz, -d[ky] / dz, 1.0 / dz) }
     }
