@@ -11,6 +11,7 @@
 #   TRAVERSAL_CPU_TIME=1 scripts/bench-traversal.sh   # one thread, timed by the thread's CPU time (shared machines)
 #   INTERLEAVED=20 scripts/bench-traversal.sh   # one thread, project and Embree timed back to back in each of 20
 #                                               # rounds (CPU time): the ratio to a few per cent on a noisy machine
+#   INTERLEAVED=20 TRAVERSAL_ONLY=occluded_bounce scripts/bench-traversal.sh   # one query and ray set only
 #
 # Installs Embree (scripts/install-embree.sh) if it is missing. Numbers depend on the machine and its load.
 set -euo pipefail
