@@ -13,9 +13,8 @@ use crate::{check_finite, SpectrumError};
 /// A piecewise-constant density over `[min, max]` with `n` equal bins.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Distribution1D {
-    /// The density in each bin, `func / integral` (stored, as are `dx` and `inv_width`, so a draw needs no division).
-    density: Vec<f64>,
-    cdf: Vec<f64>,
+    /// Per bin, everything a draw reads (see [`Bin`]), so that a draw touches one record instead of three arrays.
+    bins: Vec<Bin>,
     /// Guide table: `guide[g]` is the bin holding u = g/G, so a search only scans the bins between two entries
     /// (same result as a full binary search, fewer steps).
     guide: Vec<u32>,
@@ -24,8 +23,23 @@ pub struct Distribution1D {
     max: f64,
     /// The bin width, `(max − min) / n`.
     dx: f64,
-    /// 1 / (cdf[j + 1] − cdf[j]) per bin (0 for empty bins).
-    inv_width: Vec<f64>,
+}
+
+/// One bin of a [`Distribution1D`]: its cdf at both edges, its density and the reciprocal of its probability, in
+/// one 32-byte record. Renderers draw from these tables at random several times per camera sample, and the
+/// tables' lines are mostly not in L1 by then: one record is one miss where three arrays were three.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(32))]
+struct Bin {
+    /// cdf at the bin's lower edge.
+    cdf: f64,
+    /// cdf at its upper edge (the next bin's `cdf`; 1 for the last).
+    next: f64,
+    /// The density in the bin, `func / integral` (stored, as are `dx` and `inv_width`, so a draw needs no
+    /// division).
+    density: f64,
+    /// 1 / (next − cdf) (0 for empty bins).
+    inv_width: f64,
 }
 
 /// One draw from a [`Distribution1D`].
@@ -79,7 +93,7 @@ impl Distribution1D {
             for c in cdf.iter_mut() {
                 *c /= integral;
             }
-            (func.iter().map(|&f| f / integral).collect(), integral)
+            (func.iter().map(|&f| f / integral).collect::<Vec<_>>(), integral)
         } else {
             for (i, c) in cdf.iter_mut().enumerate() {
                 *c = i as f64 / n as f64;
@@ -94,18 +108,23 @@ impl Distribution1D {
                 (cdf.partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1) as u32
             })
             .collect();
-        let inv_width = cdf.windows(2).map(|w| if w[1] > w[0] { 1.0 / (w[1] - w[0]) } else { 0.0 }).collect();
-        Ok(Self { density, cdf, guide, integral, min, max, dx, inv_width })
+        let bins = (0..n)
+            .map(|j| {
+                let (c0, c1) = (cdf[j], cdf[j + 1]);
+                Bin { cdf: c0, next: c1, density: density[j], inv_width: if c1 > c0 { 1.0 / (c1 - c0) } else { 0.0 } }
+            })
+            .collect();
+        Ok(Self { bins, guide, integral, min, max, dx })
     }
 
     /// Number of bins.
     pub fn len(&self) -> usize {
-        self.density.len()
+        self.bins.len()
     }
 
     /// True if there are no bins (never, by construction).
     pub fn is_empty(&self) -> bool {
-        self.density.is_empty()
+        self.bins.is_empty()
     }
 
     /// ∫ f(x) dx of the (unnormalised) bin values.
@@ -119,26 +138,32 @@ impl Distribution1D {
     }
 
     /// The normalised cdf at the bin edges (`len() + 1` values from 0 to 1).
-    pub fn cdf_table(&self) -> &[f64] {
-        &self.cdf
+    pub fn cdf_table(&self) -> Vec<f64> {
+        self.bins.iter().map(|b| b.cdf).chain([1.0]).collect()
     }
 
     /// Draws x from the density with `u ∈ [0, 1)`; see the module docs for the recipe.
     pub fn sample(&self, u: f64) -> Sample1D {
         let n = self.len();
         let u = u.clamp(0.0, 1.0);
-        // Binary search for the last edge j with cdf[j] <= u (restricted to a real bin), within the range the
-        // guide table brackets.
+        // The bin j with cdf[j] ≤ u < cdf[j + 1] (the last such edge when empty bins repeat a cdf value), between
+        // the bins the guide table gives for the ends of u's guide cell: the count of bins from `lo` whose upper
+        // edge is ≤ u. Most cells span at most three bins, counted without branches (a loop of one to three
+        // steps mispredicted its exit on most draws); wider ones (a narrow peak) take the loop.
         let g = self.guide.len() - 1;
         let gi = ((u * g as f64) as usize).min(g - 1);
-        let (lo, hi) = (self.guide[gi] as usize, (self.guide[gi + 1] as usize + 1).min(n));
-        // Counting the edges ≤ u after `lo` (the cdf is non-decreasing and cdf[lo] ≤ u up to rounding, when the
-        // count is 0 as in the binary search) gives the binary search's bin without its unpredictable branches:
-        // renderers draw u at random, and this is one of four draws per camera sample.
-        let j = (lo + self.cdf[lo + 1..=hi].iter().map(|&c| usize::from(c <= u)).sum::<usize>()).min(n - 1);
-        let t = ((u - self.cdf[j]) * self.inv_width[j]).clamp(0.0, 1.0);
+        let (lo, hi) = (self.guide[gi] as usize, self.guide[gi + 1] as usize);
+        let j = if hi <= lo + 2 {
+            let step = |k: usize| usize::from(self.bins[k.min(n - 1)].next <= u);
+            lo + step(lo) + step(lo + 1)
+        } else {
+            lo + self.bins[lo..=hi].iter().map(|b| usize::from(b.next <= u)).sum::<usize>()
+        }
+        .min(n - 1);
+        let b = &self.bins[j];
+        let t = ((u - b.cdf) * b.inv_width).clamp(0.0, 1.0);
         let x = (self.min + (j as f64 + t) * self.dx).min(self.max);
-        Sample1D { x, pdf: self.density[j], bin: j }
+        Sample1D { x, pdf: b.density, bin: j }
     }
 
     /// Density at `x` (0 outside the domain).
@@ -147,12 +172,12 @@ impl Distribution1D {
             return 0.0;
         }
         let j = (((x - self.min) / self.dx) as usize).min(self.len() - 1);
-        self.density[j]
+        self.bins[j].density
     }
 
     /// Probability of bin `j` (the seed's cdf(x_j) − cdf(x_{j−1})).
     pub fn bin_probability(&self, j: usize) -> f64 {
-        self.cdf[j + 1] - self.cdf[j]
+        self.bins[j].next - self.bins[j].cdf
     }
 
     /// The cdf at `x`: the inverse of [`Distribution1D::sample`], so that `sample(cdf(x)).x == x`.
@@ -166,7 +191,8 @@ impl Distribution1D {
         let s = (x - self.min) / self.dx;
         let j = (s as usize).min(self.len() - 1);
         let t = s - j as f64;
-        self.cdf[j] + t * (self.cdf[j + 1] - self.cdf[j])
+        let b = &self.bins[j];
+        b.cdf + t * (b.next - b.cdf)
     }
 
     /// Draws a bin index with probability proportional to its value; returns the index, its probability and `u`
@@ -178,7 +204,7 @@ impl Distribution1D {
         }
         let s = self.sample(u);
         let p = self.bin_probability(s.bin);
-        let remapped = if p > 0.0 { ((u - self.cdf[s.bin]) / p).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.0 };
+        let remapped = if p > 0.0 { ((u - self.bins[s.bin].cdf) / p).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.0 };
         (s.bin, p, remapped)
     }
 }
@@ -251,7 +277,7 @@ mod tests {
     fn seed_recipe_on_a_small_table() {
         // Bins [0,1), [1,2), [2,3), [3,4) with weights 1, 0, 3, 4: cdf = 0, 1/8, 1/8, 4/8, 1.
         let d = Distribution1D::new(&[1.0, 0.0, 3.0, 4.0], 0.0, 4.0).unwrap();
-        assert_eq!(d.cdf_table(), &[0.0, 0.125, 0.125, 0.5, 1.0]);
+        assert_eq!(d.cdf_table(), [0.0, 0.125, 0.125, 0.5, 1.0]);
         let s = d.sample(0.3125); // halfway through bin 2
         assert_eq!(s.bin, 2);
         assert!((s.x - 2.5).abs() < 1e-12);
@@ -270,12 +296,27 @@ mod tests {
             x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (x >> 11) as f64 / (1u64 << 53) as f64
         };
-        for n in [1usize, 2, 3, 7, 100, 471] {
-            let f: Vec<f64> = (0..n).map(|i| if i % 4 == 2 { 0.0 } else { next() * next() * 10.0 }).collect();
+        let peaked = |i: usize| (-((i as f64 - 100.0) / 8.0).powi(2)).exp();
+        for (n, is_peaked) in
+            [(1usize, false), (2, false), (3, false), (7, false), (100, false), (471, false), (200, true)]
+        {
+            // Random values with every fourth bin empty; or a narrow peak, whose tails put many bins in one guide
+            // cell (the search's loop rather than its fixed steps).
+            let f: Vec<f64> = (0..n)
+                .map(|i| {
+                    if is_peaked {
+                        peaked(i)
+                    } else if i % 4 == 2 {
+                        0.0
+                    } else {
+                        next() * next() * 10.0
+                    }
+                })
+                .collect();
             let d = Distribution1D::new(&f, 0.0, 1.0).unwrap();
             for k in 0..5000 {
                 let u = if k < 3 { [0.0, 1.0, 0.5][k] } else { next() };
-                let full = (d.cdf.partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1);
+                let full = (d.cdf_table().partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1);
                 assert_eq!(d.sample(u).bin, full, "n {n}, u {u}");
             }
         }
