@@ -477,7 +477,7 @@ impl Blas {
 }
 
 /// Lines of a hit leaf's first block of four triangles asked for ahead of its test: a block is 160 bytes, three
-/// lines.
+/// lines (its alignment keeps it from straddling a fourth; see [`Tri4`]).
 const LEAF_PREFETCH_LINES: usize = 3;
 
 /// The lanes of a slot block whose primitives are intersected through their shapes.
