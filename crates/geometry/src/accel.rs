@@ -43,7 +43,7 @@ use crate::shapes::{
 };
 use crate::simd::{with_best_simd, Portable};
 use crate::transform::Transform;
-use crate::wide::{any_hit, closest_first, octant, prefetch_leaf_blocks, NodeRay, WideNode};
+use crate::wide::{any_hit, closest_first, octant, prefetch_leaf_blocks, NodeRay, NodeTest, WideNode};
 use crate::GeometryError;
 
 /// A ray–scene intersection: anything that answers closest-hit and occlusion queries.
@@ -380,10 +380,14 @@ impl Blas {
             let (ray, node_ray) = (ShapeRay::new(o, d), NodeRay::new(o, d));
             let prefetch = |node: &WideNode, mask| prefetch_leaf_blocks(&self.slots, node, mask, LEAF_PREFETCH_LINES);
             closest_first(test, &self.nodes, &node_ray, best.hit.t, prefetch, |node, mask| {
-                for (first, count) in node.leaves(mask) {
-                    self.closest_in_leaf(&ray, first, count, instance, best);
-                }
-                best.hit.t
+                // Out of line (the loop calls it from two places) but compiled for the loop's instruction set:
+                // closest hits on the 1M-triangle benchmark 3.3-4.2% faster, 3% fewer instructions (BENCHMARKS.md).
+                test.leaf_test(|| {
+                    for (first, count) in node.leaves(mask) {
+                        self.closest_in_leaf(&ray, first, count, instance, best);
+                    }
+                    best.hit.t
+                })
             })
         })
     }

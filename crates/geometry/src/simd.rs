@@ -3,7 +3,7 @@
 //! The BVH's node test has two builds ([`crate::wide::NodeTest`]): [`Portable`], two 4-wide halves that any x86-64
 //! (or other) CPU runs, and [`Avx2`], one 8-wide pass. A query runs through [`with_best_simd!`], which checks once
 //! per process whether the CPU has AVX2 and, if so, runs the query's whole traversal (loop, node test and leaf
-//! tests, all inlined) in code compiled for AVX2. One binary thus serves every machine at the speed of the one it
+//! tests, inlined or, for the closest-hit leaf test, in a function of its own) in code compiled for AVX2. One binary thus serves every machine at the speed of the one it
 //! runs on. The top levels over instances keep the portable test: they are small and seldom the cost.
 //!
 //! `PRISMATIC_SIMD=portable` in the environment forces the portable build, to compare the two: they give the same
@@ -42,12 +42,29 @@ impl Avx2 {
             run_avx2(query)
         }
     }
+
+    /// `f()`, compiled with AVX2 enabled, in a function of its own (not inlined into the caller).
+    #[inline(always)]
+    pub(crate) fn run_out_of_line<R>(self, f: impl FnOnce() -> R) -> R {
+        // SAFETY: as for `run`: `self` proves the CPU supports AVX2.
+        #[allow(unsafe_code)]
+        unsafe {
+            run_avx2_out_of_line(f)
+        }
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn run_avx2<R>(query: impl FnOnce() -> R) -> R {
     query()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn run_avx2_out_of_line<R>(f: impl FnOnce() -> R) -> R {
+    f()
 }
 
 /// `with_best_simd!(t => body)`: evaluates `body` with `t` bound to the best node test for this CPU, [`Avx2`] (and

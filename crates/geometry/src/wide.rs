@@ -152,12 +152,22 @@ impl WideNode {
 pub(crate) trait NodeTest: Copy {
     /// See [`WideNode::slabs4`].
     fn slabs(self, node: &WideNode, r: &NodeRay, t_max: f32) -> (u32, [f32; 8]);
+
+    /// `f()` (a traversal's leaf test) compiled for this instruction set. A closure that the AVX2 loop calls
+    /// without inlining it is otherwise compiled for the baseline instruction set (SSE, two-operand forms, each
+    /// broadcast two instructions); the AVX2 build runs it in a function of its own instead.
+    fn leaf_test<R>(self, f: impl FnOnce() -> R) -> R;
 }
 
 impl NodeTest for Portable {
     #[inline(always)]
     fn slabs(self, node: &WideNode, r: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
         node.slabs4(r, t_max)
+    }
+
+    #[inline(always)]
+    fn leaf_test<R>(self, f: impl FnOnce() -> R) -> R {
+        f()
     }
 }
 
@@ -171,6 +181,11 @@ impl NodeTest for Avx2 {
         unsafe {
             slabs8(node, r, t_max)
         }
+    }
+
+    #[inline(always)]
+    fn leaf_test<R>(self, f: impl FnOnce() -> R) -> R {
+        self.run_out_of_line(f)
     }
 }
 
