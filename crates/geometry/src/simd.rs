@@ -3,8 +3,9 @@
 //! The BVH's node test has two builds ([`crate::wide::NodeTest`]): [`Portable`], two 4-wide halves that any x86-64
 //! (or other) CPU runs, and [`Avx2`], one 8-wide pass. A query runs through [`with_best_simd!`], which checks once
 //! per process whether the CPU has AVX2 and, if so, runs the query's whole traversal (loop, node test and leaf
-//! tests, inlined or, for the closest-hit leaf test, in a function of its own) in code compiled for AVX2. One binary thus serves every machine at the speed of the one it
-//! runs on. The top levels over instances keep the portable test: they are small and seldom the cost.
+//! tests, inlined or, for the closest-hit leaf test, in a function of its own) in code compiled for AVX2. One
+//! binary thus serves every machine at the speed of the one it runs on. The top levels over instances keep the
+//! portable test: they are small and seldom the cost.
 //!
 //! `PRISMATIC_SIMD=portable` in the environment forces the portable build, to compare the two: they give the same
 //! hits, bit for bit (no float operation changes, only how many lanes an instruction holds).
@@ -35,8 +36,8 @@ impl Avx2 {
     #[inline(always)]
     pub(crate) fn run<R>(self, query: impl FnOnce() -> R) -> R {
         // SAFETY: `run_avx2` requires only that the CPU supports AVX2, which `self` proves (`detect` checked it
-        // with `is_x86_feature_detected!`). Measured worth it: see BENCHMARKS.md, "The hit record, x86-64-v2, and the node test in
-        // one 8-wide pass".
+        // with `is_x86_feature_detected!`). Measured worth it: see BENCHMARKS.md, "The hit record, x86-64-v2, and
+        // the node test in one 8-wide pass".
         #[allow(unsafe_code)]
         unsafe {
             run_avx2(query)
