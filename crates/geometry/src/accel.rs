@@ -32,7 +32,7 @@ use rayon::prelude::*;
 
 use crate::animated::{transform_bounds, AnimatedTransform};
 use crate::bounds::Bounds3;
-use crate::collapse::{WideBvh, EMPTY_SLOT};
+use crate::collapse::{WideBvh, BIG_BVH, EMPTY_SLOT};
 use crate::huge_pages::{moved_to_huge_pages, vec_in_huge_pages};
 
 use crate::mesh::TriangleMesh;
@@ -207,6 +207,9 @@ struct Blas {
     /// (the loads of a leaf's data are the traversal's main cache misses on big meshes).
     slots: Vec<Tri4>,
     bounds: Bounds3,
+    /// A BVH of [`BIG_BVH`] primitives or more, whose nodes and leaves mostly miss the caches: its traversal also
+    /// prefetches a leaf's second block.
+    big: bool,
 }
 
 #[derive(Clone)]
@@ -314,7 +317,8 @@ impl Blas {
         }));
         let nodes = moved_to_huge_pages(bvh.nodes);
         let shape_guide = shape_guide(&shape_starts);
-        Ok(Self { shapes, shape_starts, shape_guide, nodes, slots, bounds })
+        let big = prims.len() >= BIG_BVH;
+        Ok(Self { shapes, shape_starts, shape_guide, nodes, slots, bounds, big })
     }
 
     /// The (shape, element) of flattened primitive `prim` (which must be below the total).
@@ -378,7 +382,8 @@ impl Blas {
     fn closest(&self, o: Vec3, d: Vec3, instance: u32, best: &mut Closest) {
         with_best_simd!(test => {
             let (ray, node_ray) = (ShapeRay::new(o, d), NodeRay::new(o, d));
-            let prefetch = |node: &WideNode, mask| prefetch_leaf_blocks(&self.slots, node, mask, LEAF_PREFETCH_LINES);
+            let prefetch =
+                |node: &WideNode, mask| prefetch_leaf_blocks(&self.slots, node, mask, LEAF_PREFETCH_LINES, self.big);
             closest_first(test, &self.nodes, &node_ray, best.hit.t, prefetch, |node, mask| {
                 // Out of line (the loop calls it from two places) but compiled for the loop's instruction set:
                 // closest hits on the 1M-triangle benchmark 3.3-4.2% faster, 3% fewer instructions (BENCHMARKS.md).
@@ -439,7 +444,8 @@ impl Blas {
     fn any(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         with_best_simd!(test => {
             let (ray, node_ray) = (ShapeRay::new(o, d), NodeRay::new(o, d));
-            let prefetch = |node: &WideNode, mask| prefetch_leaf_blocks(&self.slots, node, mask, LEAF_PREFETCH_LINES);
+            let prefetch =
+                |node: &WideNode, mask| prefetch_leaf_blocks(&self.slots, node, mask, LEAF_PREFETCH_LINES, self.big);
             any_hit(test, &self.nodes, &node_ray, octant(d), t_max, prefetch, |node, mask| {
                 node.leaves(mask).any(|(first, count)| self.any_in_leaf(&ray, first, count, t_max))
             })

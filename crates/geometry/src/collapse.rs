@@ -184,7 +184,7 @@ fn block_cost(primitives: usize) -> f32 {
     }
 }
 /// Primitives from which a BVH counts as big for [`block_cost`].
-const BIG_BVH: usize = 1 << 19;
+pub(crate) const BIG_BVH: usize = 1 << 19;
 /// The test of a primitive that is not a triangle (a sphere, disk or bilinear patch, in f64), as much as a node
 /// visit: with the cost of a block, `scenes/metals.pbrt` put its four spheres in one leaf that every ray tested, 14%
 /// slower than leaves of one sphere each.

@@ -412,15 +412,24 @@ fn prefetch_children(nodes: &[WideNode], node: &WideNode, hit8: u32) {
     }
 }
 
-/// Asks the caches for the first `lines` lines of the first block of each leaf among the children `mask` of `node`,
-/// where a leaf's slots are kept in `blocks` of four (its first slot divided by four is its first block's index).
+/// Asks the caches for the first `lines` lines of each block of each leaf among the children `mask` of `node`,
+/// where a leaf's slots are kept in `blocks` of four (its first slot divided by four is its first block's index; a
+/// leaf of more than four primitives has a second block after it, asked for too if `second_block`). The second
+/// block, on the 1M-triangle benchmark (5 runs of 10 interleaved rounds): closest hits on shadow rays 4.6% faster,
+/// occlusion of bounce and shadow rays 3.7% and 3.5%, bounce-ray closest hits 1.5%, camera rays level; on
+/// killeroo-simple, whose leaves stay in the caches, 1.7% slower (two paired comparisons), so the callers ask for it
+/// only in big BVHs.
 #[inline(always)]
-pub(crate) fn prefetch_leaf_blocks<T>(blocks: &[T], node: &WideNode, mask: u32, lines: usize) {
+pub(crate) fn prefetch_leaf_blocks<T>(blocks: &[T], node: &WideNode, mask: u32, lines: usize, second_block: bool) {
     let mut leaves = mask & !node.inner;
     while leaves != 0 {
         let c = leaves.trailing_zeros() as usize;
         leaves &= leaves - 1;
-        prefetch_lines(blocks.as_ptr().wrapping_add((node.child[c] >> 2) as usize), lines);
+        let p = blocks.as_ptr().wrapping_add((node.child[c] >> 2) as usize);
+        prefetch_lines(p, lines);
+        if second_block && node.count[c] > 4 {
+            prefetch_lines(p.wrapping_add(1), lines);
+        }
     }
 }
 
