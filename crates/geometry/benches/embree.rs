@@ -531,9 +531,10 @@ fn bench<M: Measurement>(c: &mut Criterion<M>, wall_clock: bool) {
     let sets = ray_sets(&ours, 256);
     let st = ours.bvh_stats();
     eprintln!(
-        "project BVH: {} nodes, {} leaves ({:.2} triangles each), {:.1} MB of nodes and {:.1} MB of leaves; SAH {:.2} \
-         (nodes {:.2}, leaves {:.2}; Embree's `verbose=2` prints its own in the same convention)",
+        "project BVH: {} nodes in {} levels, {} leaves ({:.2} triangles each), {:.1} MB of nodes and {:.1} MB of \
+         leaves; SAH {:.2} (nodes {:.2}, leaves {:.2}; Embree's `verbose=2` prints its own in the same convention)",
         st.nodes,
+        st.depth,
         st.leaves,
         st.primitives as f64 / st.leaves.max(1) as f64,
         st.node_bytes as f64 / 1e6,

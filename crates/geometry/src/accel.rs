@@ -200,6 +200,8 @@ struct Blas {
     /// The BVH's nodes (see [`WideNode`]); the root is node 0. Leaves hold up to eight primitives, in one or two
     /// blocks.
     nodes: Vec<WideNode>,
+    /// Levels of `nodes` (for [`GeometryScene::bvh_stats`]).
+    depth: u32,
     /// The BVH's leaf slots in blocks of four (slot `i` is lane `i % 4` of block `i / 4`; a leaf's slots start a
     /// block): each slot's triangle inline (zeros for indirect and empty slots), so triangles are tested without a
     /// lookup and four at a time, and its flattened primitive index, `| INDIRECT` for primitives that are not plain
@@ -315,10 +317,10 @@ impl Blas {
             }
             block
         }));
-        let nodes = moved_to_huge_pages(bvh.nodes);
+        let (nodes, depth) = (moved_to_huge_pages(bvh.nodes), bvh.depth);
         let shape_guide = shape_guide(&shape_starts);
         let big = prims.len() >= BIG_BVH;
-        Ok(Self { shapes, shape_starts, shape_guide, nodes, slots, bounds, big })
+        Ok(Self { shapes, shape_starts, shape_guide, nodes, depth, slots, bounds, big })
     }
 
     /// The (shape, element) of flattened primitive `prim` (which must be below the total).
@@ -987,6 +989,8 @@ pub struct BvhStats {
     pub node_bytes: usize,
     /// Bytes of the leaf blocks.
     pub leaf_bytes: usize,
+    /// Levels of nodes of the deepest object BVH.
+    pub depth: u32,
     /// Surface-area cost of the nodes in Embree's convention (as its `verbose=2` statistics print it): each
     /// node's surface area over its object's, summed (the roots count 1 each).
     pub sah_nodes: f64,
@@ -1005,6 +1009,7 @@ impl GeometryScene {
             };
             let root = area(&b.bounds);
             st.nodes += b.nodes.len();
+            st.depth = st.depth.max(b.depth);
             st.blocks += b.slots.len();
             st.node_bytes += std::mem::size_of_val(&b.nodes[..]);
             st.leaf_bytes += std::mem::size_of_val(&b.slots[..]);

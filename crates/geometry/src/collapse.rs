@@ -37,6 +37,8 @@ pub(crate) struct WideBvh {
     pub(crate) nodes: Vec<WideNode>,
     /// The primitive (an index into the boxes the BVH was built over) in each leaf slot, or [`EMPTY_SLOT`].
     pub(crate) slots: Vec<u32>,
+    /// Levels of nodes (1 for a root alone; 0 without nodes), which bounds a traversal's stack.
+    pub(crate) depth: u32,
 }
 
 /// A binary BVH over `aabbs`, one primitive per leaf: `obvhs`'s PLOC build and reinsertion optimiser with its
@@ -68,7 +70,7 @@ impl WideBvh {
     pub(crate) fn build(aabbs: &[Aabb], max_leaf: u32, block: u32, tested_alone: &[bool]) -> Self {
         assert!((1..=255).contains(&max_leaf) && block >= 1);
         if aabbs.is_empty() {
-            return Self { nodes: Vec::new(), slots: Vec::new() };
+            return Self { nodes: Vec::new(), slots: Vec::new(), depth: 0 };
         }
         let bvh2 = binary_bvh(aabbs);
         let b2 = &bvh2.nodes;
@@ -113,11 +115,13 @@ impl WideBvh {
 
         let mut nodes = vec![WideNode::EMPTY];
         let mut slots = Vec::with_capacity(aabbs.len() + aabbs.len() / 2);
-        // (binary node, wide node it becomes).
-        let mut work = vec![(0u32, 0u32)];
+        // (binary node, wide node it becomes, its level).
+        let mut work = vec![(0u32, 0u32, 1u32)];
+        let mut depth = 0;
         let mut subtree = Vec::new();
         let mut kids = Vec::with_capacity(8);
-        while let Some((i, w)) = work.pop() {
+        while let Some((i, w, level)) = work.pop() {
+            depth = depth.max(level);
             // The children: a root stored as a leaf is the root's only child.
             kids.clear();
             if i == 0 && c.as_leaf(i) {
@@ -158,7 +162,7 @@ impl WideBvh {
                     let index = nodes.len() as u32;
                     nodes.push(WideNode::EMPTY);
                     node.set_inner(slot, index);
-                    work.push((k, index));
+                    work.push((k, index, level + 1));
                 }
             }
             nodes[w as usize] = node;
@@ -166,7 +170,7 @@ impl WideBvh {
         while slots.len() % block as usize != 0 {
             slots.push(EMPTY_SLOT);
         }
-        Self { nodes, slots }
+        Self { nodes, slots, depth }
     }
 }
 
@@ -334,10 +338,11 @@ mod tests {
             assert_eq!(bvh.slots.len() % block as usize, 0);
             let mut seen = vec![0u32; n];
             // (node, the box its parent gives it): every child box lies inside its parent's.
-            let mut todo = vec![(0u32, None::<Bounds3>)];
-            let mut visited = 0;
-            while let Some((i, parent)) = todo.pop() {
+            let mut todo = vec![(0u32, None::<Bounds3>, 1u32)];
+            let (mut visited, mut depth) = (0, 0);
+            while let Some((i, parent, level)) = todo.pop() {
                 visited += 1;
+                depth = depth.max(level);
                 let node = &bvh.nodes[i as usize];
                 for c in 0..8 {
                     let Some(b) = node.child_box(c) else { continue };
@@ -345,7 +350,7 @@ mod tests {
                         assert!(p.min.cmple(b.min).all() && b.max.cmple(p.max).all(), "child box outside");
                     }
                     if let Some(child) = node.inner_child(c) {
-                        todo.push((child, Some(b)));
+                        todo.push((child, Some(b), level + 1));
                         continue;
                     }
                     let (first, count) = node.leaves(1 << c).next().unwrap();
@@ -359,6 +364,7 @@ mod tests {
                 }
             }
             assert_eq!(visited, bvh.nodes.len(), "every node is reached once");
+            assert_eq!(depth, bvh.depth, "the depth is the deepest node's level");
             assert!(seen.iter().all(|&k| k == 1), "every primitive in exactly one leaf ({n} primitives)");
         }
     }

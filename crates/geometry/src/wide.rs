@@ -324,7 +324,9 @@ impl NodeStack {
 /// whose test it leaves to the next visit, after that visit's slab test (or to the end), so that their misses
 /// overlap the next node's instead of following one another. Culling uses the closest distance known at each
 /// point, never nearer than the final one, so the hit is the same but for which of two primitives at exactly the
-/// same distance is reported.
+/// same distance is reported (or, rarely, a hit an ulp farther than the nearest: a box whose entry distance rounds
+/// up past the closest hit so far is culled, as in pbrt-v4's box test; a test of a BVH of nested tiny triangles
+/// meets it).
 #[inline(always)]
 pub(crate) fn closest_first<'n>(
     test: impl NodeTest,
@@ -543,6 +545,23 @@ mod tests {
     use crate::collapse::WideBvh;
     use crate::simd::with_best_simd;
     use obvhs::aabb::Aabb;
+
+    #[test]
+    fn the_node_stack_spills_past_its_array_and_pops_in_reverse_order() {
+        let mut stack = NodeStack::new();
+        let entry = |i: u32| (i, i as f32 * 0.5);
+        for round in 0..2 {
+            let n = 3 * NODE_STACK as u32 + round;
+            for i in 0..n {
+                stack.push(entry(i));
+            }
+            assert_eq!(stack.spill.len(), n as usize - NODE_STACK);
+            for i in (0..n).rev() {
+                assert_eq!(stack.pop(), Some(entry(i)));
+            }
+            assert_eq!(stack.pop(), None);
+        }
+    }
 
     #[test]
     fn xor_permute_moves_each_bit_to_its_index_xor_x() {

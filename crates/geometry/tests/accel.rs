@@ -568,3 +568,38 @@ fn an_instance_turning_a_quarter_turn_is_halfway_round_at_half_time() {
     let (x, y) = at(90.0);
     assert!(down(x, y, 7.0).is_some() && down(2.0, 0.0, -1.0).is_some());
 }
+
+#[test]
+fn a_bvh_hundreds_of_levels_deep_matches_brute_force() {
+    // Triangles shrinking around one point, each 0.5% smaller than the last, give a BVH hundreds of levels deep
+    // (the traversal stack's fixed array holds nine levels' worth when every child is hit; its spill into a vector
+    // is tested in the `wide` module).
+    let mut positions = Vec::new();
+    for k in 0..1500 {
+        let s = 0.995f32.powi(k);
+        positions.extend([Vec3::new(-s, -s, 0.1 * s), Vec3::new(s, -0.5 * s, -0.1 * s), Vec3::new(0.2 * s, s, 0.0)]);
+    }
+    let data = MeshData { indices: (0..positions.len() as u32).collect(), positions, ..Default::default() };
+    let scene = GeometryScene::build(vec![Object::new(vec![mesh(data)])], vec![identity(0)]).unwrap();
+    let depth = scene.bvh_stats().depth;
+    assert!(depth > 40, "depth {depth}");
+    let mut rng = Pcg32::seed_from_u64(11);
+    let mut hits = 0;
+    for i in 0..2000 {
+        let o = vec3(&mut rng, -2.0, 2.0);
+        let target = vec3(&mut rng, -0.3, 0.3) * if i % 2 == 0 { 1.0 } else { 0.01 };
+        let ray = Ray::new(o, (target - o).normalize());
+        let t_max = if i % 3 == 0 { (target - o).length() } else { f32::INFINITY };
+        let (a, b) = (scene.intersect(&ray, t_max), scene.intersect_brute_force(&ray, t_max));
+        // The distance to an ulp (the tiny triangles near the centre are often hit at the same float distance, and
+        // the traversal may report either of two such; or one an ulp farther, where the box test's rounding puts
+        // the nearer one's box an ulp beyond the closest hit so far).
+        match (a, b) {
+            (Some(a), Some(b)) => assert!(a.t.to_bits().abs_diff(b.t.to_bits()) <= 1, "ray {i}: {} vs {}", a.t, b.t),
+            (a, b) => assert_eq!(a.is_some(), b.is_some(), "ray {i}"),
+        }
+        assert_eq!(scene.occluded(&ray, t_max), b.is_some(), "ray {i}");
+        hits += usize::from(b.is_some());
+    }
+    assert!(hits > 1000, "{hits}");
+}
