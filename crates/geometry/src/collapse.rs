@@ -37,7 +37,7 @@ pub(crate) struct WideBvh {
     pub(crate) nodes: Vec<WideNode>,
     /// The primitive (an index into the boxes the BVH was built over) in each leaf slot, or [`EMPTY_SLOT`].
     pub(crate) slots: Vec<u32>,
-    /// Levels of nodes (1 for a root alone; 0 without nodes), which bounds a traversal's stack.
+    /// Levels of nodes (1 for a root alone; 0 without nodes), reported in the BVH statistics.
     pub(crate) depth: u32,
 }
 
