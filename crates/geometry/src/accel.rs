@@ -326,6 +326,9 @@ impl Blas {
     /// The (shape, element) of flattened primitive `prim` (which must be below the total).
     #[inline]
     fn locate(&self, prim: u32) -> (u32, u32) {
+        if self.shapes.len() == 1 {
+            return (0, prim); // an object of one shape (most are): no search
+        }
         locate_in(&self.shape_starts, &self.shape_guide, prim)
     }
 }
@@ -765,8 +768,12 @@ impl GeometryScene {
         }
     }
 
+    /// A finite origin and direction, a direction not zero, and `t_max > 0` (false for NaN). Tested three
+    /// coordinates at a time: this runs before every query, and the per-coordinate tests were ~45 instructions.
+    #[inline(always)]
     fn valid_ray(ray: &Ray, t_max: f32) -> bool {
-        ray.o.is_finite() && ray.d.is_finite() && ray.d != Vec3::ZERO && t_max > 0.0 && !t_max.is_nan()
+        let (o, d) = (Vec3A::from(ray.o), Vec3A::from(ray.d));
+        o.is_finite() && d.is_finite() && d != Vec3A::ZERO && t_max > 0.0
     }
 }
 

@@ -1,7 +1,7 @@
 //! Triangles of a [`TriangleMesh`]: the watertight ray–triangle test of Woop, Benthin and Wald (2013) with pbrt-v4's
 //! conservative `t > 0` bound, surface geometry from barycentrics, and uniform area sampling.
 
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec2, Vec3, Vec3A, Vec4};
 
 use super::{
     coordinate_system, d_normalize, sample_uniform_triangle, ElementHit, ShapeKind, ShapeRay, ShapeSample,
@@ -141,7 +141,9 @@ impl Tri4 {
     /// The triangle of lane `lane`.
     #[inline(always)]
     pub fn triangle(&self, lane: usize) -> [Vec3; 3] {
-        self.v.map(|v| Vec3::new(v[0][lane], v[1][lane], v[2][lane]))
+        // Indexed as arrays: a loaded address each, where `Vec4`'s indexing (a `match`) became a jump table.
+        let at = |v: &Vec4| AsRef::<[f32; 4]>::as_ref(v)[lane];
+        self.v.map(|v| Vec3::new(at(&v[0]), at(&v[1]), at(&v[2])))
     }
 
     /// Stores triangle `tri` in lane `lane`.
@@ -272,12 +274,16 @@ pub(crate) fn triangle_geom(mesh: &TriangleMesh, tri: usize, b: [f32; 3]) -> Sur
 /// [`triangle_geom`] given the triangle's vertex positions, which must equal `mesh.triangle_positions(tri)`: the
 /// BVH passes its inline copy, which the hit test has just read, so that a mesh without uvs or normals needs no
 /// further memory access (the index and vertex loads were 13% of the closest-hit time on a 1M-triangle mesh).
+///
+/// Computed in `Vec3A` (three coordinates per instruction), whose operations are `Vec3`'s per coordinate and in the
+/// same order (sums, dot and cross products alike), so the result is the same to the bit.
+#[inline(always)]
 pub(crate) fn triangle_geom_at(mesh: &TriangleMesh, tri: usize, positions: [Vec3; 3], b: [f32; 3]) -> SurfaceGeom {
-    let [p0, p1, p2] = positions;
+    let [p0, p1, p2] = positions.map(Vec3A::from);
     let [uv0, uv1, uv2] = mesh.triangle_uvs(tri);
-    let p = b[0] * p0 + b[1] * p1 + b[2] * p2;
-    let p_abs = (b[0] * p0).abs() + (b[1] * p1).abs() + (b[2] * p2).abs();
-    let p_error = gamma(7) * p_abs;
+    let (w0, w1, w2) = (b[0] * p0, b[1] * p1, b[2] * p2);
+    let p = w0 + w1 + w2;
+    let p_error = gamma(7) * (w0.abs() + w1.abs() + w2.abs());
     let uv = b[0] * uv0 + b[1] * uv1 + b[2] * uv2;
     let (dp02, dp12) = (p0 - p2, p1 - p2);
     let mut n = dp02.cross(dp12).normalize_or_zero();
@@ -286,21 +292,23 @@ pub(crate) fn triangle_geom_at(mesh: &TriangleMesh, tri: usize, positions: [Vec3
     }
     let (duv02, duv12) = (uv0 - uv2, uv1 - uv2);
     let det = duv02.x * duv12.y - duv02.y * duv12.x;
-    let (mut dpdu, mut dpdv) = (Vec3::ZERO, Vec3::ZERO);
+    let (mut dpdu, mut dpdv) = (Vec3A::ZERO, Vec3A::ZERO);
     if det.abs() >= 1e-9 {
         let inv = 1.0 / det;
         dpdu = (duv12.y * dp02 - duv02.y * dp12) * inv;
         dpdv = (duv02.x * dp12 - duv12.x * dp02) * inv;
         if dpdu.cross(dpdv).length_squared() == 0.0 || !dpdu.is_finite() || !dpdv.is_finite() {
-            dpdu = Vec3::ZERO;
+            dpdu = Vec3A::ZERO;
         }
     }
-    if dpdu == Vec3::ZERO {
-        (dpdu, dpdv) = coordinate_system(if n == Vec3::ZERO { Vec3::Z } else { n });
+    if dpdu == Vec3A::ZERO {
+        let (u, v) = coordinate_system(if n == Vec3A::ZERO { Vec3::Z } else { n.into() });
+        (dpdu, dpdv) = (u.into(), v.into());
     }
     let mut ns = n;
     let (mut shading_dpdu, mut shading_dpdv) = (dpdu, dpdv);
     if let Some([n0, n1, n2]) = mesh.triangle_normals(tri) {
+        let [n0, n1, n2] = [n0, n1, n2].map(Vec3A::from);
         if let Some(v) = (b[0] * n0 + b[1] * n1 + b[2] * n2).try_normalize() {
             ns = v;
             if n.dot(ns) < 0.0 {
@@ -309,10 +317,24 @@ pub(crate) fn triangle_geom_at(mesh: &TriangleMesh, tri: usize, positions: [Vec3
         }
         // pbrt-v4's Triangle: the shading tangents are ns × ∂p/∂u and ∂p/∂u made perpendicular to ns.
         let ts = ns.cross(dpdu);
-        (shading_dpdu, shading_dpdv) =
-            if ts.length_squared() > 0.0 { (ts.cross(ns), ts) } else { coordinate_system(ns) };
+        (shading_dpdu, shading_dpdv) = if ts.length_squared() > 0.0 {
+            (ts.cross(ns), ts)
+        } else {
+            let (u, v) = coordinate_system(ns.into());
+            (u.into(), v.into())
+        };
     }
-    SurfaceGeom { p, p_error, n, ns, uv, dpdu, dpdv, shading_dpdu, shading_dpdv }
+    SurfaceGeom {
+        p: p.into(),
+        p_error: p_error.into(),
+        n: n.into(),
+        ns: ns.into(),
+        uv,
+        dpdu: dpdu.into(),
+        dpdv: dpdv.into(),
+        shading_dpdu: shading_dpdu.into(),
+        shading_dpdv: shading_dpdv.into(),
+    }
 }
 
 /// Derivatives of triangle `tri` of `mesh` at barycentrics `b`, with respect to the texture (u, v) as pbrt-v4 takes
@@ -401,6 +423,7 @@ impl ShapeKind for TriangleMesh {
         triangle_geom(self, e, hit.b)
     }
 
+    #[inline(always)]
     fn surface_geom_of_triangle(&self, e: usize, hit: &ElementHit, positions: [Vec3; 3]) -> SurfaceGeom {
         triangle_geom_at(self, e, positions, hit.b)
     }
