@@ -164,7 +164,8 @@ impl Sphere {
         let Some((t0, t1, _, _)) = self.roots(ray) else {
             return false;
         };
-        // The first root with t > 0 decides, as in `intersect_t` (no point is clipped).
+        // The first root not ≤ 0 decides, as in `intersect_t` (no point is clipped), which also takes a NaN root
+        // for a hit (it fails both of that loop's tests).
         let t = if t0 <= 0.0 { t1 } else { t0 };
         if t <= 0.0 {
             return false;
