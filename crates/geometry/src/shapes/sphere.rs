@@ -173,8 +173,8 @@ impl Sphere {
         t < t_max as f64 || t.is_nan()
     }
 
-    /// The two roots `t0 ≤ t1` of the ray's quadratic (object space) and the object-space ray, or `None` if the
-    /// ray misses the sphere's surface.
+    /// The two roots `t0 ≤ t1` of the ray's quadratic (object space) and the object-space ray, or `None` if there
+    /// are none to test: the ray misses, its direction is zero, or the roots are degenerate (`q = 0`).
     #[inline]
     fn roots(&self, ray: &Ray) -> Option<(f64, f64, DVec3, DVec3)> {
         let (o, d) = self.place.ray_to_object(ray);
