@@ -12,6 +12,8 @@
 #   INTERLEAVED=20 scripts/bench-traversal.sh   # one thread, project and Embree timed back to back in each of 20
 #                                               # rounds (CPU time): the ratio to a few per cent on a noisy machine
 #   INTERLEAVED=20 TRAVERSAL_ONLY=occluded_bounce scripts/bench-traversal.sh   # one query and ray set only
+#   INTERLEAVED=20 TRAVERSAL_INTERLEAVED_THREADS=2 scripts/bench-traversal.sh   # the same on two threads (rayon,
+#                                               # chunks of 256 rays), timed by the wall clock
 #
 # Installs Embree (scripts/install-embree.sh) if it is missing. Numbers depend on the machine and its load.
 set -euo pipefail

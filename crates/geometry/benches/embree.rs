@@ -592,21 +592,26 @@ fn bench<M: Measurement>(c: &mut Criterion<M>, wall_clock: bool) {
 /// tens of milliseconds apart, so the machine's drift, which moves criterion's separate benchmarks by ±10% on a
 /// shared machine, cancels in each ratio. `TRAVERSAL_LOG_ROUNDS=1` prints each round's two times;
 /// `TRAVERSAL_ONLY=occluded_bounce` (say) runs only the queries whose `query_set` name contains it.
+/// `TRAVERSAL_INTERLEAVED_THREADS=2`: each pass on two threads (rayon over chunks of [`CHUNK`] rays, as the
+/// criterion benchmarks' two-thread rows), timed by the wall clock, so that the two sides share the caches and the
+/// memory bus as a two-thread renderer does.
 fn interleaved(rounds: usize, sets: &[RaySet], ours: &GeometryScene, embree: &EmbreeScene) {
     // The value at fraction `f` of the sorted values (0.5: the median).
     let quantile = |v: &mut Vec<f64>, f: f64| {
         v.sort_by(f64::total_cmp);
         v[((v.len() - 1) as f64 * f).round() as usize]
     };
-    println!("| query | rays | project Mrays/CPU-s | Embree Mrays/CPU-s | project / Embree, median (quartiles) |");
+    let two_threads = std::env::var("TRAVERSAL_INTERLEAVED_THREADS").is_ok_and(|v| v == "2");
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let unit = if two_threads { "Mrays/s, 2 threads" } else { "Mrays/CPU-s" };
+    println!("| query | rays | project {unit} | Embree {unit} | project / Embree, median (quartiles) |");
     println!("|---|---|---|---|---|");
     let only = std::env::var("TRAVERSAL_ONLY").unwrap_or_default();
     for query in ["closest", "occluded"] {
         for set in sets.iter().filter(|s| format!("{query}_{}", s.name).contains(&only)) {
-            let time = |embree_side: bool| {
-                let start = ThreadCpuTime::now_ns();
+            let trace = |embree_side: bool, rays: &[Ray], t_max: &[f32]| {
                 let mut n = 0usize;
-                for (r, &t) in set.rays.iter().zip(&set.t_max) {
+                for (r, &t) in rays.iter().zip(t_max) {
                     let hit = match (query, embree_side) {
                         ("closest", false) => black_box(ours.intersect(black_box(r), t)).is_some(),
                         ("closest", true) => black_box(embree.intersect(black_box(r), t)).is_some(),
@@ -615,8 +620,25 @@ fn interleaved(rounds: usize, sets: &[RaySet], ours: &GeometryScene, embree: &Em
                     };
                     n += usize::from(hit);
                 }
-                black_box(n);
-                (ThreadCpuTime::now_ns() - start) as f64
+                black_box(n)
+            };
+            let time = |embree_side: bool| {
+                if two_threads {
+                    let start = std::time::Instant::now();
+                    let n: usize = pool.install(|| {
+                        set.rays
+                            .par_chunks(CHUNK)
+                            .zip(set.t_max.par_chunks(CHUNK))
+                            .map(|(r, t)| trace(embree_side, r, t))
+                            .sum()
+                    });
+                    black_box(n);
+                    start.elapsed().as_nanos() as f64
+                } else {
+                    let start = ThreadCpuTime::now_ns();
+                    trace(embree_side, &set.rays, &set.t_max);
+                    (ThreadCpuTime::now_ns() - start) as f64
+                }
             };
             let (mut ours_ns, mut embree_ns, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
             for round in 0..rounds {
