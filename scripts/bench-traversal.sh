@@ -10,7 +10,8 @@
 #   TRAVERSAL_EMBREE_ROBUST=1 TRAVERSAL_EMBREE_QUALITY=high scripts/bench-traversal.sh   # Embree's other modes
 #   TRAVERSAL_CPU_TIME=1 scripts/bench-traversal.sh   # one thread, timed by the thread's CPU time (shared machines)
 #   INTERLEAVED=20 scripts/bench-traversal.sh   # one thread, project and Embree timed back to back in each of 20
-#                                               # rounds (CPU time): the ratio to a few per cent on a noisy machine
+#                                               # rounds (CPU time): the ratio to a few per cent on a noisy machine;
+#                                               # ends with the ratios over the runs (median, range, mean ± 95%)
 #   INTERLEAVED=20 TRAVERSAL_ONLY=occluded_bounce scripts/bench-traversal.sh   # one query and ray set only
 #   INTERLEAVED=20 TRAVERSAL_INTERLEAVED_THREADS=2 scripts/bench-traversal.sh   # the same on two threads (rayon,
 #                                               # chunks of 256 rays), timed by the wall clock
@@ -26,11 +27,32 @@ fi
 target=${CARGO_TARGET_DIR:-target}
 cargo build --release -q -p geometry --features embree --bench embree
 if [[ -n ${INTERLEAVED:-} ]]; then
+  tables=$(mktemp)
+  trap 'rm -f "$tables"' EXIT
   for ((run = 1; run <= runs; run++)); do
     echo "run $run of $runs" >&2
     TRAVERSAL_INTERLEAVED=$INTERLEAVED cargo bench -q -p geometry --features embree --bench embree 2>/dev/null |
-      grep '^|'
+      grep '^|' | tee -a "$tables"
   done
+  # Over the runs: each run's median ratio is one observation (rounds within a run share the machine's state, so
+  # runs, not rounds, are the independent samples); their median, range, and a 95% interval for their mean
+  # (Student's t), against which a target such as 0.8 can be read.
+  python3 - "$tables" "$runs" <<'PY'
+import re, statistics, sys
+T95 = {1: 12.71, 2: 4.30, 3: 3.18, 4: 2.78, 5: 2.57, 6: 2.45, 7: 2.36, 8: 2.31, 9: 2.26, 10: 2.23}
+ratios = {}
+for line in open(sys.argv[1]):
+    m = re.match(r'\| (closest|occluded) \| (\w+) \| [\d.]+ \| [\d.]+ \| ([\d.]+)', line)
+    if m:
+        ratios.setdefault((m[1], m[2]), []).append(float(m[3]))
+print(f"\nOver {sys.argv[2]} runs: project / Embree, median of the runs' medians (range); mean with its 95% interval")
+print("| query | rays | median (range) | mean ± 95% |")
+print("|---|---|---|---|")
+for (query, rays), v in ratios.items():
+    mean = statistics.mean(v)
+    half = T95.get(len(v) - 1, 2.0) * statistics.stdev(v) / len(v) ** 0.5 if len(v) > 1 else float('nan')
+    print(f"| {query} | {rays} | {statistics.median(v):.3f} ({min(v):.3f}–{max(v):.3f}) | {mean:.3f} ± {half:.3f} |")
+PY
   exit
 fi
 out=$(mktemp -d)
