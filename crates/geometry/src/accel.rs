@@ -390,7 +390,7 @@ impl Blas {
             let prefetch =
                 |node: &WideNode, mask| prefetch_leaf_blocks(&self.slots, node, mask, LEAF_PREFETCH_LINES, self.big);
             closest_first(test, &self.nodes, &node_ray, best.hit.t, prefetch, |node, mask| {
-                // Out of line (the loop calls it from two places) but compiled for the loop's instruction set:
+                // Out of line (the loop calls it from three places) but compiled for the loop's instruction set:
                 // closest hits on the 1M-triangle benchmark 3.3-4.2% faster, 3% fewer instructions (BENCHMARKS.md).
                 test.leaf_test(|| {
                     for (first, count) in node.leaves(mask) {
