@@ -502,8 +502,9 @@ pub(crate) fn any_hit(
             let node = &nodes[index as usize];
             let (hit8, _) = test.slabs(node, r, t_max);
             // All four lines, the children's indices and masks (read right after a node's test) with the planes: on
-            // the Zen 3 EPYC, one-thread occlusion of incoherent rays 2.5-3.6% faster, two threads level (16
-            // alternating runs); the closest-hit loop keeps three (1-2% slower with four). BENCHMARKS.md.
+            // the Zen 3 EPYC, one-thread occlusion of incoherent rays 0.6-3.6% faster (medians and means of 16
+            // alternating runs), two threads level; the closest-hit loop keeps three (1-2% slower with four).
+            // BENCHMARKS.md.
             prefetch_children(nodes, node, hit8, 4);
             (node, hit8)
         });
