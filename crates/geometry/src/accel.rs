@@ -33,7 +33,7 @@ use rayon::prelude::*;
 use crate::animated::{transform_bounds, AnimatedTransform};
 use crate::bounds::Bounds3;
 use crate::collapse::{WideBvh, BIG_BVH, EMPTY_SLOT};
-use crate::huge_pages::{moved_to_huge_pages, vec_in_huge_pages};
+use crate::huge_pages::LargeArray;
 
 use crate::mesh::TriangleMesh;
 use crate::ray::{gamma, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
@@ -199,7 +199,7 @@ struct Blas {
     shape_guide: Vec<u32>,
     /// The BVH's nodes (see [`WideNode`]); the root is node 0. Leaves hold up to eight primitives, in one or two
     /// blocks.
-    nodes: Vec<WideNode>,
+    nodes: LargeArray<WideNode>,
     /// Levels of `nodes` (for [`GeometryScene::bvh_stats`]).
     depth: u32,
     /// The BVH's leaf slots in blocks of four (slot `i` is lane `i % 4` of block `i / 4`; a leaf's slots start a
@@ -207,7 +207,7 @@ struct Blas {
     /// lookup and four at a time, and its flattened primitive index, `| INDIRECT` for primitives that are not plain
     /// triangles (and for empty slots). One record holds both, so that a leaf visit touches one stream of memory
     /// (the loads of a leaf's data are the traversal's main cache misses on big meshes).
-    slots: Vec<Tri4>,
+    slots: LargeArray<Tri4>,
     bounds: Bounds3,
     /// A BVH of [`BIG_BVH`] primitives or more, whose nodes and leaves mostly miss the caches: its traversal also
     /// prefetches a leaf's second block.
@@ -299,7 +299,7 @@ impl Blas {
         let alone: Vec<bool> =
             prims.par_iter().map(|&(s, e)| shapes[s as usize].element_triangle(e as usize).is_none()).collect();
         let bvh = WideBvh::build(&aabbs, 8, 4, &alone);
-        let mut slots: Vec<Tri4> = vec_in_huge_pages(bvh.slots.len().div_ceil(4));
+        let mut slots: Vec<Tri4> = Vec::with_capacity(bvh.slots.len().div_ceil(4));
         slots.par_extend(bvh.slots.par_chunks(4).map(|chunk| {
             let mut block = Tri4::empty(INDIRECT);
             for (lane, &i) in chunk.iter().enumerate() {
@@ -317,7 +317,7 @@ impl Blas {
             }
             block
         }));
-        let (nodes, depth) = (moved_to_huge_pages(bvh.nodes), bvh.depth);
+        let (slots, nodes, depth) = (LargeArray::new(slots), LargeArray::new(bvh.nodes), bvh.depth);
         let shape_guide = shape_guide(&shape_starts);
         let big = prims.len() >= BIG_BVH;
         Ok(Self { shapes, shape_starts, shape_guide, nodes, depth, slots, bounds, big })
@@ -1024,7 +1024,7 @@ impl GeometryScene {
                 continue;
             }
             st.sah_nodes += b.nodes.len().min(1) as f64;
-            for n in &b.nodes {
+            for n in b.nodes.iter() {
                 for c in 0..8 {
                     let Some(cb) = n.child_box(c) else { continue };
                     let a = area(&cb) / root;
