@@ -12,6 +12,7 @@
 #   INTERLEAVED=20 scripts/bench-traversal.sh   # one thread, project and Embree timed back to back in each of 20
 #                                               # rounds (CPU time): the ratio to a few per cent on a noisy machine;
 #                                               # ends with the ratios over the runs (median, range, mean ± 95%)
+#                                               # and the memory's latency measured before and after each run
 #   INTERLEAVED=20 TRAVERSAL_ONLY=occluded_bounce scripts/bench-traversal.sh   # one query and ray set only
 #   INTERLEAVED=20 TRAVERSAL_INTERLEAVED_THREADS=2 scripts/bench-traversal.sh   # the same on two threads (rayon,
 #                                               # chunks of 256 rays), timed by the wall clock
@@ -32,7 +33,7 @@ if [[ -n ${INTERLEAVED:-} ]]; then
   for ((run = 1; run <= runs; run++)); do
     echo "run $run of $runs" >&2
     TRAVERSAL_INTERLEAVED=$INTERLEAVED cargo bench -q -p geometry --features embree --bench embree 2>/dev/null |
-      grep '^|' | tee -a "$tables"
+      grep -E '^(\||memory latency)' | tee -a "$tables"
   done
   # Over the runs: each run's median ratio is one observation (rounds within a run share the machine's state, so
   # runs, not rounds, are the independent samples); their median, range, and a 95% interval for their mean
@@ -52,6 +53,16 @@ for (query, rays), v in ratios.items():
     mean = statistics.mean(v)
     half = T95.get(len(v) - 1, 2.0) * statistics.stdev(v) / len(v) ** 0.5 if len(v) > 1 else float('nan')
     print(f"| {query} | {rays} | {statistics.median(v):.3f} ({min(v):.3f}–{max(v):.3f}) | {mean:.3f} ± {half:.3f} |")
+# The memory's state during the runs (see the benchmark's `load_latency_ns`): it moves the ratios.
+lat = {"64 MB": [], "4 MB": []}
+for line in open(sys.argv[1]):
+    m = re.match(r'memory latency \w+: (\d+) ns per random load over 64 MB, (\d+) ns over 4 MB', line)
+    if m:
+        lat["64 MB"].append(int(m[1]))
+        lat["4 MB"].append(int(m[2]))
+if lat["64 MB"]:
+    print("\nMemory latency over the runs (before and after each), median (range): " + ", ".join(
+        f"{size} {statistics.median(v):.0f} ns ({min(v)}–{max(v)})" for size, v in lat.items()))
 PY
   exit
 fi

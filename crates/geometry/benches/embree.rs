@@ -585,6 +585,65 @@ fn bench<M: Measurement>(c: &mut Criterion<M>, wall_clock: bool) {
     }
 }
 
+/// Mean time of one load in a chain of dependent loads, each from a random cache line of `bytes` of memory (a
+/// single random cycle through the lines, in 2 MB pages as the project's BVH), in nanoseconds. The benchmark's
+/// ~65 MB per side do not fit in this machine's caches, and the rate at which memory answers moves the ratio
+/// between the two sides (BENCHMARKS.md, "The standing by the memory's state"), so interleaved runs print this
+/// before and after their rounds.
+fn load_latency_ns(bytes: usize) -> f64 {
+    const LINE: usize = 8; // u64s per 64-byte line
+    let lines = bytes / 64;
+    let mut memory: Vec<u64> = Vec::with_capacity(lines * LINE + 2 * 1024 * 1024 / 8);
+    #[cfg(target_os = "linux")]
+    {
+        // The 2 MB-aligned part of the allocation, advised before anything is written to it.
+        let start = memory.as_ptr() as usize;
+        let aligned = start.next_multiple_of(2 << 20);
+        let len = (start + memory.capacity() * 8 - aligned) & !((2 << 20) - 1);
+        // SAFETY: `[aligned, aligned + len)` lies inside `memory`'s allocation, which stays alive (and is not moved:
+        // it is never grown) until this function returns; `madvise` only changes how the kernel backs those pages.
+        #[allow(unsafe_code)]
+        unsafe {
+            libc::madvise(aligned as *mut libc::c_void, len, libc::MADV_HUGEPAGE);
+        }
+    }
+    let offset = (memory.as_ptr() as usize).next_multiple_of(64) - memory.as_ptr() as usize;
+    let first = offset / 8;
+    memory.resize(first + lines * LINE, 0);
+    // Sattolo's shuffle: a random permutation that is one cycle through every line.
+    let mut order: Vec<u32> = (0..lines as u32).collect();
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    for i in (1..lines).rev() {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        order.swap(i, (state % i as u64) as usize);
+    }
+    for (i, &line) in order.iter().enumerate() {
+        memory[first + line as usize * LINE] = (first + order[(i + 1) % lines] as usize * LINE) as u64;
+    }
+    let mut at = first + order[0] as usize * LINE;
+    for _ in 0..lines {
+        at = memory[at] as usize;
+    }
+    let loads = 4_000_000;
+    let start = std::time::Instant::now();
+    for _ in 0..loads {
+        at = memory[at] as usize;
+    }
+    black_box(at);
+    start.elapsed().as_nanos() as f64 / loads as f64
+}
+
+/// Prints [`load_latency_ns`] over 64 MB (about one side's BVH) and 4 MB, prefixed with `when`.
+fn print_load_latency(when: &str) {
+    println!(
+        "memory latency {when}: {:.0} ns per random load over 64 MB, {:.0} ns over 4 MB",
+        load_latency_ns(64 << 20),
+        load_latency_ns(4 << 20)
+    );
+}
+
 /// `TRAVERSAL_INTERLEAVED=N` (instead of criterion's benchmarks): for each set and query, `N` rounds on this
 /// thread, each tracing the whole set with the project and with Embree back to back (the order alternating
 /// between rounds; each timed pass after an untimed one of the same side), timed by the thread's CPU time; prints
@@ -604,6 +663,7 @@ fn interleaved(rounds: usize, sets: &[RaySet], ours: &GeometryScene, embree: &Em
     let two_threads = std::env::var("TRAVERSAL_INTERLEAVED_THREADS").is_ok_and(|v| v == "2");
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
     let unit = if two_threads { "Mrays/s, 2 threads" } else { "Mrays/CPU-s" };
+    print_load_latency("before");
     println!("| query | rays | project {unit} | Embree {unit} | project / Embree, median (quartiles) |");
     println!("|---|---|---|---|---|");
     let only = std::env::var("TRAVERSAL_ONLY").unwrap_or_default();
@@ -669,6 +729,7 @@ fn interleaved(rounds: usize, sets: &[RaySet], ours: &GeometryScene, embree: &Em
             println!("| {query} | {} | {o:.2} | {e:.2} | {q2:.3} ({q1:.3}–{q3:.3}) |", set.name);
         }
     }
+    print_load_latency("after");
 }
 
 fn main() {
