@@ -12,7 +12,8 @@
 #   INTERLEAVED=20 scripts/bench-traversal.sh   # one thread, project and Embree timed back to back in each of 20
 #                                               # rounds (CPU time): the ratio to a few per cent on a noisy machine;
 #                                               # ends with the ratios over the runs (median, range, mean ± 95%)
-#                                               # and the memory's latency measured before and after each run
+#                                               # and the memory's latency measured before and after each run,
+#                                               # with a table of each run's ratios by its latency
 #   INTERLEAVED=20 TRAVERSAL_ONLY=occluded_bounce scripts/bench-traversal.sh   # one query and ray set only
 #   INTERLEAVED=20 TRAVERSAL_INTERLEAVED_THREADS=2 scripts/bench-traversal.sh   # the same on two threads (rayon,
 #                                               # chunks of 256 rays), timed by the wall clock
@@ -63,6 +64,24 @@ for line in open(sys.argv[1]):
 if lat["64 MB"]:
     print("\nMemory latency over the runs (before and after each), median (range): " + ", ".join(
         f"{size} {statistics.median(v):.0f} ns ({min(v)}–{max(v)})" for size, v in lat.items()))
+    # Each run's ratios beside its latency over 64 MB (before / after), lowest latency first: the ratios' spread
+    # follows the latency, and the low-latency runs are the harder test.
+    runs, current = [], None
+    for line in open(sys.argv[1]):
+        m = re.match(r'memory latency (\w+): (\d+) ns per random load over 64 MB', line)
+        if m and m[1] == "before":
+            current = {"lat": [int(m[2])], "ratios": {}}
+            runs.append(current)
+        elif m and current:
+            current["lat"].append(int(m[2]))
+        m = re.match(r'\| (closest|occluded) \| (\w+) \| [\d.]+ \| [\d.]+ \| ([\d.]+)', line)
+        if m and current:
+            current["ratios"][(m[1], m[2])] = m[3]
+    keys = list(ratios)
+    print("\n| latency over 64 MB, ns | " + " | ".join(f"{q} {r}" for q, r in keys) + " |")
+    print("|---" * (len(keys) + 1) + "|")
+    for run in sorted(runs, key=lambda r: statistics.mean(r["lat"])):
+        print(f"| {' / '.join(map(str, run['lat']))} | " + " | ".join(run["ratios"].get(k, "") for k in keys) + " |")
 PY
   exit
 fi
