@@ -54,34 +54,30 @@ for (query, rays), v in ratios.items():
     mean = statistics.mean(v)
     half = T95.get(len(v) - 1, 2.0) * statistics.stdev(v) / len(v) ** 0.5 if len(v) > 1 else float('nan')
     print(f"| {query} | {rays} | {statistics.median(v):.3f} ({min(v):.3f}–{max(v):.3f}) | {mean:.3f} ± {half:.3f} |")
-# The memory's state during the runs (see the benchmark's `load_latency_ns`): it moves the ratios.
-lat = {"64 MB": [], "4 MB": []}
+# The memory's state during the runs (see the benchmark's `load_latency_ns`): it moves the ratios. Each run prints
+# its latency before and after its rounds.
+runs = []
 for line in open(sys.argv[1]):
-    m = re.match(r'memory latency \w+: (\d+) ns per random load over 64 MB, (\d+) ns over 4 MB', line)
-    if m:
-        lat["64 MB"].append(int(m[1]))
-        lat["4 MB"].append(int(m[2]))
-if lat["64 MB"]:
+    m = re.match(r'memory latency (\w+): (\d+) ns per random load over 64 MB, (\d+) ns over 4 MB', line)
+    if m and m[1] == "before":
+        runs.append({"64 MB": [int(m[2])], "4 MB": [int(m[3])], "ratios": {}})
+    elif m and runs:
+        runs[-1]["64 MB"].append(int(m[2]))
+        runs[-1]["4 MB"].append(int(m[3]))
+    m = re.match(r'\| (closest|occluded) \| (\w+) \| [\d.]+ \| [\d.]+ \| ([\d.]+)', line)
+    if m and runs:
+        runs[-1]["ratios"][(m[1], m[2])] = m[3]
+if runs:
+    lat = {size: [x for run in runs for x in run[size]] for size in ("64 MB", "4 MB")}
     print("\nMemory latency over the runs (before and after each), median (range): " + ", ".join(
         f"{size} {statistics.median(v):.0f} ns ({min(v)}–{max(v)})" for size, v in lat.items()))
     # Each run's ratios beside its latency over 64 MB (before / after), lowest latency first: the ratios' spread
     # follows the latency, and the low-latency runs are the harder test.
-    runs, current = [], None
-    for line in open(sys.argv[1]):
-        m = re.match(r'memory latency (\w+): (\d+) ns per random load over 64 MB', line)
-        if m and m[1] == "before":
-            current = {"lat": [int(m[2])], "ratios": {}}
-            runs.append(current)
-        elif m and current:
-            current["lat"].append(int(m[2]))
-        m = re.match(r'\| (closest|occluded) \| (\w+) \| [\d.]+ \| [\d.]+ \| ([\d.]+)', line)
-        if m and current:
-            current["ratios"][(m[1], m[2])] = m[3]
     keys = list(ratios)
     print("\n| latency over 64 MB, ns | " + " | ".join(f"{q} {r}" for q, r in keys) + " |")
     print("|---" * (len(keys) + 1) + "|")
-    for run in sorted(runs, key=lambda r: statistics.mean(r["lat"])):
-        print(f"| {' / '.join(map(str, run['lat']))} | " + " | ".join(run["ratios"].get(k, "") for k in keys) + " |")
+    for run in sorted(runs, key=lambda r: statistics.mean(r["64 MB"])):
+        print(f"| {' / '.join(map(str, run['64 MB']))} | " + " | ".join(run["ratios"].get(k, "") for k in keys) + " |")
 PY
   exit
 fi

@@ -30,7 +30,7 @@ use criterion::{Criterion, Throughput};
 use geometry::accel::{Accel, GeometryScene};
 use geometry::mesh::{MeshData, TriangleMesh};
 use geometry::shapes::{coordinate_system, Shape};
-use geometry::{Ray, Transform, Vec3};
+use geometry::{LargeArray, Ray, Transform, Vec3};
 use rayon::prelude::*;
 
 mod support;
@@ -586,30 +586,16 @@ fn bench<M: Measurement>(c: &mut Criterion<M>, wall_clock: bool) {
 }
 
 /// Mean time of one load in a chain of dependent loads, each from a random cache line of `bytes` of memory (a
-/// single random cycle through the lines, in 2 MB pages as the project's BVH), in nanoseconds. The benchmark's
-/// ~65 MB per side do not fit in this machine's caches, and the rate at which memory answers moves the ratio
-/// between the two sides (BENCHMARKS.md, "The standing by the memory's state"), so interleaved runs print this
-/// before and after their rounds.
+/// single random cycle through the lines, in a [`LargeArray`]: 2 MB pages, placed as the project's BVH arrays are),
+/// in nanoseconds. The benchmark's ~65 MB per side do not fit in this machine's caches, and the rate at which
+/// memory answers moves the ratio between the two sides (BENCHMARKS.md, "The standing by the memory's state"), so
+/// interleaved runs print this before and after their rounds.
 fn load_latency_ns(bytes: usize) -> f64 {
-    const LINE: usize = 8; // u64s per 64-byte line
+    /// One cache line, holding the index of the next line in the chain.
+    #[derive(Clone, Copy)]
+    #[repr(C, align(64))]
+    struct Line(usize);
     let lines = bytes / 64;
-    let mut memory: Vec<u64> = Vec::with_capacity(lines * LINE + 2 * 1024 * 1024 / 8);
-    #[cfg(target_os = "linux")]
-    {
-        // The 2 MB-aligned part of the allocation, advised before anything is written to it.
-        let start = memory.as_ptr() as usize;
-        let aligned = start.next_multiple_of(2 << 20);
-        let len = (start + memory.capacity() * 8 - aligned) & !((2 << 20) - 1);
-        // SAFETY: `[aligned, aligned + len)` lies inside `memory`'s allocation, which stays alive (and is not moved:
-        // it is never grown) until this function returns; `madvise` only changes how the kernel backs those pages.
-        #[allow(unsafe_code)]
-        unsafe {
-            libc::madvise(aligned as *mut libc::c_void, len, libc::MADV_HUGEPAGE);
-        }
-    }
-    let offset = (memory.as_ptr() as usize).next_multiple_of(64) - memory.as_ptr() as usize;
-    let first = offset / 8;
-    memory.resize(first + lines * LINE, 0);
     // Sattolo's shuffle: a random permutation that is one cycle through every line.
     let mut order: Vec<u32> = (0..lines as u32).collect();
     let mut state = 0x9e37_79b9_7f4a_7c15u64;
@@ -619,17 +605,19 @@ fn load_latency_ns(bytes: usize) -> f64 {
         state ^= state << 17;
         order.swap(i, (state % i as u64) as usize);
     }
+    let mut chain = vec![Line(0); lines];
     for (i, &line) in order.iter().enumerate() {
-        memory[first + line as usize * LINE] = (first + order[(i + 1) % lines] as usize * LINE) as u64;
+        chain[line as usize] = Line(order[(i + 1) % lines] as usize);
     }
-    let mut at = first + order[0] as usize * LINE;
+    let memory = LargeArray::new(chain);
+    let mut at = order[0] as usize;
     for _ in 0..lines {
-        at = memory[at] as usize;
+        at = memory[at].0;
     }
     let loads = 4_000_000;
     let start = std::time::Instant::now();
     for _ in 0..loads {
-        at = memory[at] as usize;
+        at = memory[at].0;
     }
     black_box(at);
     start.elapsed().as_nanos() as f64 / loads as f64

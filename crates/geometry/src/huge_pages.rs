@@ -26,8 +26,9 @@ const MIN_BYTES: usize = 4 << 20;
 const HUGE: usize = 2 << 20;
 
 /// A read-only array of `T`, in memory mapped for it alone and backed by 2 MB pages where the system allows
-/// (Linux, arrays of 4 MB or more); elsewhere the vector it was made from. Reads as a slice.
-pub(crate) struct LargeArray<T: Copy> {
+/// (Linux, arrays of 4 MB or more); elsewhere the vector it was made from. Reads as a slice. Public for the
+/// traversal benchmark's memory probe, which places its test array as the BVH's arrays are placed.
+pub struct LargeArray<T: Copy> {
     /// The first element: in the mapping, or the start of `heap`'s buffer.
     ptr: NonNull<T>,
     len: usize,
@@ -52,7 +53,7 @@ impl<T: Copy> LargeArray<T> {
     /// made (Linux), else `v` itself. The copy holds the array twice for a moment, after the build has freed its
     /// larger temporaries: the 1M-triangle benchmark's peak resident memory is the same as with the leaf blocks
     /// written in place (289.5 MB, `/usr/bin/time`).
-    pub(crate) fn new(mut v: Vec<T>) -> Self {
+    pub fn new(mut v: Vec<T>) -> Self {
         let bytes = v.len().saturating_mul(std::mem::size_of::<T>());
         #[cfg(target_os = "linux")]
         if bytes >= MIN_BYTES && std::mem::align_of::<T>() <= HUGE {

@@ -49,6 +49,7 @@ pub use animated::AnimatedTransform;
 pub use bilinear::BilinearMesh;
 pub use bounds::Bounds3;
 pub use glam::{DMat4, DVec3, Vec2, Vec3, Vec3A};
+pub use huge_pages::LargeArray;
 pub use mesh::{BilinearMeshData, IndexedMesh, IndexedMeshData, MeshData, TriangleMesh};
 pub use ray::{offset_ray_origin, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
 pub use shapes::{Disk, PointSample, ShapeSample, Sphere, SurfaceDerivatives};
