@@ -20,24 +20,11 @@ runs=${RUNS:-3}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 
-# name | scene | samples per pixel
-scenes=(
-  "killeroo-simple|crates/pbrt/tests/fixtures/killeroos/killeroo-simple.pbrt|16"
-  "cornell-box|crates/pbrt/tests/fixtures/cornell-box/cornell-box.pbrt|4"
-  "cornell-glass|scenes/cornell-glass.pbrt|36"
-  "prism-slit|scenes/prism-slit.pbrt|128"
-  "diamond|scenes/diamond.pbrt|56"
-  "purple-glass|scenes/purple-glass.pbrt|40"
-  "metals|scenes/metals.pbrt|72"
-  "prism-exercise|scenes/prism-exercise.pbrt|16"
-  "cornell-box-volume|scenes/bench/cornell-box-volume.pbrt|2"
-  "prism-beam|scenes/prism-beam.pbrt|16"
-  "rainbow|scenes/rainbow.pbrt|16"
-)
+source scripts/bench-scenes.sh
 
 echo "| scene | spp | A CPU s | B CPU s | change | images |"
 echo "|---|---|---|---|---|---|"
-for entry in "${scenes[@]}"; do
+for entry in "${bench_scenes[@]}"; do
   IFS='|' read -r name scene spp <<<"$entry"
   [[ -n "$filter" && "$name" != *"$filter"* ]] && continue
   [[ -f "$scene" ]] || { echo "$name: $scene missing, skipped" >&2; continue; }
