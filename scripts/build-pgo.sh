@@ -20,7 +20,8 @@ if [[ -z "$profdata" ]]; then
   echo "build-pgo: installing llvm-$major for llvm-profdata-$major" >&2
   sudo=""
   [[ $(id -u) -eq 0 ]] || sudo=sudo
-  $sudo apt-get install -y -q "llvm-$major" >&2
+  $sudo apt-get update -q >&2
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q --no-install-recommends "llvm-$major" >&2
   profdata=$(command -v "llvm-profdata-$major")
 fi
 
