@@ -1,5 +1,5 @@
 # The benchmark scenes of scripts/bench.sh at a quarter of its samples per pixel (name | scene | spp), one render
-# taking 5-30 CPU seconds on the project's machine. Sourced by scripts/bench-ab.sh (before/after timings) and
+# taking 7-50 CPU seconds on the Zen 3 machine of 2026-11-27. Sourced by scripts/bench-ab.sh (before/after timings) and
 # scripts/build-pgo.sh (the profile renders, at a quarter of these counts again).
 # shellcheck disable=SC2034  # used by the scripts that source this file
 bench_scenes=(
