@@ -8,8 +8,8 @@
 #   RUNS=5 scripts/bench-ab.sh OLD NEW killeroo          # only scenes whose name contains "killeroo"
 #
 # A binary of an older commit: `git worktree add /tmp/old COMMIT && cargo build --release --manifest-path
-# /tmp/old/Cargo.toml -p prismatic` gives /tmp/old/target/release/prismatic. The sample counts are a quarter of
-# scripts/bench.sh's (16 for killeroo-simple), one run taking 5-20 CPU seconds on the project's machine.
+# /tmp/old/Cargo.toml -p prismatic` gives /tmp/old/target/release/prismatic. The scenes and their sample counts (a
+# quarter of scripts/bench.sh's) are in scripts/bench-scenes.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 [[ $# -ge 2 ]] || { sed -n '2,12p' "$0" >&2; exit 2; }
