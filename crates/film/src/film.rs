@@ -1034,6 +1034,7 @@ impl SampleConversion {
 }
 
 /// Adds one sample already reduced to XYZ and `(λ, L/pdf)` pairs to a pixel's accumulators.
+// The accumulators are disjoint borrows of one pixel's slots in a row's arrays, which rows split between threads.
 #[allow(clippy::too_many_arguments)]
 fn accumulate(
     conv: &SampleConversion,

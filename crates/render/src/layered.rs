@@ -163,6 +163,7 @@ impl Layered {
 
     /// A coated conductor BxDF: a dielectric coat (index `eta`, roughness `coat`) over a conductor of relative
     /// complex index `conductor_eta` + i`conductor_k` (relative to the coat) and roughness `base`.
+    // pbrt-v4's CoatedConductor parameters, one argument each, as the material reads them.
     #[allow(clippy::too_many_arguments)]
     pub fn coated_conductor(
         eta: f32,

@@ -461,6 +461,7 @@ pub const MAX_COLLISIONS: u32 = 1 << 20;
 /// collision, `callback(p, medium point, σ_maj, T_maj)` is called with the majorant transmittance since the previous
 /// collision and the generator for its own decisions; it returns false to stop. Returns the majorant transmittance from the last collision to `t_max` (all
 /// ones if the callback stopped the walk).
+// pbrt-v4's SampleT_maj: the ray and its extent, the generator, the wavelengths and hero, and the callback.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn sample_t_maj(

@@ -322,6 +322,7 @@ fn agrees_with(
 /// [`agrees_with`] for each CIE XYZ component in `channels` (0 X, 1 Y, 2 Z), from the same renders: in a chromatic
 /// medium an error at some wavelengths (a spectral MIS that is biased per wavelength) shows most in X or Z, whose
 /// matching functions weigh the ends of the spectrum where σ differs most from the mean.
+// The comparison's scene, integrators, sample counts and tolerances, as each test states them.
 #[allow(clippy::too_many_arguments)]
 fn agrees_with_in(
     channels: &[usize],
@@ -342,6 +343,7 @@ fn agrees_with_in(
 
 /// The comparisons of [`agrees_with`] on XYZ component `c` of the reference's renders `pa`, `pb` and the other
 /// integrator's `oa`, `ob`.
+// Four renders, the integrator's name, the XYZ component and the two tolerances of `agrees_with_in`.
 #[allow(clippy::too_many_arguments)]
 fn compare_blocks(pa: &Film, pb: &Film, oa: &Film, ob: &Film, name: &str, c: usize, relative: f64, max_tolerance: f64) {
     let channel = ["X", "Y", "Z"][c];

@@ -25,6 +25,7 @@
 //! ray's `r_l`: the one-sample spectral MIS estimator of the whole path (Wilkie et al. 2014; pbrt-v4 §14.2.3).
 //! Media that glow are not rendered as emitters (with a warning).
 
+use std::borrow::Cow;
 use std::f32::consts::PI;
 use std::ops::Range;
 
@@ -34,16 +35,17 @@ use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{
-    finite_or_zero, render_splatting, CameraSampler, RenderStats, SampleRecords, SurfaceRecords, LIGHT_PATH_SEED_SALT,
+    finite_or_zero, render_splatting, CameraSampler, FirstHit, RenderStats, SampleRecords, SurfaceRecords,
+    LIGHT_PATH_SEED_SALT,
 };
-use super::path::FirstHit;
+use super::light_walk::sample_light_path;
 use super::transport::{
-    begin_bounce, sample_light_path, scatter, shadow_transmittance, weigh_tracking, Bounce, BounceSamples, PathRay,
-    RayCounts, ShadowTarget, ShadowTransmittance, SpectralMis,
+    begin_bounce, scatter, Bounce, BounceSamples, PathRay, ShadowRay, ShadowTarget, SurfaceVertex, Tracer,
 };
+use super::volume::{shadow_transmittance, weigh_tracking, ShadowTransmittance, SpectralMis, TrackingSeed};
 use super::{Integrate, IntegratorParams, Needs, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraRay};
 use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
@@ -143,7 +145,7 @@ impl Vertex {
         match self.kind {
             Kind::Light(l) => Some(l),
             Kind::Surface => self.area_light,
-            _ => None,
+            Kind::Camera | Kind::Escape | Kind::Medium => None,
         }
     }
 
@@ -158,7 +160,7 @@ impl Vertex {
                 let light = &scene.lights[l as usize];
                 light.is_infinite() || light.is_delta_direction()
             }
-            _ => false,
+            Kind::Camera | Kind::Surface | Kind::Medium => false,
         }
     }
 
@@ -168,7 +170,7 @@ impl Vertex {
                 let light = &scene.lights[l as usize];
                 light.is_delta_position() || light.is_delta_direction()
             }
-            _ => false,
+            Kind::Camera | Kind::Escape | Kind::Surface | Kind::Medium => false,
         }
     }
 
@@ -247,7 +249,8 @@ impl Vertex {
                 // Arriving along −wp, leaving along wn.
                 phase.pdf(-wp, wn, wl)
             }
-            _ => {
+            // Lights and escaped rays returned above; they have no BxDF either.
+            Kind::Surface | Kind::Light(_) | Kind::Escape => {
                 let (Some(bxdf), Some(prev)) = (&self.bxdf, prev) else { return 0.0 };
                 let Some(wp) = (prev.p - self.p).try_normalize() else { return 0.0 };
                 bxdf.pdf(self.frame.to_local(wp), self.frame.to_local(wn), self.mode)
@@ -307,7 +310,7 @@ impl Vertex {
                 (Some(li), Some(w)) => scene.lights[li as usize].l_area(self.p, self.uv, self.ng, w, wl),
                 _ => SampledSpectrum::zero(),
             },
-            _ => SampledSpectrum::zero(),
+            Kind::Camera | Kind::Light(_) | Kind::Medium => SampledSpectrum::zero(),
         }
     }
 
@@ -326,56 +329,42 @@ fn correct_shading_normal(wo: Vec3, wi: Vec3, ns: Vec3, ng: Vec3) -> f32 {
     }
 }
 
-/// The transmittance of a shadow ray, `None` if a surface blocks it. In a scene without media this is exactly the
-/// visibility test of the `vacuum` ray (origin, unit direction, t_max), as before media were rendered, so that such
-/// images do not change; otherwise [`shadow_transmittance`] from `origin` to `target`, starting in `medium`,
-/// through material-less boundaries.
-#[allow(clippy::too_many_arguments)]
+/// The transmittance of shadow ray `ray`, `None` if a surface blocks it. In a scene without media this is exactly
+/// the visibility test of the `vacuum` ray (origin, unit direction, t_max), as before media were rendered, so that
+/// such images do not change; otherwise [`shadow_transmittance`] through material-less boundaries.
 fn connection_transmittance(
-    scene: &RenderScene,
+    cx: &mut SampleContext,
     vacuum: (Vec3, Vec3, f32),
-    origin: Vec3,
-    target: ShadowTarget,
-    medium: Option<u32>,
-    time: f32,
+    ray: ShadowRay,
     wl: &SampledWavelengths,
-    mis: &SpectralMis,
-    salt: u32,
-    u: f32,
-    counts: &mut RayCounts,
+    seed: TrackingSeed,
 ) -> Option<ShadowTransmittance> {
-    if scene.media.is_empty() {
+    if cx.tracer.scene.media.is_empty() {
         let (o, d, t_max) = vacuum;
-        counts.shadow += 1;
         let ones = SampledSpectrum::splat(1.0);
-        return (!scene.geometry.occluded(o, d, t_max, time)).then_some(ShadowTransmittance {
+        return (!cx.tracer.occluded(o, d, t_max, ray.time)).then_some(ShadowTransmittance {
             t: ones,
             r_l: ones,
             r_u: ones,
         });
     }
-    shadow_transmittance(scene, origin, target, medium, time, wl, mis, salt, u, counts)
+    shadow_transmittance(cx.tracer, ray, wl, &cx.mis, seed)
 }
 
 /// The transmittance between two vertices (both ends offset off their surfaces, pbrt-v4's `SpawnRayTo`).
-#[allow(clippy::too_many_arguments)]
 fn transmittance(
-    scene: &RenderScene,
+    cx: &mut SampleContext,
     a: &Vertex,
     b: &Vertex,
-    time: f32,
     wl: &SampledWavelengths,
-    mis: &SpectralMis,
-    salt: u32,
-    u: f32,
-    counts: &mut RayCounts,
+    seed: TrackingSeed,
 ) -> Option<ShadowTransmittance> {
     let (ray, t_max) = geometry::spawn_ray_to(&a.surface_point(), &b.surface_point());
     let target = geometry::offset_ray_origin(b.p, b.p_error, b.ng, ray.o - b.p);
     let medium = a.medium_towards(b.p - a.p);
     let vacuum = (ray.o, ray.d, t_max);
-    let target = ShadowTarget::Point(target);
-    connection_transmittance(scene, vacuum, ray.o, target, medium, time, wl, mis, salt, u, counts)
+    let shadow = ShadowRay { origin: ray.o, target: ShadowTarget::Point(target), medium, time: cx.time };
+    connection_transmittance(cx, vacuum, shadow, wl, seed)
 }
 
 /// The geometry term without visibility: |cos|·|cos|/d² with shading normals, no cosine at a vertex that is not on
@@ -397,26 +386,54 @@ fn geometry_term(a: &Vertex, b: &Vertex) -> f32 {
     g
 }
 
+/// What every step of one pixel sample shares: the tracer, the camera where it is at the sample's time, that time,
+/// and the spectral MIS state of the whole sample (one hero for both subpaths and every connection).
+struct SampleContext<'t, 's> {
+    tracer: &'t mut Tracer<'s>,
+    cam: Cow<'s, Camera>,
+    time: f32,
+    mis: SpectralMis,
+}
+
+/// The start of a subpath's random walk: the ray, the throughput and solid-angle density it was sampled with, how
+/// many vertices it may add, whether it carries radiance or importance, and the medium it starts in.
+#[derive(Clone, Copy, Debug)]
+struct Walk {
+    o: Vec3,
+    d: Vec3,
+    beta: SampledSpectrum,
+    pdf_dir: f32,
+    max_vertices: usize,
+    mode: TransportMode,
+    medium: Option<u32>,
+}
+
+/// A connection strategy: `s` vertices of the light subpath and `t` of the camera subpath.
+#[derive(Clone, Copy)]
+struct Strategy<'p> {
+    light: &'p [Vertex],
+    camera: &'p [Vertex],
+    s: usize,
+    t: usize,
+}
+
 impl BdptIntegrator {
-    /// One pixel sample: the camera ray `(o, d)` from raster position `film`, subpaths drawn from the three
-    /// samplers (camera subpath, light subpath, connections), at wavelengths `wl`. Returns the radiance for the
-    /// pixel; connections to the lens (t = 1) go to `splat(raster, contribution, wavelengths)` instead. Both
-    /// subpaths and every connection are traced at the camera ray's `time` (pbrt-v4's light subpath takes the camera
-    /// vertex's time), with the camera where it is then.
-    #[allow(clippy::too_many_arguments)]
-    pub fn li(
+    /// One pixel sample: the camera ray `ray` (with its time), subpaths drawn from the three samplers (camera
+    /// subpath, light subpath, connections), at wavelengths `wl`. Returns the radiance for the pixel; connections to
+    /// the lens (t = 1) go to `splat(raster, contribution, wavelengths)` instead. Both subpaths and every connection
+    /// are traced at the camera ray's time (pbrt-v4's light subpath takes the camera vertex's time), with the camera
+    /// where it is then.
+    fn li(
         &self,
-        scene: &RenderScene,
-        o: Vec3,
-        d: Vec3,
-        time: f32,
+        tracer: &mut Tracer,
+        ray: &CameraRay,
         wl: &mut SampledWavelengths,
         samplers: [&mut Sampler; 3],
-        counts: &mut RayCounts,
         first_hit: Option<&mut Option<FirstHit>>,
         mut splat: impl FnMut(Vec2, SampledSpectrum, &SampledWavelengths),
     ) -> SampledSpectrum {
         let [camera_sampler, light_sampler, connect_sampler] = samplers;
+        let scene = tracer.scene;
         // One hero for the whole pixel sample, so that the tracking probabilities of the two subpaths and of a
         // connection multiply into those of the full path (drawn only where there are media, which leaves the
         // random numbers of scenes without media as they were).
@@ -424,8 +441,9 @@ impl BdptIntegrator {
         if !scene.media.is_empty() {
             mis.choose(connect_sampler.next_1d());
         }
-        let cam = scene.camera.at_time(time);
-        let camera = self.camera_subpath(scene, &cam, o, d, time, wl, &mut mis, camera_sampler, counts);
+        let time = ray.time;
+        let mut cx = SampleContext { tracer, cam: scene.camera.at_time(time), time, mis };
+        let camera = self.camera_subpath(&mut cx, ray, wl, camera_sampler);
         if let Some(fh) = first_hit {
             // The camera ray's first vertex, if it is a surface that scatters (pbrt-v4's visible surface).
             *fh = camera.get(1).filter(|v| v.kind == Kind::Surface).and_then(|v| {
@@ -433,7 +451,7 @@ impl BdptIntegrator {
                 Some(FirstHit { albedo: b.albedo_hint(), normal: v.ns, p: v.p, ng: v.ng, uv: v.uv })
             });
         }
-        let light = self.light_subpath(scene, time, wl, &mut mis, light_sampler, counts);
+        let light = self.light_subpath(&mut cx, wl, light_sampler);
         let mut l = SampledSpectrum::zero();
         for t in 1..=camera.len() {
             // s = 1 samples its own light point, so it runs even when the light subpath is empty (a light path
@@ -444,7 +462,8 @@ impl BdptIntegrator {
                     continue;
                 }
                 let u = [connect_sampler.next_1d(), connect_sampler.next_1d(), connect_sampler.next_1d()];
-                let (c, raster) = self.connect(scene, (&cam, time), &light, &camera, s, t, wl, &mis, u, counts);
+                let strategy = Strategy { light: &light, camera: &camera, s, t };
+                let (c, raster) = self.connect(&mut cx, strategy, wl, u);
                 if c.is_black() || !c.0.iter().all(|v| v.is_finite()) {
                     continue;
                 }
@@ -457,55 +476,38 @@ impl BdptIntegrator {
         l
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn camera_subpath(
         &self,
-        scene: &RenderScene,
-        cam: &Camera,
-        o: Vec3,
-        d: Vec3,
-        time: f32,
+        cx: &mut SampleContext,
+        ray: &CameraRay,
         wl: &mut SampledWavelengths,
-        mis: &mut SpectralMis,
         sampler: &mut Sampler,
-        counts: &mut RayCounts,
     ) -> Vec<Vertex> {
+        let scene = cx.tracer.scene;
+        let (o, d) = (ray.origin, ray.direction);
         let mut path = Vec::with_capacity(self.max_depth as usize + 2);
-        let (pdf_pos, pdf_dir) = cam.pdf_we(o, d);
+        let (pdf_pos, pdf_dir) = cx.cam.pdf_we(o, d);
         let cam =
             Vertex::endpoint(Kind::Camera, o, Vec3::ZERO, SampledSpectrum::splat(1.0), pdf_pos, scene.camera_medium);
         path.push(cam);
         if pdf_dir <= 0.0 {
             return path;
         }
-        self.random_walk(
-            scene,
+        let walk = Walk {
             o,
             d,
-            SampledSpectrum::splat(1.0),
+            beta: SampledSpectrum::splat(1.0),
             pdf_dir,
-            self.max_depth as usize + 1,
-            TransportMode::Radiance,
-            scene.camera_medium,
-            time,
-            wl,
-            mis,
-            sampler,
-            counts,
-            &mut path,
-        );
+            max_vertices: self.max_depth as usize + 1,
+            mode: TransportMode::Radiance,
+            medium: scene.camera_medium,
+        };
+        self.random_walk(cx, walk, wl, sampler, &mut path);
         path
     }
 
-    fn light_subpath(
-        &self,
-        scene: &RenderScene,
-        time: f32,
-        wl: &mut SampledWavelengths,
-        mis: &mut SpectralMis,
-        sampler: &mut Sampler,
-        counts: &mut RayCounts,
-    ) -> Vec<Vertex> {
+    fn light_subpath(&self, cx: &mut SampleContext, wl: &mut SampledWavelengths, sampler: &mut Sampler) -> Vec<Vertex> {
+        let scene = cx.tracer.scene;
         let mut path = Vec::with_capacity(self.max_depth as usize + 1);
         let Some(start) = sample_light_path(scene, wl, sampler) else { return path };
         let (li, p_sel, le) = (start.light, start.p_select, start.le);
@@ -525,23 +527,16 @@ impl BdptIntegrator {
             v0.ng = Vec3::ZERO;
         }
         path.push(v0);
-        let beta = le.flux_weight() * (1.0 / p_sel);
-        self.random_walk(
-            scene,
-            start.origin(),
-            le.d,
-            beta,
-            le.pdf_dir,
-            self.max_depth as usize,
-            TransportMode::Importance,
-            light_medium,
-            time,
-            wl,
-            mis,
-            sampler,
-            counts,
-            &mut path,
-        );
+        let walk = Walk {
+            o: start.origin(),
+            d: le.d,
+            beta: le.flux_weight() * (1.0 / p_sel),
+            pdf_dir: le.pdf_dir,
+            max_vertices: self.max_depth as usize,
+            mode: TransportMode::Importance,
+            medium: light_medium,
+        };
+        self.random_walk(cx, walk, wl, sampler, &mut path);
         if infinite {
             // The first surface vertex was sampled by position on the disk (planar density, cosine at the
             // vertex), and the start vertex's own density is that of the direction.
@@ -562,27 +557,20 @@ impl BdptIntegrator {
         path
     }
 
-    /// Extends `path` by up to `max_vertices` scattering vertices from the ray `(o, d)` sampled with solid-angle
-    /// density `pdf_dir` (pbrt-v4's `RandomWalk`, without Russian roulette so that densities stay exact). In media
-    /// that scatter, distances are delta-tracked at `mis`'s hero wavelength and real scattering events are vertices.
-    #[allow(clippy::too_many_arguments)]
+    /// Extends `path` by up to `walk.max_vertices` scattering vertices from the ray `walk.o + t·walk.d` sampled with
+    /// solid-angle density `walk.pdf_dir` (pbrt-v4's `RandomWalk`, without Russian roulette so that densities stay
+    /// exact). In media that scatter, distances are delta-tracked at the hero wavelength of the sample's spectral
+    /// MIS and real scattering events are vertices.
     fn random_walk(
         &self,
-        scene: &RenderScene,
-        o: Vec3,
-        d: Vec3,
-        mut beta: SampledSpectrum,
-        pdf_dir: f32,
-        max_vertices: usize,
-        mode: TransportMode,
-        medium: Option<u32>,
-        time: f32,
+        cx: &mut SampleContext,
+        walk: Walk,
         wl: &mut SampledWavelengths,
-        mis: &mut SpectralMis,
         sampler: &mut Sampler,
-        counts: &mut RayCounts,
         path: &mut Vec<Vertex>,
     ) {
+        let Walk { o, d, mut beta, pdf_dir, max_vertices, mode, medium } = walk;
+        let (scene, time) = (cx.tracer.scene, cx.time);
         if max_vertices == 0 {
             return;
         }
@@ -596,14 +584,14 @@ impl BdptIntegrator {
         };
         loop {
             let d = ray.d;
-            let hit = ray.intersect(scene, counts);
+            let hit = ray.intersect(cx.tracer);
             if let Some(m) = ray.medium.filter(|&m| !scene.media[m as usize].is_absorbing_only()) {
-                let h = mis.hero;
+                let h = cx.mis.hero;
                 let mut rng = TrackingRng::new(sampler.next_1d(), path.len() as u32);
                 let t_end = hit.map_or(f32::INFINITY, |h| h.t);
                 let (mut scattered, mut terminated) = (None, false);
                 let wl_now: &SampledWavelengths = wl;
-                let mis_now: &SpectralMis = mis;
+                let mis_now: &SpectralMis = &cx.mis;
                 let t_maj = sample_t_maj(
                     &scene.media[m as usize],
                     ray.o,
@@ -669,7 +657,7 @@ impl BdptIntegrator {
                     continue;
                 }
                 // No collision before the surface: probability T_maj at the hero.
-                if !weigh_tracking(&mut beta, &mut r, mis, t_maj, SampledSpectrum::splat(1.0)) {
+                if !weigh_tracking(&mut beta, &mut r, &cx.mis, t_maj, SampledSpectrum::splat(1.0)) {
                     break;
                 }
             }
@@ -690,7 +678,7 @@ impl BdptIntegrator {
                 Bounce::Absorb => (None, None),
                 Bounce::Scatter(bxdf, u) => (Some(bxdf), Some(u)),
             };
-            mis.update(wl);
+            cx.mis.update(wl);
             let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
             let mut v = Vertex {
                 kind: Kind::Surface,
@@ -723,8 +711,9 @@ impl BdptIntegrator {
                 break;
             }
             let wo = frame.to_local(-d);
-            let Some(s) = scatter(bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { break };
-            mis.update(wl);
+            let sv = SurfaceVertex { hit: &hit, frame: &frame, bxdf, wo, medium: ray.medium };
+            let Some(s) = scatter(&sv, -d, &u, mode, wl, &mut beta) else { break };
+            cx.mis.update(wl);
             let (mut fwd, mut rev) = if s.bs.pdf_is_proportional {
                 (bxdf.pdf(wo, s.bs.wi, mode), bxdf.pdf(s.bs.wi, wo, mode))
             } else {
@@ -750,27 +739,22 @@ impl BdptIntegrator {
     /// The contribution of strategy (s, t), MIS-weighted, and the raster position for t = 1. Every strategy divides
     /// by the mean over the wavelengths of the product of its vertices' and its shadow ray's rescaled tracking
     /// probabilities (spectral MIS of the whole path; exactly 1 without media).
-    #[allow(clippy::too_many_arguments)]
     fn connect(
         &self,
-        scene: &RenderScene,
-        (cam, time): (&Camera, f32),
-        light: &[Vertex],
-        camera: &[Vertex],
-        s: usize,
-        t: usize,
+        cx: &mut SampleContext,
+        strategy: Strategy,
         wl: &SampledWavelengths,
-        mis: &SpectralMis,
         u: [f32; 3],
-        counts: &mut RayCounts,
     ) -> (SampledSpectrum, Option<Vec2>) {
+        let Strategy { light, camera, s, t } = strategy;
+        let scene = cx.tracer.scene;
         let zero = (SampledSpectrum::zero(), None);
         // An escaped camera ray can only be an emitter seen directly (s = 0).
         if t > 1 && s != 0 && camera[t - 1].kind == Kind::Escape {
             return zero;
         }
         // The shadow ray's tracking decisions, seeded per strategy.
-        let salt = BDPT_CONNECT_SEED_SALT ^ ((s as u32) << 16 | t as u32);
+        let seed = TrackingSeed { salt: BDPT_CONNECT_SEED_SALT ^ ((s as u32) << 16 | t as u32), u: u[2] };
         let mut sampled: Option<Vertex> = None;
         let mut raster = None;
         let l = if s == 0 {
@@ -778,14 +762,14 @@ impl BdptIntegrator {
             if !pt.is_light() {
                 return zero;
             }
-            pt.le(scene, &camera[t - 2], wl) * pt.beta / mis.average(pt.r)
+            pt.le(scene, &camera[t - 2], wl) * pt.beta / cx.mis.average(pt.r)
         } else if t == 1 {
             let qs = &light[s - 1];
             if !qs.is_connectible(scene) {
                 return zero;
             }
-            let Some(cs) = cam.sample_wi(qs.p, Vec2::new(u[0], u[1])) else { return zero };
-            let cam_n = if cam.lens_area_is_finite() { cam.forward() } else { Vec3::ZERO };
+            let Some(cs) = cx.cam.sample_wi(qs.p, Vec2::new(u[0], u[1])) else { return zero };
+            let cam_n = if cx.cam.lens_area_is_finite() { cx.cam.forward() } else { Vec3::ZERO };
             let mut v = Vertex::endpoint(
                 Kind::Camera,
                 cs.p_lens,
@@ -802,10 +786,10 @@ impl BdptIntegrator {
             if c.is_black() {
                 return zero;
             }
-            let Some(tr) = transmittance(scene, qs, &v, time, wl, mis, salt, u[2], counts) else { return zero };
+            let Some(tr) = transmittance(cx, qs, &v, wl, seed) else { return zero };
             raster = Some(cs.raster);
             sampled = Some(v);
-            c * tr.t / mis.average(qs.r * tr.r_l)
+            c * tr.t / cx.mis.average(qs.r * tr.r_l)
         } else if s == 1 {
             let pt = &camera[t - 1];
             if !pt.is_connectible(scene) {
@@ -843,10 +827,10 @@ impl BdptIntegrator {
             let target = if far { ShadowTarget::Direction(ls.wi) } else { ShadowTarget::Point(ls.p) };
             let medium = pt.medium_towards(ls.wi);
             let vacuum = (origin, ls.wi, t_max);
-            let tr = connection_transmittance(scene, vacuum, origin, target, medium, time, wl, mis, salt, u[2], counts);
-            let Some(tr) = tr else { return zero };
+            let shadow = ShadowRay { origin, target, medium, time: cx.time };
+            let Some(tr) = connection_transmittance(cx, vacuum, shadow, wl, seed) else { return zero };
             sampled = Some(v);
-            c * tr.t / mis.average(pt.r * tr.r_l)
+            c * tr.t / cx.mis.average(pt.r * tr.r_l)
         } else {
             let (qs, pt) = (&light[s - 1], &camera[t - 1]);
             if !qs.is_connectible(scene) || !pt.is_connectible(scene) {
@@ -860,31 +844,28 @@ impl BdptIntegrator {
             if g == 0.0 {
                 return zero;
             }
-            let Some(tr) = transmittance(scene, qs, pt, time, wl, mis, salt, u[2], counts) else { return zero };
-            c * g * tr.t / mis.average(qs.r * pt.r * tr.r_l)
+            let Some(tr) = transmittance(cx, qs, pt, wl, seed) else { return zero };
+            c * g * tr.t / cx.mis.average(qs.r * pt.r * tr.r_l)
         };
         if l.is_black() {
             return zero;
         }
-        let w = self.mis_weight(scene, cam, light, camera, sampled.as_ref(), s, t, wl);
+        let w = self.mis_weight(scene, &cx.cam, strategy, sampled.as_ref(), wl);
         (l * w, raster)
     }
 
     /// The balance-heuristic weight of strategy (s, t) against every other strategy that could have produced the
     /// same path (Veach 1997 §10.2.1, computed with density ratios as pbrt-v4 does). `sampled` replaces the
     /// camera endpoint when t = 1 and the light endpoint when s = 1.
-    #[allow(clippy::too_many_arguments)]
     fn mis_weight(
         &self,
         scene: &RenderScene,
         view: &Camera,
-        light: &[Vertex],
-        camera: &[Vertex],
+        strategy: Strategy,
         sampled: Option<&Vertex>,
-        s: usize,
-        t: usize,
         wl: &SampledWavelengths,
     ) -> f32 {
+        let Strategy { light, camera, s, t } = strategy;
         if s + t == 2 {
             return 1.0;
         }
@@ -1005,7 +986,7 @@ impl RenderJob for BdptRender<'_> {
         let light_seed = hash_words(&[seed, LIGHT_PATH_SEED_SALT]);
         let connect_seed = hash_words(&[seed, BDPT_CONNECT_SEED_SALT]);
         let surfaces = SurfaceRecords::of(film);
-        let per_sample = |x: u32, y: u32, s: u32, counts: &mut RayCounts, records: &mut SampleRecords| {
+        let per_sample = |x: u32, y: u32, s: u32, tracer: &mut Tracer, records: &mut SampleRecords| {
             let mut sampler = Sampler::new(x, y, s, seed);
             let cs = self.camera.sample(scene, x, y, &mut sampler);
             let mut first_hit = None;
@@ -1013,13 +994,10 @@ impl RenderJob for BdptRender<'_> {
             let mut light_sampler = Sampler::new(x, y, s, light_seed);
             let mut connect_sampler = Sampler::new(x, y, s, connect_seed);
             let l = self.integrator.li(
-                scene,
-                cs.ray.origin,
-                cs.ray.direction,
-                cs.ray.time,
+                tracer,
+                &cs.ray,
                 &mut wl,
                 [&mut sampler, &mut light_sampler, &mut connect_sampler],
-                counts,
                 surfaces.wanted().then_some(&mut first_hit),
                 // Splats keep the wavelengths they were made at (a later dispersive event on the other subpath may
                 // have reduced the set since).
@@ -1028,7 +1006,7 @@ impl RenderJob for BdptRender<'_> {
             let surface = first_hit.map(|h| surfaces.record(scene, &cs, &h));
             records.camera(x, finite_or_zero(l), wl, cs.weight, surface);
         };
-        render_splatting(film, passes, progress, &per_sample)
+        render_splatting(film, scene, passes, progress, &per_sample)
     }
 
     fn finish(self: Box<Self>, _film: &mut Film) {}

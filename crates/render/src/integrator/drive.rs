@@ -13,11 +13,13 @@ use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use spectral::{SampledSpectrum, SampledWavelengths, WavelengthSampler};
 
-use super::path::FirstHit;
-use super::transport::RayCounts;
+use super::transport::{begin_bounce, Bounce, BounceSamples, PathRay, Tracer};
+use super::RenderJob;
+use crate::bxdf::Bxdf;
 use crate::camera::CameraRay;
 use crate::sampler::Sampler;
-use crate::scene::RenderScene;
+use crate::sampling::Frame;
+use crate::scene::{RenderScene, SurfaceHit};
 
 /// Totals of a render pass.
 #[derive(Clone, Copy, Debug, Default)]
@@ -30,6 +32,109 @@ pub struct RenderStats {
 
 /// Salt that makes a light path's random numbers independent of its pixel sample's camera ray.
 pub(crate) const LIGHT_PATH_SEED_SALT: u32 = 0x6c69_6768;
+
+/// What the camera ray hit first, for AOVs and the geometry buffer (pbrt-v4's `VisibleSurface`, in world space).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FirstHit {
+    /// Albedo hint of the surface's BxDF at the path's wavelengths.
+    pub albedo: SampledSpectrum,
+    /// World-space shading normal.
+    pub normal: Vec3,
+    /// World-space point.
+    pub p: Vec3,
+    /// World-space geometric normal.
+    pub ng: Vec3,
+    /// Surface (u, v).
+    pub uv: Vec2,
+}
+
+impl FirstHit {
+    /// The first hit `hit`, scattering with `bxdf`.
+    pub(crate) fn at(hit: &SurfaceHit, bxdf: &Bxdf) -> Self {
+        FirstHit { albedo: bxdf.albedo_hint(), normal: hit.ns, p: hit.p, ng: hit.n, uv: hit.uv }
+    }
+}
+
+/// A camera-side estimator of radiance: what `CameraPaths` traces into each pixel.
+pub(crate) trait Radiance: Copy + Send + Sync {
+    /// Radiance arriving at the camera along `ray`, at the wavelengths of `wl` (which a dispersive surface may reduce
+    /// to one); `first_hit` hears the first surface the path scatters at, for AOVs.
+    fn li(
+        &self,
+        tracer: &mut Tracer,
+        ray: &CameraRay,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        first_hit: Option<&mut Option<FirstHit>>,
+    ) -> SampledSpectrum;
+}
+
+/// How far a camera path has come: its scattering events so far and the most it may make (pbrt-v4's `maxdepth`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Depth {
+    /// Scattering events so far.
+    pub events: u32,
+    /// The most the path may make.
+    pub max: u32,
+}
+
+impl Depth {
+    /// A path that has not scattered yet and may scatter `max` times.
+    pub fn new(max: u32) -> Self {
+        Self { events: 0, max }
+    }
+
+    /// Counts one more scattering event; false (and nothing counted) if the path has made all it may.
+    #[inline]
+    pub fn count(&mut self) -> bool {
+        if self.events >= self.max {
+            return false;
+        }
+        self.events += 1;
+        true
+    }
+}
+
+/// What the start of a bounce at a camera path's surface found.
+pub(crate) enum CameraBounce {
+    /// A material-less boundary: the ray was carried through it; trace on (this is not a scattering event).
+    PassedThrough,
+    /// The path ends here (it crossed too many boundaries in a row, the surface absorbs everything, or the path
+    /// has made all its scattering events).
+    End,
+    /// A scattering event, counted: the BxDF at the path's wavelengths, the bounce's random numbers and the
+    /// shading frame.
+    Scatter(Bxdf, BounceSamples, Frame),
+}
+
+/// The start of a bounce at the surface `hit` of a camera path, the same for every integrator that traces camera
+/// paths: [`begin_bounce`] (random numbers, material, boundaries), then the record of the first surface the path
+/// scatters at for the film's AOVs (into `first_hit`, at depth 0), then the depth limit.
+#[inline]
+pub(crate) fn begin_camera_bounce(
+    scene: &RenderScene,
+    hit: &mut SurfaceHit,
+    ray: &mut PathRay,
+    wl: &mut SampledWavelengths,
+    sampler: &mut Sampler,
+    depth: &mut Depth,
+    first_hit: &mut Option<&mut Option<FirstHit>>,
+) -> CameraBounce {
+    let (bxdf, u) = match begin_bounce(scene, hit, ray, wl, sampler) {
+        Bounce::PassedThrough => return CameraBounce::PassedThrough,
+        Bounce::Stop | Bounce::Absorb => return CameraBounce::End,
+        Bounce::Scatter(bxdf, u) => (bxdf, u),
+    };
+    if depth.events == 0 {
+        if let Some(fh) = first_hit.take() {
+            *fh = Some(FirstHit::at(hit, &bxdf));
+        }
+    }
+    if !depth.count() {
+        return CameraBounce::End;
+    }
+    CameraBounce::Scatter(bxdf, u, Frame::from_z_and_tangent(hit.ns, hit.dpdu))
+}
 
 /// One camera sample: the path's wavelengths, the film position and filter weight, and the camera ray.
 #[derive(Clone, Copy, Debug)]
@@ -132,7 +237,9 @@ impl SurfaceRecords {
         let d3 = |v: DVec3| v.to_array();
         let coordinates = match self {
             SurfaceRecords::GBuffer(c) => c,
-            _ => return SurfaceRecord { albedo: hit.albedo, wl: cs.wl, normal: v3(hit.normal), geometry: None },
+            SurfaceRecords::None | SurfaceRecords::Aovs => {
+                return SurfaceRecord { albedo: hit.albedo, wl: cs.wl, normal: v3(hit.normal), geometry: None }
+            }
         };
         let wo = -cs.ray.direction;
         let face = |v: Vec3| if v.dot(wo) < 0.0 { -v } else { v };
@@ -207,28 +314,29 @@ pub(crate) fn finite_or_zero(l: SampledSpectrum) -> SampledSpectrum {
     }
 }
 
-/// What [`render_rows`] calls for each pixel: `(row, x, samples, counts)` adds samples `samples` of pixel `x` to
+/// What [`render_rows`] calls for each pixel: `(row, x, samples, tracer)` adds samples `samples` of pixel `x` to
 /// `row`.
-pub(crate) type PixelSamples<'f> = dyn Fn(&mut FilmRow, u32, Range<u32>, &mut RayCounts) + Sync + 'f;
+pub(crate) type PixelSamples<'f, 's> = dyn Fn(&mut FilmRow, u32, Range<u32>, &mut Tracer<'s>) + Sync + 'f;
 
-/// Renders samples `samples` of every pixel, rows in parallel, with `per_pixel`. `progress` hears the number of
-/// pixel samples done after each row.
-pub(crate) fn render_rows(
+/// Renders samples `samples` of every pixel of a render of `scene`, rows in parallel, with `per_pixel`. `progress`
+/// hears the number of pixel samples done after each row.
+pub(crate) fn render_rows<'s>(
     film: &mut Film,
+    scene: &'s RenderScene,
     samples: Range<u32>,
     progress: &(dyn Fn(u64) + Sync),
-    per_pixel: &PixelSamples,
+    per_pixel: &PixelSamples<'_, 's>,
 ) -> RenderStats {
     let per_pixel_samples = (samples.end - samples.start) as u64;
     film.par_rows_mut()
         .map(|mut row| {
-            let mut counts = RayCounts::default();
+            let mut tracer = Tracer::new(scene);
             for x in row.xs() {
-                per_pixel(&mut row, x, samples.clone(), &mut counts);
+                per_pixel(&mut row, x, samples.clone(), &mut tracer);
             }
             let taken = per_pixel_samples * row.width() as u64;
             progress(taken);
-            RenderStats { samples: taken, rays: counts.intersect + counts.shadow }
+            RenderStats { samples: taken, rays: tracer.rays() }
         })
         .reduce(RenderStats::default, |a, b| RenderStats { samples: a.samples + b.samples, rays: a.rays + b.rays })
 }
@@ -270,19 +378,20 @@ impl SampleRecords {
     }
 }
 
-/// What [`render_splatting`] calls for every pixel sample: `(x, y, s, counts, records)`.
-pub(crate) type PixelSample<'f> = dyn Fn(u32, u32, u32, &mut RayCounts, &mut SampleRecords) + Sync + 'f;
+/// What [`render_splatting`] calls for every pixel sample: `(x, y, s, tracer, records)`.
+pub(crate) type PixelSample<'f, 's> = dyn Fn(u32, u32, u32, &mut Tracer<'s>, &mut SampleRecords) + Sync + 'f;
 
-/// Runs `per_sample(x, y, s, counts, records)` for every pixel sample, rows in parallel in batches small enough to
+/// Runs `per_sample(x, y, s, tracer, records)` for every pixel sample of a render of `scene`, rows in parallel in batches small enough to
 /// hold their records in memory, and adds the camera samples and splats to the film in the order (sample index,
 /// row, column) whatever the batching: the same sums in the same order for any number of threads, and for a render
 /// split into several runs of consecutive sample ranges. Counts `samples` light paths per pixel for the splats'
 /// scale.
-pub(crate) fn render_splatting(
+pub(crate) fn render_splatting<'s>(
     film: &mut Film,
+    scene: &'s RenderScene,
     samples: Range<u32>,
     progress: &(dyn Fn(u64) + Sync),
-    per_sample: &PixelSample,
+    per_sample: &PixelSample<'_, 's>,
 ) -> RenderStats {
     // The film's pixel bounds (a crop renders only its own pixels' samples and light paths; coordinates stay
     // those of the full image, so each pixel draws the same random numbers as in a full render).
@@ -306,21 +415,21 @@ pub(crate) fn render_splatting(
         while y0 < y_start + h {
             let y1 = (y0 + rows_per_batch).min(y_start + h);
             // Per row: one record set per pass s0..s1.
-            let rows: Vec<(Vec<SampleRecords>, RayCounts)> = (y0..y1)
+            let rows: Vec<(Vec<SampleRecords>, u64)> = (y0..y1)
                 .into_par_iter()
                 .map(|y| {
-                    let mut counts = RayCounts::default();
+                    let mut tracer = Tracer::new(scene);
                     let records = (s0..s1)
                         .map(|s| {
                             let mut records = SampleRecords::default();
                             for x in x0..x0 + w {
-                                per_sample(x, y, s, &mut counts, &mut records);
+                                per_sample(x, y, s, &mut tracer, &mut records);
                             }
                             records
                         })
                         .collect();
                     progress(w as u64 * (s1 - s0) as u64);
-                    (records, counts)
+                    (records, tracer.rays())
                 })
                 .collect();
             let mut splats = Vec::new();
@@ -335,7 +444,7 @@ pub(crate) fn render_splatting(
                     splats.extend_from_slice(&records[pass].splats);
                 }
             }
-            stats.rays += rows.iter().map(|(_, c)| c.intersect + c.shadow).sum::<u64>();
+            stats.rays += rows.iter().map(|(_, rays)| rays).sum::<u64>();
             film.add_splats(&splats);
             y0 = y1;
         }
@@ -344,4 +453,50 @@ pub(crate) fn render_splatting(
     film.add_light_paths(w as u64 * h as u64 * spp);
     stats.samples = w as u64 * h as u64 * spp;
     stats
+}
+
+/// Camera paths traced into the pixels they start from, by any camera-side estimator: the render of `path` and
+/// `volpath`, and the directly visible emitters of the light tracer.
+pub(crate) struct CameraPaths<'a, R: Radiance> {
+    integrator: R,
+    pub(crate) scene: &'a RenderScene,
+    pub(crate) camera: CameraSampler,
+    pub(crate) seed: u32,
+}
+
+impl<'a, R: Radiance> CameraPaths<'a, R> {
+    /// Camera paths of `integrator` through `scene` into films like `film`.
+    pub fn new(integrator: R, scene: &'a RenderScene, film: &Film, seed: u32) -> Result<Self, FilmError> {
+        Ok(Self { integrator, scene, camera: CameraSampler::new(film)?, seed })
+    }
+
+    /// Renders samples `samples` of every pixel into `film`, with albedo and normal AOVs and the geometry buffer if
+    /// the film keeps them.
+    pub fn render(&self, film: &mut Film, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
+        let surfaces = SurfaceRecords::of(film);
+        render_rows(film, self.scene, samples, progress, &|row, x, samples, tracer| {
+            let y = row.y();
+            for s in samples {
+                let mut sampler = Sampler::new(x, y, s, self.seed);
+                let cs = self.camera.sample(self.scene, x, y, &mut sampler);
+                let mut wl = cs.wl;
+                let mut first_hit = None;
+                let fh = surfaces.wanted().then_some(&mut first_hit);
+                let l = finite_or_zero(self.integrator.li(tracer, &cs.ray, &mut wl, &mut sampler, fh));
+                let weight = cs.weight as f64;
+                row.add_sample(x, &l, &wl, weight);
+                if let Some(h) = first_hit {
+                    surfaces.record(self.scene, &cs, &h).add_to_row(row, x, weight, Some((&l, &wl)));
+                }
+            }
+        })
+    }
+}
+
+impl<R: Radiance> RenderJob for CameraPaths<'_, R> {
+    fn run(&mut self, film: &mut Film, passes: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
+        self.render(film, passes, progress)
+    }
+
+    fn finish(self: Box<Self>, _film: &mut Film) {}
 }

@@ -21,10 +21,9 @@
 use glam::{DVec3, Vec2, Vec3};
 use spectral::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
 
-use super::transport::{BounceSamples, RayCounts};
-use crate::bxdf::{fresnel_dielectric, Bxdf, TransportMode};
+use super::transport::{BounceSamples, SurfaceVertex, Tracer};
+use crate::bxdf::{fresnel_dielectric, TransportMode};
 use crate::light::{Light, LightSampleContext};
-use crate::sampling::Frame;
 use crate::scene::{DifferentialHit, RenderScene, SurfaceHit, NO_MATERIAL};
 use crate::texture::TextureEvalContext;
 
@@ -86,7 +85,8 @@ struct Seed {
 
 /// Traces the segment from `x0` to `y` and collects the surfaces it crosses; `None` if it crosses none, more
 /// than `max_len`, or one that is not a smooth dielectric with derivatives.
-fn trace_seed(scene: &RenderScene, x0: &SurfaceHit, y: Vec3, max_len: usize, counts: &mut RayCounts) -> Option<Seed> {
+fn trace_seed(tracer: &mut Tracer, x0: &SurfaceHit, y: Vec3, max_len: usize) -> Option<Seed> {
+    let scene = tracer.scene;
     let mut origin = x0.spawn_origin(y - x0.p);
     let mut seed: Option<Seed> = None;
     loop {
@@ -96,7 +96,7 @@ fn trace_seed(scene: &RenderScene, x0: &SurfaceHit, y: Vec3, max_len: usize, cou
             return None;
         }
         let d = to / dist;
-        counts.intersect += 1;
+        tracer.counts.intersect += 1;
         let Some(dh) = scene.geometry.intersect_differential(origin, d, dist * (1.0 - 1e-4), x0.time) else {
             return seed;
         };
@@ -294,13 +294,13 @@ fn solve_linear<const M: usize>(
 
 /// Moves the chain to `targets` by tracing from `x0` through them: each vertex must land on its own surface.
 fn reproject(
-    scene: &RenderScene,
+    tracer: &mut Tracer,
     x0: &SurfaceHit,
     old: &[Vertex; MAX_CHAIN],
     targets: &[DVec3; MAX_CHAIN],
     k: usize,
-    counts: &mut RayCounts,
 ) -> Option<[Vertex; MAX_CHAIN]> {
+    let scene = tracer.scene;
     let mut out = *old;
     let mut from = *x0;
     for i in 0..k {
@@ -308,7 +308,7 @@ fn reproject(
         if d == Vec3::ZERO {
             return None;
         }
-        counts.intersect += 1;
+        tracer.counts.intersect += 1;
         let dh = scene.geometry.intersect_differential(from.spawn_origin(d), d, f32::INFINITY, from.time)?;
         if dh.surface != old[i].surface {
             return None;
@@ -335,13 +335,12 @@ struct Solution {
 /// (inside each vertex's surface) from `x0` to the light end `end`, with step halving. Returns the converged
 /// vertices, the solve's setup and the system there; `None` if it does not converge.
 fn newton(
-    scene: &RenderScene,
+    tracer: &mut Tracer,
     x0: &SurfaceHit,
     seed: &Seed,
     start: &[Vertex; MAX_CHAIN],
     eta: &[f64; MAX_CHAIN],
     end: &LightEnd,
-    counts: &mut RayCounts,
 ) -> Option<([Vertex; MAX_CHAIN], Setup, System)> {
     let k = seed.len;
     let mut setup =
@@ -388,8 +387,8 @@ fn newton(
         for i in 0..k {
             targets[i] = v[i].p + step * (dl[2 * i][0] * v[i].dpdu + dl[2 * i + 1][0] * v[i].dpdv);
         }
-        let moved = reproject(scene, x0, &v, &targets, k, counts)
-            .and_then(|w| evaluate(x0p, &w[..k], &setup, end).map(|s| (w, s)));
+        let moved =
+            reproject(tracer, x0, &v, &targets, k).and_then(|w| evaluate(x0p, &w[..k], &setup, end).map(|s| (w, s)));
         match moved {
             Some((w, s)) if max_abs(&s.c[..n]) < err => {
                 v = w;
@@ -408,21 +407,19 @@ fn newton(
 /// `eta`, then the checks (every vertex refracts between the sides the seed crossed, the last segment is
 /// unoccluded) and the generalized geometry term, with the light end's tangents taken perpendicular to the last
 /// segment when `point_light`. `None` if it does not converge or the chain is invalid.
-#[allow(clippy::too_many_arguments)]
 fn solve(
-    scene: &RenderScene,
+    tracer: &mut Tracer,
     x0: &SurfaceHit,
     seed: &Seed,
     start: &[Vertex; MAX_CHAIN],
     eta: &[f64; MAX_CHAIN],
     mut end: LightEnd,
     point_light: bool,
-    counts: &mut RayCounts,
 ) -> Option<Solution> {
     let k = seed.len;
     let n = 2 * k;
     let x0p = x0.p.as_dvec3();
-    let (v, setup, mut sys) = newton(scene, x0, seed, start, eta, &end, counts)?;
+    let (v, setup, mut sys) = newton(tracer, x0, seed, start, eta, &end)?;
     // Every vertex must refract between the sides the seed crossed (shading and geometric normals agreeing).
     for i in 0..k {
         let prev = if i == 0 { x0p } else { v[i - 1].p };
@@ -443,8 +440,7 @@ fn solve(
     let origin = last.spawn_origin(to);
     let to = end.p.as_vec3() - origin;
     let dist = to.length();
-    counts.shadow += 1;
-    if dist.is_nan() || dist <= 0.0 || scene.geometry.occluded(origin, to / dist, dist * (1.0 - 1e-4), last.time) {
+    if dist.is_nan() || dist <= 0.0 || tracer.occluded(origin, to / dist, dist * (1.0 - 1e-4), last.time) {
         return None;
     }
     if point_light {
@@ -493,7 +489,12 @@ fn sample_light_end(light: &Light, x0: Vec3, u: Vec2) -> Option<(Vec3, Option<Ve
             let ss = shape.sample_area(*element as usize, u)?;
             (ss.pdf > 0.0 && ss.pdf.is_finite()).then_some((ss.p, Some(ss.n), ss.pdf))
         }
-        _ => None,
+        // Lights at infinity and directional lights end no chain that a refraction can focus (and alpha cut-outs
+        // are left to path tracing).
+        Light::DiffuseArea { alpha: Some(_), .. }
+        | Light::Distant { .. }
+        | Light::UniformInfinite { .. }
+        | Light::ImageInfinite { .. } => None,
     }
 }
 
@@ -509,9 +510,14 @@ fn light_end_supported(light: &Light, x0: Vec3, y: Vec3) -> bool {
                     true
                 }
             }
-            _ => true,
+            geometry::Shape::Mesh(_) | geometry::Shape::Bilinear(_) | geometry::Shape::Disk(_) => true,
         },
-        _ => false,
+        Light::Point { .. }
+        | Light::Spot { .. }
+        | Light::Distant { .. }
+        | Light::UniformInfinite { .. }
+        | Light::ImageInfinite { .. }
+        | Light::DiffuseArea { alpha: Some(_), .. } => false,
     }
 }
 
@@ -552,21 +558,18 @@ fn indices(scene: &RenderScene, seed: &Seed, wl: &SampledWavelengths) -> Indices
 /// The chains of the carried wavelengths from `x0` to `end` near the straight `seed`: first the chain at the
 /// reference wavelength from the seed, then each group's from that one (a deterministic function of x₀, y and the
 /// indices, which [`covers`] relies on). Calls `found` with each group's slot and solution.
-#[allow(clippy::too_many_arguments)]
 fn solve_all(
-    scene: &RenderScene,
+    tracer: &mut Tracer,
     x0: &SurfaceHit,
     seed: &Seed,
     idx: &Indices,
-    end: LightEnd,
-    point_light: bool,
-    counts: &mut RayCounts,
+    (end, point_light): (LightEnd, bool),
     mut found: impl FnMut(usize, &Solution),
 ) {
-    let Some((start, _, _)) = newton(scene, x0, seed, &seed.v, &idx.reference, &end, counts) else { return };
+    let Some((start, _, _)) = newton(tracer, x0, seed, &seed.v, &idx.reference, &end) else { return };
     for g in 0..N_WAVELENGTHS {
         if idx.group[g] == g {
-            if let Some(sol) = solve(scene, x0, seed, &start, &idx.eta[g], end, point_light, counts) {
+            if let Some(sol) = solve(tracer, x0, seed, &start, &idx.eta[g], end, point_light) {
                 found(g, &sol);
             }
         }
@@ -578,18 +581,15 @@ fn solve_all(
 /// indices among the carried wavelengths. Returns f·|cos|·∏(T/η'²)·Le·G / p per wavelength (zero where no chain
 /// was found), to be multiplied by the path throughput. `max_len` caps the chain's length (the path's remaining
 /// depth).
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn estimate(
-    scene: &RenderScene,
-    hit: &SurfaceHit,
-    frame: &Frame,
-    bxdf: &Bxdf,
-    wo: Vec3,
+    tracer: &mut Tracer,
+    v: &SurfaceVertex,
     wl: &SampledWavelengths,
     u: &BounceSamples,
     max_len: usize,
-    counts: &mut RayCounts,
 ) -> SampledSpectrum {
+    let scene = tracer.scene;
+    let SurfaceVertex { hit, frame, bxdf, wo, .. } = *v;
     let mut out = SampledSpectrum::zero();
     let max_len = max_len.min(MAX_CHAIN);
     if max_len == 0 {
@@ -599,7 +599,7 @@ pub(crate) fn estimate(
     let Some((li, p_sel)) = scene.sample_light(u_light) else { return out };
     let light = &scene.lights[li as usize];
     let Some((y, n_y, pdf_a)) = sample_light_end(light, hit.p, Vec2::new(u0, u1)) else { return out };
-    let Some(seed) = trace_seed(scene, hit, y, max_len, counts) else { return out };
+    let Some(seed) = trace_seed(tracer, hit, y, max_len) else { return out };
     let end = match n_y {
         Some(n) => {
             let (t1, t2) = geometry::shapes::coordinate_system(n);
@@ -608,7 +608,7 @@ pub(crate) fn estimate(
         None => LightEnd { p: y.as_dvec3(), t1: DVec3::X, t2: DVec3::Y },
     };
     let idx = indices(scene, &seed, wl);
-    solve_all(scene, hit, &seed, &idx, end, n_y.is_none(), counts, |g, sol| {
+    solve_all(tracer, hit, &seed, &idx, (end, n_y.is_none()), |g, sol| {
         let k = sol.len;
         let w0 = (sol.v[0].hit.p - hit.p).normalize();
         let wi = frame.to_local(w0);
@@ -697,14 +697,13 @@ impl ChainTrack {
 /// at the chain's start (it would sample `y`, and its solver from there finds this very chain): the path
 /// tracer drops those, so that each path is counted by exactly one of the two.
 pub(crate) fn covers(
-    scene: &RenderScene,
+    tracer: &mut Tracer,
     track: &ChainTrack,
     li: u32,
-    y: Vec3,
-    n_y: Vec3,
+    (y, n_y): (Vec3, Vec3),
     wl: &SampledWavelengths,
-    counts: &mut RayCounts,
 ) -> [bool; N_WAVELENGTHS] {
+    let scene = tracer.scene;
     let mut out = [false; N_WAVELENGTHS];
     let Some((x0, max_len)) = track.start else { return out };
     if track.len == 0 || scene.light_probability(li) <= 0.0 {
@@ -712,12 +711,9 @@ pub(crate) fn covers(
     }
     let light = &scene.lights[li as usize];
     if !light_end_supported(light, x0.p, y) {
-        if std::env::var("MDEBUG").is_ok() {
-            eprintln!("unsupported x0 {} y {}", x0.p, y);
-        }
         return out;
     }
-    let Some(seed) = trace_seed(scene, &x0, y, max_len, counts) else { return out };
+    let Some(seed) = trace_seed(tracer, &x0, y, max_len) else { return out };
     if seed.len != track.len {
         return out;
     }
@@ -725,7 +721,7 @@ pub(crate) fn covers(
     let end = LightEnd { p: y.as_dvec3(), t1: t1.as_dvec3(), t2: t2.as_dvec3() };
     let idx = indices(scene, &seed, wl);
     let tol = MATCH_TOLERANCE * (y - x0.p).length() as f64;
-    solve_all(scene, &x0, &seed, &idx, end, false, counts, |g, sol| {
+    solve_all(tracer, &x0, &seed, &idx, (end, false), |g, sol| {
         if (0..sol.len).all(|i| sol.v[i].p.distance(track.p[i].as_dvec3()) < tol) {
             for j in 0..N_WAVELENGTHS {
                 out[j] |= idx.group[j] == g;
@@ -796,13 +792,13 @@ mod tests {
         point_light: bool,
         wl: &SampledWavelengths,
     ) -> Vec<(usize, Solution)> {
-        let mut counts = RayCounts::default();
+        let mut tracer = Tracer::new(scene);
         let x0 = scene.geometry.intersect(x + Vec3::Y * 0.5, -Vec3::Y, f32::INFINITY, 0.0).unwrap();
-        let seed = trace_seed(scene, &x0, y, MAX_CHAIN, &mut counts).unwrap();
+        let seed = trace_seed(&mut tracer, &x0, y, MAX_CHAIN).unwrap();
         let idx = indices(scene, &seed, wl);
         let end = LightEnd { p: y.as_dvec3(), t1: DVec3::X, t2: DVec3::Z };
         let mut out = vec![];
-        solve_all(scene, &x0, &seed, &idx, end, point_light, &mut counts, |g, sol| out.push((g, *sol)));
+        solve_all(&mut tracer, &x0, &seed, &idx, (end, point_light), |g, sol| out.push((g, *sol)));
         out
     }
 
@@ -985,6 +981,8 @@ mod tests_support {
 mod brute {
     use super::tests_support::*;
     use super::*;
+    use crate::bxdf::Bxdf;
+    use crate::sampling::Frame;
 
     /// Manifold NEE's estimate at a floor point in the caustic of a glass ball under a spherical lamp, averaged over
     /// a grid of light samples, equals per wavelength (four distinct indices of N-SF11) the brute-force integral
@@ -994,7 +992,7 @@ mod brute {
     #[test]
     fn estimate_equals_the_integral_of_the_paths_it_covers() {
         let (scene, x) = sphere_lamp_scene();
-        let mut counts = RayCounts::default();
+        let mut tracer = Tracer::new(&scene);
         let x0 = scene.geometry.intersect(x + Vec3::Y * 0.3, -Vec3::Y, f32::INFINITY, 0.0).unwrap();
         let wl = SampledWavelengths::new([450.0, 520.0, 600.0, 680.0], [1.0; 4]);
         let bxdf = Bxdf::Diffuse { r: SampledSpectrum::splat(1.0) };
@@ -1013,7 +1011,8 @@ mod brute {
                     mix: 0.0,
                     wavelength: 0.0,
                 };
-                sum_m += estimate(&scene, &x0, &frame, &bxdf, wo, &wl, &u, 4, &mut counts);
+                let v = SurfaceVertex { hit: &x0, frame: &frame, bxdf: &bxdf, wo, medium: None };
+                sum_m += estimate(&mut tracer, &v, &wl, &u, 4);
             }
         }
         let mnee = sum_m * (1.0 / (n * n) as f32);
@@ -1033,7 +1032,7 @@ mod brute {
                     for _ in 0..4 {
                         let Some(h) = scene.geometry.intersect(o, d, f32::INFINITY, 0.0) else { break };
                         if h.area_light.is_some() {
-                            if covers(&scene, &track, 0, h.p, h.n, &wl1, &mut counts)[slot] {
+                            if covers(&mut tracer, &track, 0, (h.p, h.n), &wl1)[slot] {
                                 sum_c[slot] += w * scene.lights[0].l_area(h.p, h.uv, h.n, -d, &wl)[slot];
                             }
                             break;

@@ -5,8 +5,12 @@
 //! the same way whatever the algorithm: [`RenderJob::run`] over ranges of samples (or photon-mapping iterations),
 //! then [`RenderJob::finish`] into the film. The [`Integrator`] enum lists them, one line each.
 //!
-//! Shared by all of them: [`transport`] (resolving surfaces, crossing boundaries between media, next-event
-//! estimation) and [`drive`] (camera samples, and the loops that write camera samples and splats into the film).
+//! An integrator's file depends only on what they all share, never on another integrator's file: `transport` (the
+//! tracer, rays and the media they travel through, the bounce's random numbers, the start of a bounce, BSDF
+//! sampling, next-event estimation), `volume` (spectral MIS, tracking and shadow rays through media that scatter,
+//! next-event estimation through them), `volume_paths` (the volumetric camera-path estimator), `light_walk` (the
+//! walk of a light path), `manifold` (manifold next-event estimation) and `drive` (camera samples, first-hit
+//! records, the camera-path driver, and the loops that write camera samples and splats into the film).
 
 use std::ops::Range;
 
@@ -23,9 +27,12 @@ pub mod sppm;
 pub mod volpath;
 
 // What they share.
-pub mod drive;
-pub(crate) mod manifold;
-pub mod transport;
+mod drive;
+mod light_walk;
+mod manifold;
+mod transport;
+mod volume;
+mod volume_paths;
 
 pub use drive::RenderStats;
 pub use transport::RayCounts;

@@ -25,15 +25,11 @@ use rayon::prelude::*;
 use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths, Xyz};
 
-use super::drive::RenderStats;
+use super::drive::{begin_camera_bounce, CameraBounce, Depth, FirstHit, RenderStats};
 use super::drive::{CameraSample, CameraSampler, SurfaceRecord, SurfaceRecords};
-use super::lightpath::{walk_light_path, LightVertexAt};
-use super::path::FirstHit;
-use super::transport::{
-    begin_bounce, sample_direct_light, scatter, weigh_tracking, Bounce, BounceSamples, DirectLight, PathRay, RayCounts,
-    SpectralMis,
-};
-use super::volpath::{sample_ld, Vertex};
+use super::light_walk::{walk_light_path, LightVertexAt, LightWalk};
+use super::transport::{sample_direct_light, scatter, BounceSamples, DirectLight, PathRay, SurfaceVertex, Tracer};
+use super::volume::{sample_ld, weigh_tracking, ScatterVertex, SpectralMis};
 use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
 use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
@@ -348,10 +344,25 @@ impl VisibleGrid {
 /// What a pixel's camera path gave in one iteration: its visible point, the direct light (times the filter
 /// weight), the wavelengths after it, ray counts, the camera sample's filter weight, and the first surface it
 /// saw if the film keeps AOVs.
-type CameraPass<'a> =
-    (Option<VisiblePoint<'a>>, SampledSpectrum, SampledWavelengths, RayCounts, f32, Option<SurfaceRecord>);
+type CameraPass<'a> = (Option<VisiblePoint<'a>>, SampledSpectrum, SampledWavelengths, u64, f32, Option<SurfaceRecord>);
 
 /// A photon's contribution to one visible point.
+/// What the photons of one iteration are gathered into: the visible points, their grid and radii, and what seeds
+/// the photons.
+#[derive(Clone, Copy)]
+struct PhotonPass<'p> {
+    /// Whether photons are tracked through media that scatter (and visible points may lie in them).
+    media: bool,
+    grid: &'p VisibleGrid,
+    points: &'p [Option<VisiblePoint<'p>>],
+    radii: &'p [f64],
+    /// The iteration's wavelengths.
+    wl: SampledWavelengths,
+    iteration: u32,
+    /// The photon samplers' seed.
+    seed: u32,
+}
+
 struct Gathered {
     vp: u32,
     phi: SampledSpectrum,
@@ -388,29 +399,25 @@ impl SppmIntegrator {
                 .into_par_iter()
                 .map(|i| {
                     let (x, y) = (state.origin.0 + (i % w as u64) as u32, state.origin.1 + (i / w as u64) as u32);
-                    let mut counts = RayCounts::default();
+                    let mut tracer = Tracer::new(scene);
                     let mut sampler = Sampler::new(x, y, it, seed);
                     // The camera sample's own wavelengths are replaced by the iteration's.
                     let cs = CameraSample { wl: wl_iter, ..camera_sampler.sample(scene, x, y, &mut sampler) };
                     let mut wl = wl_iter;
                     let mut first_hit = None;
                     let fh = surfaces.wanted().then_some(&mut first_hit);
-                    let (vp, ld) = if media {
-                        self.camera_path_in_media(scene, &cs, &mut wl, &mut sampler, &mut counts, fh)
-                    } else {
-                        self.camera_path(scene, &cs, &mut wl, &mut sampler, &mut counts, fh)
-                    };
+                    let (vp, ld) = self.camera_path(&mut tracer, &cs, media, &mut wl, &mut sampler, fh);
                     let surface = first_hit.map(|h| surfaces.record(scene, &cs, &h));
-                    (vp, ld, wl, counts, cs.weight, surface)
+                    (vp, ld, wl, tracer.rays(), cs.weight, surface)
                 })
                 .collect();
             let mut points = Vec::with_capacity(camera.len());
-            for (i, (vp, ld, wl, counts, weight, surface)) in camera.into_iter().enumerate() {
+            for (i, (vp, ld, wl, rays, weight, surface)) in camera.into_iter().enumerate() {
                 if let Some(s) = surface {
                     let (x, y) = (state.origin.0 + i as u32 % w, state.origin.1 + i as u32 / w);
                     s.add_to_film(film, (x, y), 1.0, None);
                 }
-                stats.rays += counts.intersect + counts.shadow;
+                stats.rays += rays;
                 state.pixels[i].weight += weight as f64;
                 if !ld.is_black() {
                     let xyz = state.conversion.xyz(&ld, &wl);
@@ -430,36 +437,32 @@ impl SppmIntegrator {
             let mut phi = vec![SampledSpectrum::zero(); points.len()];
             let mut m = vec![0u32; points.len()];
             if let Some(grid) = VisibleGrid::build(&points, &radii) {
-                let photon_seed = hash_words(&[seed, PHOTON_SEED_SALT]);
+                let pass = PhotonPass {
+                    media,
+                    grid: &grid,
+                    points: &points,
+                    radii: &radii,
+                    wl: wl_iter,
+                    iteration: it,
+                    seed: hash_words(&[seed, PHOTON_SEED_SALT]),
+                };
                 let mut start = 0u64;
                 while start < photons {
                     let end = (start + PHOTON_BATCH).min(photons);
                     let chunk_starts: Vec<u64> = (start..end).step_by(1024).collect();
-                    let chunks: Vec<(Vec<Gathered>, RayCounts)> = chunk_starts
+                    let chunks: Vec<(Vec<Gathered>, u64)> = chunk_starts
                         .into_par_iter()
                         .map(|k0| {
                             let mut out = Vec::new();
-                            let mut counts = RayCounts::default();
+                            let mut tracer = Tracer::new(scene);
                             for k in k0..(k0 + 1024).min(end) {
-                                self.photon(
-                                    scene,
-                                    media,
-                                    &grid,
-                                    &points,
-                                    &radii,
-                                    &wl_iter,
-                                    k,
-                                    it,
-                                    photon_seed,
-                                    &mut counts,
-                                    &mut out,
-                                );
+                                self.photon(&mut tracer, &pass, k, &mut out);
                             }
-                            (out, counts)
+                            (out, tracer.rays())
                         })
                         .collect();
-                    for (gathered, counts) in chunks {
-                        stats.rays += counts.intersect + counts.shadow;
+                    for (gathered, rays) in chunks {
+                        stats.rays += rays;
                         for g in gathered {
                             phi[g.vp as usize] += g.phi;
                             m[g.vp as usize] += 1;
@@ -507,92 +510,44 @@ impl SppmIntegrator {
     }
 
     /// Traces the camera path of the camera sample `cs` (at the iteration's wavelengths `wl`): emission seen
-    /// through specular bounces and direct light at the first non-specular surface (both in `ld`), and the visible
-    /// point there.
-    fn camera_path(
+    /// through specular bounces and direct light at its first non-specular vertex (both in `ld`), and the visible
+    /// point there. With `media` (the scene has media that scatter), the path delta-tracks through them with
+    /// spectral MIS (as `volpath` does) and its visible point is its first non-specular surface or its first
+    /// scattering event in a medium, whichever comes first; direct light there is next-event estimation through the
+    /// media. Without, media only absorb along the path and its shadow rays. Direct light is light sampling only:
+    /// photons count from their second vertex.
+    fn camera_path<'s>(
         &self,
-        scene: &RenderScene,
+        tracer: &mut Tracer<'s>,
         cs: &CameraSample,
+        media: bool,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
-        counts: &mut RayCounts,
         mut first_hit: Option<&mut Option<FirstHit>>,
-    ) -> (Option<VisiblePoint<'static>>, SampledSpectrum) {
+    ) -> (Option<VisiblePoint<'s>>, SampledSpectrum) {
+        let scene = tracer.scene;
         let mut ray = PathRay::camera(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
         // The camera sample's filter weight, as a camera sample of the other integrators carries it into the film.
         let mut beta = SampledSpectrum::splat(cs.weight);
-        let mut ld = SampledSpectrum::zero();
-        let mut depth = 0u32;
-        loop {
-            let d = ray.d;
-            let Some(mut hit) = ray.intersect(scene, counts) else {
-                // Only specular bounces led here: the environment is seen directly.
-                for &li in &scene.infinite_lights {
-                    ld += beta * scene.lights[li as usize].le(d, wl);
-                }
-                return (None, ld);
-            };
-            ray.attenuate(scene, &hit, wl, &mut beta);
-            if let Some(li) = hit.area_light {
-                ld += beta * scene.lights[li as usize].l_area(hit.p, hit.uv, hit.n, -d, wl);
-            }
-            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut ray, wl, sampler) {
-                Bounce::PassedThrough => continue,
-                Bounce::Stop | Bounce::Absorb => return (None, ld),
-                Bounce::Scatter(bxdf, u) => (bxdf, u),
-            };
-            if depth == 0 {
-                if let Some(fh) = first_hit.take() {
-                    *fh = Some(FirstHit::at(&hit, &bxdf));
-                }
-            }
-            if depth == self.max_depth {
-                return (None, ld);
-            }
-            depth += 1;
-            let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
-            let wo = frame.to_local(-d);
-            if !bxdf.is_specular() {
-                let weighting = DirectLight::LightSamplingOnly;
-                ld += beta * sample_direct_light(scene, &hit, ray.medium, &frame, &bxdf, wo, wl, &u, weighting, counts);
-                let vp = VisiblePoint { p: hit.p, at: VisibleAt::Surface { frame, wo, bxdf }, beta, wl: *wl };
-                return (Some(vp), ld);
-            }
-            let mode = TransportMode::Radiance;
-            let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { return (None, ld) };
-            ray.leave(&hit, s.wi, s.bs.transmission);
-        }
-    }
-
-    /// [`camera_path`](Self::camera_path) in a scene with media that scatter: the camera path delta-tracks through
-    /// them with spectral MIS (as `volpath` does) and its visible point is its first non-specular surface or its
-    /// first scattering event in a medium, whichever comes first. Direct light there is next-event estimation
-    /// through the media (light sampling only: photons count from their second vertex, as on surfaces).
-    fn camera_path_in_media<'s>(
-        &self,
-        scene: &'s RenderScene,
-        cs: &CameraSample,
-        wl: &mut SampledWavelengths,
-        sampler: &mut Sampler,
-        counts: &mut RayCounts,
-        mut first_hit: Option<&mut Option<FirstHit>>,
-    ) -> (Option<VisiblePoint<'s>>, SampledSpectrum) {
-        let mut ray = PathRay::camera(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
-        let mut beta = SampledSpectrum::splat(cs.weight);
+        // The rescaled probabilities of the path's tracking decisions: ones without media, where every division by
+        // their mean is a division by exactly 1.
         let mut r_u = SampledSpectrum::splat(1.0);
         let mut mis = SpectralMis::new(wl);
-        // A random hero from the start: a shadow ray may track through a chromatic medium before the path enters one.
-        mis.choose(sampler.next_1d());
+        if media {
+            // A random hero from the start: a shadow ray may track through a chromatic medium before the path enters
+            // one.
+            mis.choose(sampler.next_1d());
+        }
         let mut ld = SampledSpectrum::zero();
-        let mut depth = 0u32;
+        let mut depth = Depth::new(self.max_depth);
         loop {
             let d = ray.d;
-            let hit = ray.intersect(scene, counts);
-            if let Some(m) = ray.medium.filter(|&m| !scene.media[m as usize].is_absorbing_only()) {
+            let hit = ray.intersect(tracer);
+            if let Some(m) = ray.medium.filter(|&m| media && !scene.media[m as usize].is_absorbing_only()) {
                 let medium = &scene.media[m as usize];
                 mis.choose(sampler.next_1d());
                 let h = mis.hero;
-                let mut rng = TrackingRng::new(sampler.next_1d(), depth);
+                let mut rng = TrackingRng::new(sampler.next_1d(), depth.events);
                 let t_end = hit.map_or(f32::INFINITY, |h| h.t);
                 let (mut scattered, mut terminated) = (None, false);
                 let t_maj = sample_t_maj(medium, ray.o, d, t_end, &mut rng, wl, h, |p, mp, sigma_maj, t_maj, rng| {
@@ -602,7 +557,7 @@ impl SppmIntegrator {
                             false
                         }
                         Collision::Scatter => {
-                            if depth == self.max_depth {
+                            if depth.events == depth.max {
                                 terminated = true;
                                 return false;
                             }
@@ -628,8 +583,8 @@ impl SppmIntegrator {
                 if let Some((p, sigma_s)) = scattered {
                     let phase = medium.phase();
                     let u = BounceSamples::draw(sampler);
-                    let v = Vertex::Medium { p, d_in: d, phase, medium: Some(m), time: ray.time };
-                    ld += beta * sample_ld(scene, v, wl, &u, &mis, r_u, true, counts);
+                    let v = ScatterVertex::Medium { p, d_in: d, phase, medium: Some(m), time: ray.time };
+                    ld += beta * sample_ld(tracer, v, wl, &u, &mis, r_u, DirectLight::LightSamplingOnly);
                     let weight = (beta / mis.average(r_u)).safe_div(sigma_s);
                     let vp = VisiblePoint { p, at: VisibleAt::Medium { phase, d_in: d }, beta: weight, wl: *wl };
                     return (Some(vp), ld);
@@ -642,6 +597,7 @@ impl SppmIntegrator {
                 ray.attenuate(scene, hit, wl, &mut beta);
             }
             let Some(mut hit) = hit else {
+                // Only specular bounces led here: the environment is seen directly.
                 for &li in &scene.infinite_lights {
                     ld += beta * scene.lights[li as usize].le(d, wl) / mis.average(r_u);
                 }
@@ -651,59 +607,44 @@ impl SppmIntegrator {
                 ld += beta * scene.lights[li as usize].l_area(hit.p, hit.uv, hit.n, -d, wl) / mis.average(r_u);
             }
             let arrived_in = ray.medium;
-            let (bxdf, u) = match begin_bounce(scene, &mut hit, &mut ray, wl, sampler) {
-                Bounce::PassedThrough => continue,
-                Bounce::Stop | Bounce::Absorb => return (None, ld),
-                Bounce::Scatter(bxdf, u) => (bxdf, u),
-            };
+            let (bxdf, u, frame) =
+                match begin_camera_bounce(scene, &mut hit, &mut ray, wl, sampler, &mut depth, &mut first_hit) {
+                    CameraBounce::PassedThrough => continue,
+                    CameraBounce::End => return (None, ld),
+                    CameraBounce::Scatter(bxdf, u, frame) => (bxdf, u, frame),
+                };
             mis.update(wl);
-            if depth == 0 {
-                if let Some(fh) = first_hit.take() {
-                    *fh = Some(FirstHit::at(&hit, &bxdf));
-                }
-            }
-            if depth == self.max_depth {
-                return (None, ld);
-            }
-            depth += 1;
-            let frame = Frame::from_z_and_tangent(hit.ns, hit.dpdu);
             let wo = frame.to_local(-d);
+            let v = SurfaceVertex { hit: &hit, frame: &frame, bxdf: &bxdf, wo, medium: arrived_in };
             if !bxdf.is_specular() {
-                let v = Vertex::Surface { hit: &hit, frame: &frame, bxdf: &bxdf, wo, medium: arrived_in };
-                ld += beta * sample_ld(scene, v, wl, &u, &mis, r_u, true, counts);
+                let weighting = DirectLight::LightSamplingOnly;
+                ld += beta
+                    * if media {
+                        sample_ld(tracer, ScatterVertex::Surface(v), wl, &u, &mis, r_u, weighting)
+                    } else {
+                        sample_direct_light(tracer, &v, wl, &u, weighting)
+                    };
                 let weight = beta / mis.average(r_u);
                 let vp = VisiblePoint { p: hit.p, at: VisibleAt::Surface { frame, wo, bxdf }, beta: weight, wl: *wl };
                 return (Some(vp), ld);
             }
             let mode = TransportMode::Radiance;
-            let Some(s) = scatter(&bxdf, &frame, &hit, wo, -d, &u, mode, wl, &mut beta) else { return (None, ld) };
+            let Some(s) = scatter(&v, -d, &u, mode, wl, &mut beta) else { return (None, ld) };
             mis.update(wl);
             ray.leave(&hit, s.wi, s.bs.transmission);
         }
     }
 
-    /// Traces photon `k` of iteration `it` and records what it gives to visible points within their radii.
-    #[allow(clippy::too_many_arguments)]
-    fn photon(
-        &self,
-        scene: &RenderScene,
-        media: bool,
-        grid: &VisibleGrid,
-        points: &[Option<VisiblePoint<'_>>],
-        radii: &[f64],
-        wl_iter: &SampledWavelengths,
-        k: u64,
-        it: u32,
-        seed: u32,
-        counts: &mut RayCounts,
-        out: &mut Vec<Gathered>,
-    ) {
+    /// Traces photon `k` of the iteration of `pass` and records what it gives to visible points within their radii.
+    fn photon(&self, tracer: &mut Tracer, pass: &PhotonPass, k: u64, out: &mut Vec<Gathered>) {
+        let PhotonPass { media, grid, points, radii, wl: wl_iter, iteration: it, seed } = *pass;
         let mut sampler = Sampler::new(k as u32, (k >> 32) as u32, it, seed);
-        let mut wl = *wl_iter;
+        let mut wl = wl_iter;
         // Each photon has its own time, uniform over the shutter (pbrt-v4's photons too): the photon map is the
         // shutter's average, gathered by visible points at their camera rays' times.
-        let time = scene.sample_time(&mut sampler);
-        walk_light_path(scene, self.max_depth, media, time, &mut wl, &mut sampler, counts, |v, wl, _| {
+        let time = tracer.scene.sample_time(&mut sampler);
+        let walk = LightWalk { max_depth: self.max_depth, media, time };
+        walk_light_path(tracer, walk, &mut wl, &mut sampler, |v, wl, _| {
             // Direct light is the visible points' next-event estimation: photons count from their second vertex.
             if v.depth == 1 {
                 return;

@@ -1,15 +1,14 @@
-//! What every integrator does along a path, written once: the ray and the medium it travels through, the
-//! agreed layout of random numbers per bounce, the start of a bounce (resolving the material at a hit: mixes,
-//! material-less boundaries, absorption), one scattering step (BSDF sample, wavelength reduction, throughput), and
-//! next-event estimation.
+//! What every integrator does along a path, written once: the tracer (the scene and the counts of the rays traced
+//! in it), the ray and the medium it travels through, the agreed layout of random numbers per bounce, the start of
+//! a bounce (resolving the material at a hit: mixes, material-less boundaries, absorption), one scattering step
+//! (BSDF sample, wavelength reduction, throughput), shadow rays, and next-event estimation where media only absorb.
 
 use glam::{Vec2, Vec3};
-use spectral::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+use spectral::{SampledSpectrum, SampledWavelengths};
 
 use crate::bxdf::{BsdfSample, Bxdf, TransportMode};
-use crate::light::{LightLeSample, LightSampleContext};
+use crate::light::LightSampleContext;
 use crate::material::Material;
-use crate::medium::{sample_t_maj, TrackingRng};
 use crate::sampler::Sampler;
 use crate::sampling::{power_heuristic, Frame};
 use crate::scene::{RenderScene, SurfaceHit, NO_MATERIAL};
@@ -24,10 +23,63 @@ pub struct RayCounts {
     pub shadow: u64,
 }
 
-/// How next-event estimation shares direct light with BSDF sampling.
+/// The scene paths are traced through and the counters of the rays traced in it: the context every step of every
+/// integrator takes first. One per unit of parallel work (a row, a batch of photons); its counts go into the
+/// render's statistics.
+pub(crate) struct Tracer<'a> {
+    /// The scene.
+    pub scene: &'a RenderScene,
+    /// Rays traced so far.
+    pub counts: RayCounts,
+}
+
+impl<'a> Tracer<'a> {
+    /// A tracer through `scene` that has traced nothing yet.
+    pub fn new(scene: &'a RenderScene) -> Self {
+        Self { scene, counts: RayCounts::default() }
+    }
+
+    /// The rays traced, closest hit and shadow.
+    pub fn rays(&self) -> u64 {
+        self.counts.intersect + self.counts.shadow
+    }
+
+    /// Whether a shadow ray from `o` along `d` meets a surface before `t_max` at `time`, counted.
+    #[inline]
+    pub fn occluded(&mut self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> bool {
+        self.counts.shadow += 1;
+        self.scene.geometry.occluded(o, d, t_max, time)
+    }
+
+    /// The closest surface a shadow ray from `o` along `d` meets before `t_max` at `time` (through media and
+    /// material-less boundaries), counted as a shadow ray.
+    #[inline]
+    pub fn shadow_hit(&mut self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> Option<SurfaceHit> {
+        self.counts.shadow += 1;
+        self.scene.geometry.intersect(o, d, t_max, time)
+    }
+}
+
+/// A surface where a path scatters, as next-event estimation and BSDF sampling read it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SurfaceVertex<'a> {
+    /// The hit (its shading frame already tilted by a bump or normal map).
+    pub hit: &'a SurfaceHit,
+    /// The shading frame.
+    pub frame: &'a Frame,
+    /// The BxDF at the path's wavelengths.
+    pub bxdf: &'a Bxdf,
+    /// Unit direction back along the path, in the shading frame.
+    pub wo: Vec3,
+    /// The medium the path arrived through (a shadow ray leaves into the medium on its own side of an interface).
+    pub medium: Option<u32>,
+}
+
+/// How next-event estimation shares direct light with BSDF (or phase-function) sampling.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum DirectLight {
-    /// The caller also finds emitters by BSDF sampling: weight by the power heuristic (Veach 1997 §9.2).
+    /// The caller also finds emitters by BSDF sampling: weight by the power heuristic (Veach 1997 §9.2) in
+    /// [`sample_direct_light`], by the balance heuristic over the carried wavelengths in `volume::sample_ld`.
     Mis,
     /// Light sampling is the only estimate of direct light at this vertex (photon mapping's visible points, whose
     /// photons count from their second bounce): unweighted.
@@ -39,19 +91,15 @@ pub(crate) enum DirectLight {
 /// always unweighted), or zero if occluded. Tr is the Beer–Lambert transmittance of the media that only absorb
 /// along the shadow ray, which starts in the medium on the light's side of the surface (see
 /// [`absorbing_transmittance`]).
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn sample_direct_light(
-    scene: &RenderScene,
-    hit: &SurfaceHit,
-    medium: Option<u32>,
-    frame: &Frame,
-    bxdf: &Bxdf,
-    wo: Vec3,
+    tracer: &mut Tracer,
+    v: &SurfaceVertex,
     wl: &SampledWavelengths,
     u: &BounceSamples,
     weighting: DirectLight,
-    counts: &mut RayCounts,
 ) -> SampledSpectrum {
+    let scene = tracer.scene;
+    let SurfaceVertex { hit, frame, bxdf, wo, medium } = *v;
     let [u_light, u0, u1] = u.connect;
     let u = Vec2::new(u0, u1);
     let Some((li, p_sel)) = scene.sample_light(u_light) else { return SampledSpectrum::zero() };
@@ -76,17 +124,17 @@ pub(crate) fn sample_direct_light(
     }
     let origin = hit.spawn_origin(ls.wi);
     let f = if scene.media.is_empty() {
-        counts.shadow += 1;
         // Stop just short of the light's surface (pbrt's ShadowEpsilon, relative).
         let t_max = if ls.dist.is_finite() { (ls.p - origin).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-        if scene.geometry.occluded(origin, ls.wi, t_max, hit.time) {
+        if tracer.occluded(origin, ls.wi, t_max, hit.time) {
             return SampledSpectrum::zero();
         }
         f
     } else {
         let target = if ls.dist.is_finite() { ShadowTarget::Point(ls.p) } else { ShadowTarget::Direction(ls.wi) };
         let medium = next_medium(hit, ls.wi, medium);
-        let Some(tr) = absorbing_transmittance(scene, origin, target, medium, hit.time, wl, counts) else {
+        let ray = ShadowRay { origin, target, medium, time: hit.time };
+        let Some(tr) = absorbing_transmittance(tracer, ray, wl) else {
             return SampledSpectrum::zero();
         };
         f * tr
@@ -100,36 +148,20 @@ pub(crate) fn sample_direct_light(
     }
 }
 
-/// The transmittance of a shadow ray from `origin` (in `medium`) to `target` for the integrators that render only
-/// media that absorb (`path`, and photon mapping's camera paths where no medium scatters): `None` if a surface with
-/// a material blocks it, otherwise the product of exp(−σa·d) over the absorbing media it crosses, through
-/// material-less boundaries. Media that scatter count as vacuum, as they do along these integrators' paths
-/// ([`PathRay::attenuate`]). The ray is traced at `time`.
-fn absorbing_transmittance(
-    scene: &RenderScene,
-    mut origin: Vec3,
-    target: ShadowTarget,
-    mut medium: Option<u32>,
-    time: f32,
-    wl: &SampledWavelengths,
-    counts: &mut RayCounts,
-) -> Option<SampledSpectrum> {
+/// The transmittance of shadow ray `ray` for the integrators that render only media that absorb (`path`, and photon
+/// mapping's camera paths where no medium scatters): `None` if a surface with a material blocks it, otherwise the
+/// product of exp(−σa·d) over the absorbing media it crosses, through material-less boundaries. Media that scatter
+/// count as vacuum, as they do along these integrators' paths ([`PathRay::attenuate`]).
+fn absorbing_transmittance(tracer: &mut Tracer, ray: ShadowRay, wl: &SampledWavelengths) -> Option<SampledSpectrum> {
+    let scene = tracer.scene;
+    let ShadowRay { mut origin, target, mut medium, time } = ray;
     let mut tr = SampledSpectrum::splat(1.0);
     for _ in 0..=MAX_SHADOW_CROSSINGS {
-        let (d, t_max) = match target {
-            ShadowTarget::Point(p) => {
-                let to = p - origin;
-                let len = to.length();
-                // Stop just short of the target (pbrt's ShadowEpsilon, relative).
-                (to / len, len * (1.0 - 1e-4))
-            }
-            ShadowTarget::Direction(d) => (d, f32::INFINITY),
-        };
+        let (d, t_max) = target.segment_from(origin);
         if t_max.is_nan() || t_max <= 0.0 {
             return Some(tr);
         }
-        counts.shadow += 1;
-        let hit = scene.geometry.intersect(origin, d, t_max, time);
+        let hit = tracer.shadow_hit(origin, d, t_max, time);
         if hit.is_some_and(|h| h.material != NO_MATERIAL) {
             return None;
         }
@@ -141,41 +173,6 @@ fn absorbing_transmittance(
         origin = h.spawn_origin(d);
     }
     None
-}
-
-/// The start of a light path: a light chosen by power, and a ray of light leaving it.
-pub(crate) struct LightPathStart {
-    /// The light's index.
-    pub light: u32,
-    /// The probability of having chosen it.
-    pub p_select: f32,
-    /// The emitted ray with its radiance and densities.
-    pub le: LightLeSample,
-}
-
-impl LightPathStart {
-    /// The ray's origin, offset off the light's surface for area lights.
-    pub fn origin(&self) -> Vec3 {
-        match self.le.surface {
-            Some(sp) => geometry::offset_ray_origin(sp.p, sp.p_error, sp.n, self.le.d),
-            None => self.le.o,
-        }
-    }
-}
-
-/// Starts a light path (light tracing, photon mapping and bidirectional path tracing alike), drawing five
-/// dimensions of `sampler`: the light (1), the point on it (2), the direction (2).
-pub(crate) fn sample_light_path(
-    scene: &RenderScene,
-    wl: &SampledWavelengths,
-    sampler: &mut Sampler,
-) -> Option<LightPathStart> {
-    let u_light = sampler.next_1d();
-    let u_pos = Vec2::from(sampler.next_2d());
-    let u_dir = Vec2::from(sampler.next_2d());
-    let (light, p_select) = scene.sample_light(u_light)?;
-    let le = scene.lights[light as usize].sample_le(u_pos, u_dir, wl, scene.bounding_sphere)?;
-    Some(LightPathStart { light, p_select, le })
 }
 
 /// Longest run of material-less boundary crossings a path follows before it is dropped.
@@ -259,9 +256,9 @@ impl PathRay {
 
     /// The closest surface along the ray, counted in `counts`.
     #[inline]
-    pub fn intersect(&self, scene: &RenderScene, counts: &mut RayCounts) -> Option<SurfaceHit> {
-        counts.intersect += 1;
-        scene.geometry.intersect(self.o, self.d, f32::INFINITY, self.time)
+    pub fn intersect(&self, tracer: &mut Tracer) -> Option<SurfaceHit> {
+        tracer.counts.intersect += 1;
+        tracer.scene.geometry.intersect(self.o, self.d, f32::INFINITY, self.time)
     }
 
     /// Multiplies `beta` by the medium's transmittance over the segment to `hit` (Beer–Lambert).
@@ -361,24 +358,21 @@ pub(crate) struct Scattered {
     pub wi: Vec3,
 }
 
-/// One scattering step, the same for camera and light paths: samples `bxdf` at the vertex (`wo` the local
-/// direction back along the path, `w_from` the same in world space) with the bounce's numbers, keeps only the
+/// One scattering step, the same for camera and light paths: samples the BxDF at vertex `v` (`w_from` the
+/// direction back along the path in world space) with the bounce's numbers, keeps only the
 /// followed wavelength after a dispersive refraction, and multiplies the throughput `beta` by f·|cos|/pdf — for
 /// light paths with the adjoint BSDF's shading-normal correction |wo·ns||wi·ng|/|wo·ng| in place of |cos|
 /// (Veach 1997 eq. 5.19). `None` if the sample carries no energy.
-#[allow(clippy::too_many_arguments)]
 #[inline]
 pub(crate) fn scatter(
-    bxdf: &Bxdf,
-    frame: &Frame,
-    hit: &SurfaceHit,
-    wo: Vec3,
+    v: &SurfaceVertex,
     w_from: Vec3,
     u: &BounceSamples,
     mode: TransportMode,
     wl: &mut SampledWavelengths,
     beta: &mut SampledSpectrum,
 ) -> Option<Scattered> {
+    let SurfaceVertex { hit, frame, bxdf, wo, .. } = *v;
     let bs = bxdf.sample_f(wo, u.lobe, u.dir, mode)?;
     if bs.pdf <= 0.0 || bs.f.is_black() {
         return None;
@@ -464,95 +458,6 @@ pub(crate) fn next_medium(hit: &SurfaceHit, d: Vec3, current: Option<u32>) -> Op
     hit.media.map_or(current, |mi| mi.towards(d, hit.n))
 }
 
-/// The wavelengths that share one path in spectral MIS: which slots take part, and the hero slot whose densities
-/// sample distances and collision types. Each path picks its hero uniformly among the active slots, which makes
-/// the one-sample MIS estimator f(λᵢ) / mean_h p(λ_h) unbiased for every wavelength strategy (for `hero` any slot
-/// would do; the bands of `rgb` are not interchangeable). After a dispersive event leaves one wavelength, the rest
-/// of the path is sampled at that wavelength whichever slot would have been the hero, so its probability ratios
-/// change by the same factor for every slot (`ratio` broadcasts).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct SpectralMis {
-    /// Slots active when the path started.
-    active: [bool; N_WAVELENGTHS],
-    count: f32,
-    /// The slot whose densities sample distances and collision types.
-    pub hero: usize,
-    chosen: bool,
-    reduced: bool,
-}
-
-impl SpectralMis {
-    pub fn new(wl: &SampledWavelengths) -> Self {
-        let active = std::array::from_fn(|i| wl.is_active(i));
-        let count = active.iter().filter(|&&a| a).count().max(1) as f32;
-        let first = active.iter().position(|&a| a).unwrap_or(0);
-        Self { active, count, hero: first, chosen: wl.is_single(), reduced: wl.is_single() }
-    }
-
-    /// Chooses the hero with `u` (once per path, at its first medium).
-    pub fn choose(&mut self, u: f32) {
-        if self.chosen {
-            return;
-        }
-        let pick = ((u * self.count) as usize).min(self.count as usize - 1);
-        self.hero = (0..N_WAVELENGTHS).filter(|&i| self.active[i]).nth(pick).unwrap_or(self.hero);
-        self.chosen = true;
-    }
-
-    /// Notes a dispersive event that left one wavelength.
-    pub fn update(&mut self, wl: &SampledWavelengths) {
-        if !self.reduced && wl.is_single() {
-            self.reduced = true;
-            self.chosen = true;
-            self.hero = (0..N_WAVELENGTHS).find(|&i| wl.is_active(i)).unwrap_or(self.hero);
-        }
-    }
-
-    /// The factor a probability ratio changes by at each slot.
-    #[inline]
-    pub fn ratio(&self, v: SampledSpectrum) -> SampledSpectrum {
-        if self.reduced {
-            SampledSpectrum::splat(v[self.hero])
-        } else {
-            v
-        }
-    }
-
-    /// The mean of `r` over the slots that take part: the balance heuristic's denominator.
-    #[inline]
-    pub fn average(&self, r: SampledSpectrum) -> f32 {
-        let mut s = 0.0;
-        for i in 0..N_WAVELENGTHS {
-            if self.active[i] {
-                s += r[i];
-            }
-        }
-        s / self.count
-    }
-}
-
-/// Weighs a delta-tracking decision sampled with density T_maj·σ at the hero wavelength (σ = σs for a real
-/// scattering, σn for a null collision, 1 for crossing the rest of the segment; pbrt-v4 §14.1.3): the throughput
-/// `beta` is multiplied by T_maj·σ/pdf and the rescaled probabilities `r` by the same factor per slot. Returns
-/// false, changing nothing, if the decision had probability zero at the hero.
-#[inline]
-pub(crate) fn weigh_tracking(
-    beta: &mut SampledSpectrum,
-    r: &mut SampledSpectrum,
-    mis: &SpectralMis,
-    t_maj: SampledSpectrum,
-    sigma: SampledSpectrum,
-) -> bool {
-    let pdf = t_maj[mis.hero] * sigma[mis.hero];
-    if pdf.is_nan() || pdf <= 0.0 {
-        return false;
-    }
-    let w = t_maj * sigma / pdf;
-    *beta *= w;
-    *r *= mis.ratio(w);
-    true
-}
-
 /// Where a shadow ray goes.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum ShadowTarget {
@@ -562,116 +467,34 @@ pub(crate) enum ShadowTarget {
     Direction(Vec3),
 }
 
-/// What a shadow ray carries back: the transmittance estimate and the rescaled probabilities of its tracking
-/// decisions, for the light-sampling (`r_l`) and the unidirectional (`r_u`) strategies of spectral MIS.
+impl ShadowTarget {
+    /// The unit direction from `origin` towards the target and the distance to trace.
+    #[inline]
+    pub fn segment_from(self, origin: Vec3) -> (Vec3, f32) {
+        match self {
+            ShadowTarget::Point(p) => {
+                let to = p - origin;
+                let len = to.length();
+                // Stop just short of the target (pbrt's ShadowEpsilon, relative).
+                (to / len, len * (1.0 - 1e-4))
+            }
+            ShadowTarget::Direction(d) => (d, f32::INFINITY),
+        }
+    }
+}
+
+/// A shadow ray: from `origin`, starting in `medium`, to `target`, traced at `time`.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct ShadowTransmittance {
-    /// Transmittance estimate at each wavelength.
-    pub t: SampledSpectrum,
-    /// Rescaled probability of the ratio-tracking decisions (null collisions sampled with T_maj·σ_maj).
-    pub r_l: SampledSpectrum,
-    /// Rescaled probability of the same collisions as a path would sample them (T_maj·σ_n).
-    pub r_u: SampledSpectrum,
+pub(crate) struct ShadowRay {
+    /// Where it starts (offset off the surface it leaves).
+    pub origin: Vec3,
+    /// Where it goes.
+    pub target: ShadowTarget,
+    /// The medium it starts in.
+    pub medium: Option<u32>,
+    /// The path's time.
+    pub time: f32,
 }
 
 /// Longest run of material-less boundaries a shadow ray crosses before it counts as blocked.
-const MAX_SHADOW_CROSSINGS: u32 = 256;
-
-/// Traces a shadow ray from `origin` (in `medium`) to `target` through material-less boundaries: `None` if a
-/// surface with a material blocks it; otherwise the transmittance: Beer–Lambert in closed form for homogeneous media
-/// and ratio tracking against the majorant for heterogeneous ones (pbrt-v4 §14.2.3, with its Russian roulette once the
-/// estimate falls below 0.05). `salt` and `u` seed the tracking decisions. The ray is traced at `time`.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn shadow_transmittance(
-    scene: &RenderScene,
-    mut origin: Vec3,
-    target: ShadowTarget,
-    mut medium: Option<u32>,
-    time: f32,
-    wl: &SampledWavelengths,
-    mis: &SpectralMis,
-    salt: u32,
-    u: f32,
-    counts: &mut RayCounts,
-) -> Option<ShadowTransmittance> {
-    let ones = SampledSpectrum::splat(1.0);
-    let mut out = ShadowTransmittance { t: ones, r_l: ones, r_u: ones };
-    let segment = |origin: Vec3| match target {
-        ShadowTarget::Point(p) => {
-            let to = p - origin;
-            let len = to.length();
-            // Stop just short of the target (pbrt's ShadowEpsilon, relative).
-            (to / len, len * (1.0 - 1e-4))
-        }
-        ShadowTarget::Direction(d) => (d, f32::INFINITY),
-    };
-    if scene.media.is_empty() {
-        let (d, t_max) = segment(origin);
-        counts.shadow += 1;
-        return (!scene.geometry.occluded(origin, d, t_max, time)).then_some(out);
-    }
-    let mut rng = TrackingRng::new(u, salt);
-    let mut crossings = 0;
-    loop {
-        let (d, t_max) = segment(origin);
-        if t_max.is_nan() || t_max <= 0.0 {
-            return Some(out);
-        }
-        counts.shadow += 1;
-        let hit = scene.geometry.intersect(origin, d, t_max, time);
-        if hit.is_some_and(|h| h.material != NO_MATERIAL) {
-            return None;
-        }
-        if let Some(m) = medium {
-            let seg_end = hit.map_or(t_max, |h| h.t);
-            let med = &scene.media[m as usize];
-            if med.is_absorbing_only() {
-                out.t *= med.absorption_transmittance(seg_end, wl);
-            } else if med.has_closed_form_transmittance() {
-                // exp(−σt·d) exactly, where ratio tracking against σ_maj = σt would return 0 or 1 (a track-length
-                // estimate). No tracking decisions: r_l keeps its value; the unidirectional strategy would have had
-                // to cross without a collision, with probability T, at each hero wavelength.
-                let tr = med.homogeneous_transmittance(seg_end, wl);
-                out.t *= tr;
-                out.r_u *= mis.ratio(tr);
-            } else {
-                let h = mis.hero;
-                let (mut t_ray, mut r_l, mut r_u) = (out.t, out.r_l, out.r_u);
-                let t_maj = sample_t_maj(med, origin, d, seg_end, &mut rng, wl, h, |_, mp, sigma_maj, t_maj, rng| {
-                    // Ratio tracking: every tentative collision is a null one.
-                    let sigma_n = mp.sigma_n(sigma_maj);
-                    let pdf = t_maj[h] * sigma_maj[h];
-                    t_ray *= t_maj * sigma_n / pdf;
-                    r_l *= mis.ratio(t_maj * sigma_maj / pdf);
-                    r_u *= mis.ratio(t_maj * sigma_n / pdf);
-                    // Russian roulette once the estimate is small.
-                    let tr = t_ray / mis.average(r_l + r_u);
-                    if tr.max_value() < 0.05 {
-                        if rng.uniform() < 0.75 {
-                            t_ray = SampledSpectrum::zero();
-                        } else {
-                            t_ray *= 4.0;
-                        }
-                    }
-                    !t_ray.is_black()
-                });
-                if t_maj[h] <= 0.0 {
-                    return None;
-                }
-                out.t = t_ray * t_maj / t_maj[h];
-                out.r_l = r_l * mis.ratio(t_maj / t_maj[h]);
-                out.r_u = r_u * mis.ratio(t_maj / t_maj[h]);
-            }
-        }
-        if out.t.is_black() || !out.t.0.iter().all(|x| x.is_finite()) {
-            return None;
-        }
-        let Some(h) = hit else { return Some(out) };
-        crossings += 1;
-        if crossings > MAX_SHADOW_CROSSINGS {
-            return None;
-        }
-        medium = next_medium(&h, d, medium);
-        origin = h.spawn_origin(d);
-    }
-}
+pub(crate) const MAX_SHADOW_CROSSINGS: u32 = 256;

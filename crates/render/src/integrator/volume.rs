@@ -1,0 +1,281 @@
+//! Light transport through media that scatter, shared by the integrators that render them (`volpath`, `lightpath`,
+//! `bdpt`, `sppm`): one-sample MIS over the carried wavelengths (spectral MIS: the hero wavelength whose densities
+//! sample distances, and the rescaled path probabilities every contribution is divided by the mean of), the
+//! weighing of delta-tracking decisions, shadow rays through media (closed form in homogeneous media, ratio
+//! tracking in grids) and next-event estimation through them (pbrt-v4 §14.2.3; Miller, Georgiev & Jarosz 2019;
+//! Wilkie et al. 2014).
+
+use glam::Vec3;
+use spectral::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+
+use super::transport::{
+    next_medium, BounceSamples, DirectLight, ShadowRay, ShadowTarget, SurfaceVertex, Tracer, MAX_SHADOW_CROSSINGS,
+};
+use crate::bxdf::TransportMode;
+use crate::light::LightSampleContext;
+use crate::medium::{sample_t_maj, PhaseFunction, TrackingRng};
+use crate::scene::NO_MATERIAL;
+
+/// What seeds a shadow ray's tracking decisions: a per-purpose salt and a uniform number of the path's sampler.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TrackingSeed {
+    /// Tells apart the shadow rays of one path (its light, its depth, its strategy).
+    pub salt: u32,
+    /// A uniform number drawn for the connection.
+    pub u: f32,
+}
+
+/// The wavelengths that share one path in spectral MIS: which slots take part, and the hero slot whose densities
+/// sample distances and collision types. Each path picks its hero uniformly among the active slots, which makes
+/// the one-sample MIS estimator f(λᵢ) / mean_h p(λ_h) unbiased for every wavelength strategy (for `hero` any slot
+/// would do; the bands of `rgb` are not interchangeable). After a dispersive event leaves one wavelength, the rest
+/// of the path is sampled at that wavelength whichever slot would have been the hero, so its probability ratios
+/// change by the same factor for every slot (`ratio` broadcasts).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SpectralMis {
+    /// Slots active when the path started.
+    active: [bool; N_WAVELENGTHS],
+    count: f32,
+    /// The slot whose densities sample distances and collision types.
+    pub hero: usize,
+    chosen: bool,
+    reduced: bool,
+}
+
+impl SpectralMis {
+    pub fn new(wl: &SampledWavelengths) -> Self {
+        let active = std::array::from_fn(|i| wl.is_active(i));
+        let count = active.iter().filter(|&&a| a).count().max(1) as f32;
+        let first = active.iter().position(|&a| a).unwrap_or(0);
+        Self { active, count, hero: first, chosen: wl.is_single(), reduced: wl.is_single() }
+    }
+
+    /// Chooses the hero with `u` (once per path, at its first medium).
+    pub fn choose(&mut self, u: f32) {
+        if self.chosen {
+            return;
+        }
+        let pick = ((u * self.count) as usize).min(self.count as usize - 1);
+        self.hero = (0..N_WAVELENGTHS).filter(|&i| self.active[i]).nth(pick).unwrap_or(self.hero);
+        self.chosen = true;
+    }
+
+    /// Notes a dispersive event that left one wavelength.
+    pub fn update(&mut self, wl: &SampledWavelengths) {
+        if !self.reduced && wl.is_single() {
+            self.reduced = true;
+            self.chosen = true;
+            self.hero = (0..N_WAVELENGTHS).find(|&i| wl.is_active(i)).unwrap_or(self.hero);
+        }
+    }
+
+    /// The factor a probability ratio changes by at each slot.
+    #[inline]
+    pub fn ratio(&self, v: SampledSpectrum) -> SampledSpectrum {
+        if self.reduced {
+            SampledSpectrum::splat(v[self.hero])
+        } else {
+            v
+        }
+    }
+
+    /// The mean of `r` over the slots that take part: the balance heuristic's denominator.
+    #[inline]
+    pub fn average(&self, r: SampledSpectrum) -> f32 {
+        let mut s = 0.0;
+        for i in 0..N_WAVELENGTHS {
+            if self.active[i] {
+                s += r[i];
+            }
+        }
+        s / self.count
+    }
+}
+
+/// Weighs a delta-tracking decision sampled with density T_maj·σ at the hero wavelength (σ = σs for a real
+/// scattering, σn for a null collision, 1 for crossing the rest of the segment; pbrt-v4 §14.1.3): the throughput
+/// `beta` is multiplied by T_maj·σ/pdf and the rescaled probabilities `r` by the same factor per slot. Returns
+/// false, changing nothing, if the decision had probability zero at the hero.
+#[inline]
+pub(crate) fn weigh_tracking(
+    beta: &mut SampledSpectrum,
+    r: &mut SampledSpectrum,
+    mis: &SpectralMis,
+    t_maj: SampledSpectrum,
+    sigma: SampledSpectrum,
+) -> bool {
+    let pdf = t_maj[mis.hero] * sigma[mis.hero];
+    if pdf.is_nan() || pdf <= 0.0 {
+        return false;
+    }
+    let w = t_maj * sigma / pdf;
+    *beta *= w;
+    *r *= mis.ratio(w);
+    true
+}
+
+/// What a shadow ray carries back: the transmittance estimate and the rescaled probabilities of its tracking
+/// decisions, for the light-sampling (`r_l`) and the unidirectional (`r_u`) strategies of spectral MIS.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ShadowTransmittance {
+    /// Transmittance estimate at each wavelength.
+    pub t: SampledSpectrum,
+    /// Rescaled probability of the ratio-tracking decisions (null collisions sampled with T_maj·σ_maj).
+    pub r_l: SampledSpectrum,
+    /// Rescaled probability of the same collisions as a path would sample them (T_maj·σ_n).
+    pub r_u: SampledSpectrum,
+}
+
+/// Traces shadow ray `ray` through material-less boundaries: `None` if a surface with a material blocks it; otherwise the transmittance: Beer–Lambert in closed form for homogeneous media
+/// and ratio tracking against the majorant for heterogeneous ones (pbrt-v4 §14.2.3, with its Russian roulette once the
+/// estimate falls below 0.05). `seed` seeds the tracking decisions.
+pub(crate) fn shadow_transmittance(
+    tracer: &mut Tracer,
+    ray: ShadowRay,
+    wl: &SampledWavelengths,
+    mis: &SpectralMis,
+    seed: TrackingSeed,
+) -> Option<ShadowTransmittance> {
+    let scene = tracer.scene;
+    let ShadowRay { mut origin, target, mut medium, time } = ray;
+    let ones = SampledSpectrum::splat(1.0);
+    let mut out = ShadowTransmittance { t: ones, r_l: ones, r_u: ones };
+    if scene.media.is_empty() {
+        let (d, t_max) = target.segment_from(origin);
+        return (!tracer.occluded(origin, d, t_max, time)).then_some(out);
+    }
+    let mut rng = TrackingRng::new(seed.u, seed.salt);
+    let mut crossings = 0;
+    loop {
+        let (d, t_max) = target.segment_from(origin);
+        if t_max.is_nan() || t_max <= 0.0 {
+            return Some(out);
+        }
+        let hit = tracer.shadow_hit(origin, d, t_max, time);
+        if hit.is_some_and(|h| h.material != NO_MATERIAL) {
+            return None;
+        }
+        if let Some(m) = medium {
+            let seg_end = hit.map_or(t_max, |h| h.t);
+            let med = &scene.media[m as usize];
+            if med.is_absorbing_only() {
+                out.t *= med.absorption_transmittance(seg_end, wl);
+            } else if med.has_closed_form_transmittance() {
+                // exp(−σt·d) exactly, where ratio tracking against σ_maj = σt would return 0 or 1 (a track-length
+                // estimate). No tracking decisions: r_l keeps its value; the unidirectional strategy would have had
+                // to cross without a collision, with probability T, at each hero wavelength.
+                let tr = med.homogeneous_transmittance(seg_end, wl);
+                out.t *= tr;
+                out.r_u *= mis.ratio(tr);
+            } else {
+                let h = mis.hero;
+                let (mut t_ray, mut r_l, mut r_u) = (out.t, out.r_l, out.r_u);
+                let t_maj = sample_t_maj(med, origin, d, seg_end, &mut rng, wl, h, |_, mp, sigma_maj, t_maj, rng| {
+                    // Ratio tracking: every tentative collision is a null one.
+                    let sigma_n = mp.sigma_n(sigma_maj);
+                    let pdf = t_maj[h] * sigma_maj[h];
+                    t_ray *= t_maj * sigma_n / pdf;
+                    r_l *= mis.ratio(t_maj * sigma_maj / pdf);
+                    r_u *= mis.ratio(t_maj * sigma_n / pdf);
+                    // Russian roulette once the estimate is small.
+                    let tr = t_ray / mis.average(r_l + r_u);
+                    if tr.max_value() < 0.05 {
+                        if rng.uniform() < 0.75 {
+                            t_ray = SampledSpectrum::zero();
+                        } else {
+                            t_ray *= 4.0;
+                        }
+                    }
+                    !t_ray.is_black()
+                });
+                if t_maj[h] <= 0.0 {
+                    return None;
+                }
+                out.t = t_ray * t_maj / t_maj[h];
+                out.r_l = r_l * mis.ratio(t_maj / t_maj[h]);
+                out.r_u = r_u * mis.ratio(t_maj / t_maj[h]);
+            }
+        }
+        if out.t.is_black() || !out.t.0.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let Some(h) = hit else { return Some(out) };
+        crossings += 1;
+        if crossings > MAX_SHADOW_CROSSINGS {
+            return None;
+        }
+        medium = next_medium(&h, d, medium);
+        origin = h.spawn_origin(d);
+    }
+}
+
+/// Where the path scattered last, for the light-selection and MIS densities of the emitter it finds next.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum ScatterVertex<'a> {
+    /// A surface with its BxDF in its shading frame, reached through `medium`.
+    Surface(SurfaceVertex<'a>),
+    /// A point in a medium, reached travelling along `d_in` at `time`.
+    Medium { p: Vec3, d_in: Vec3, phase: &'a PhaseFunction, medium: Option<u32>, time: f32 },
+}
+
+/// Next-event estimation at `v`: a light and a point on it, transmittance through media (closed form in
+/// homogeneous ones, ratio tracking in grids) and material-less boundaries, weighted against BSDF or phase sampling
+/// by the balance heuristic over all wavelengths (`r_p` is the path's r_u, `mis` its spectral MIS), or by spectral
+/// MIS alone for [`DirectLight::LightSamplingOnly`] (integrators that find the rest of the light otherwise, as
+/// photon mapping does). Draws the light sample from `u`.
+pub(crate) fn sample_ld(
+    tracer: &mut Tracer,
+    v: ScatterVertex,
+    wl: &SampledWavelengths,
+    u: &BounceSamples,
+    mis: &SpectralMis,
+    r_p: SampledSpectrum,
+    weighting: DirectLight,
+) -> SampledSpectrum {
+    let scene = tracer.scene;
+    let [u_light, u0, u1] = u.connect;
+    let Some((li, p_sel)) = scene.sample_light(u_light) else { return SampledSpectrum::zero() };
+    let light = &scene.lights[li as usize];
+    let ctx = match v {
+        ScatterVertex::Surface(SurfaceVertex { hit, .. }) => LightSampleContext { p: hit.p, n: hit.n },
+        ScatterVertex::Medium { p, .. } => LightSampleContext { p, n: Vec3::ZERO },
+    };
+    let Some(ls) = light.sample_li(&ctx, glam::Vec2::new(u0, u1), wl) else { return SampledSpectrum::zero() };
+    if ls.pdf <= 0.0 || ls.l.is_black() {
+        return SampledSpectrum::zero();
+    }
+    let p_l = p_sel * ls.pdf;
+    let time = match v {
+        ScatterVertex::Surface(SurfaceVertex { hit, .. }) => hit.time,
+        ScatterVertex::Medium { time, .. } => time,
+    };
+    let (f_hat, scatter_pdf, origin, medium) = match v {
+        ScatterVertex::Surface(SurfaceVertex { hit, frame, bxdf, wo, medium }) => {
+            let wi = frame.to_local(ls.wi);
+            let (f, pdf) = bxdf.f_pdf(wo, wi, TransportMode::Radiance);
+            let f = f * wi.z.abs();
+            // The shadow ray leaves into the medium on the light's side (the arrival medium without an
+            // interface).
+            (f, pdf, hit.spawn_origin(ls.wi), next_medium(hit, ls.wi, medium))
+        }
+        ScatterVertex::Medium { p, d_in, phase, medium, .. } => {
+            (phase.p(d_in, ls.wi, wl), phase.pdf(d_in, ls.wi, wl), p, medium)
+        }
+    };
+    if f_hat.is_black() {
+        return SampledSpectrum::zero();
+    }
+    let target = if ls.dist.is_finite() { ShadowTarget::Point(ls.p) } else { ShadowTarget::Direction(ls.wi) };
+    let ray = ShadowRay { origin, target, medium, time };
+    let Some(tr) = shadow_transmittance(tracer, ray, wl, mis, TrackingSeed { salt: li ^ 0x5eed, u: u0 }) else {
+        return SampledSpectrum::zero();
+    };
+    let (t_ray, r_l, r_u) = (tr.t, tr.r_l, tr.r_u);
+    let r_l = r_l * r_p * p_l;
+    let r_u = r_u * r_p * scatter_pdf;
+    if ls.delta || weighting == DirectLight::LightSamplingOnly {
+        f_hat * t_ray * ls.l / mis.average(r_l)
+    } else {
+        f_hat * t_ray * ls.l / mis.average(r_l + r_u)
+    }
+}
