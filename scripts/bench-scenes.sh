@@ -1,6 +1,6 @@
-# The benchmark scenes of scripts/bench.sh at a quarter of its samples per pixel (name | scene | spp), one render
-# taking 7-50 CPU seconds on the Zen 3 machine of 2026-11-27. Sourced by scripts/bench-ab.sh (before/after timings) and
-# scripts/build-pgo.sh (the profile renders, at a quarter of these counts again).
+# The benchmark scenes of scripts/bench.sh at a quarter of its samples per pixel (name | scene | spp). Sourced by
+# scripts/bench-ab.sh (before/after timings; figures in BENCHMARKS.md) and scripts/build-pgo.sh (the profile renders,
+# at a quarter of these counts again).
 # shellcheck disable=SC2034  # used by the scripts that source this file
 bench_scenes=(
   "killeroo-simple|crates/pbrt/tests/fixtures/killeroos/killeroo-simple.pbrt|16"

@@ -36,7 +36,7 @@ RUSTFLAGS="${cpu[*]} -C profile-generate=$dir/profiles" \
 
 echo "build-pgo: 2/3 profile renders" >&2
 # The benchmark scenes (scripts/bench-scenes.sh) at a sixteenth of scripts/bench.sh's samples per pixel: every
-# integrator, material family, light and medium the gallery uses, a few CPU seconds each.
+# integrator, material family, light and medium the gallery uses.
 source scripts/bench-scenes.sh
 for entry in "${bench_scenes[@]}"; do
   IFS='|' read -r name scene spp <<<"$entry"

@@ -12,7 +12,7 @@
 #
 # The reference of the dispersive room (scenes/bench/dispersive-room-ref.exr) was rendered with
 #   prismatic render scenes/bench/dispersive-room.pbrt --spp 16384 --seed 1000 -o dispersive-room-ref.exr
-# (see BENCHMARKS.md for how it was checked against an independent bidirectional render).
+# (see BENCHMARKS.md, "Dispersion efficiency", for how it was checked against an independent bidirectional render).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scene=${SCENE:-scenes/bench/dispersive-room.pbrt}

@@ -587,9 +587,9 @@ fn bench<M: Measurement>(c: &mut Criterion<M>, wall_clock: bool) {
 
 /// Mean time of one load in a chain of dependent loads, each from a random cache line of `bytes` of memory (a
 /// single random cycle through the lines, in a [`LargeArray`]: 2 MB pages, placed as the project's BVH arrays are),
-/// in nanoseconds. The benchmark's ~65 MB per side do not fit in this machine's caches, and the rate at which
-/// memory answers moves the ratio between the two sides (BENCHMARKS.md, "The standing by the memory's state"), so
-/// interleaved runs print this before and after their rounds.
+/// in nanoseconds. Where the benchmark's ~65 MB per side do not fit in the caches, the rate at which memory answers
+/// moves the ratio between the two sides (BENCHMARKS.md, "The memory's state"), so interleaved runs print this
+/// before and after their rounds.
 fn load_latency_ns(bytes: usize) -> f64 {
     /// One cache line, holding the index of the next line in the chain.
     #[derive(Clone, Copy)]
@@ -635,9 +635,9 @@ fn print_load_latency(when: &str) {
 /// `TRAVERSAL_INTERLEAVED=N` (instead of criterion's benchmarks): for each set and query, `N` rounds on this
 /// thread, each tracing the whole set with the project and with Embree back to back (the order alternating
 /// between rounds; each timed pass after an untimed one of the same side), timed by the thread's CPU time; prints
-/// the median rates and the median of the rounds' ratios with its quartiles. The two timings of a round are a few
-/// tens of milliseconds apart, so the machine's drift, which moves criterion's separate benchmarks by ±10% on a
-/// shared machine, cancels in each ratio. `TRAVERSAL_LOG_ROUNDS=1` prints each round's two times;
+/// the median rates and the median of the rounds' ratios with its quartiles. The two timings of a round are close
+/// together, so the drift of a shared machine, which moves criterion's separately timed benchmarks, cancels in each
+/// ratio. `TRAVERSAL_LOG_ROUNDS=1` prints each round's two times;
 /// `TRAVERSAL_ONLY=occluded_bounce` (say) runs only the queries whose `query_set` name contains it.
 /// `TRAVERSAL_INTERLEAVED_THREADS=2`: each pass on two threads (rayon over chunks of [`CHUNK`] rays, as the
 /// criterion benchmarks' two-thread rows), timed by the wall clock, so that the two sides share the caches and the
@@ -691,8 +691,8 @@ fn interleaved(rounds: usize, sets: &[RaySet], ours: &GeometryScene, embree: &Em
             let (mut ours_ns, mut embree_ns, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
             for round in 0..rounds {
                 // Each timed pass right after an untimed one of the same side: a pass after the other side's runs
-                // 8–10% slower (the other's 65 MB of nodes and triangles have replaced its own in the caches), and
-                // a renderer only ever runs its own.
+                // slower (the other's 65 MB of nodes and triangles have replaced its own in the caches; BENCHMARKS.md,
+                // "Traversal against Embree 3"), and a renderer only ever runs its own.
                 let pass = |embree_side: bool| {
                     time(embree_side);
                     time(embree_side)

@@ -100,8 +100,9 @@ pub struct Hit {
 
 impl Hit {
     /// Unit tangent perpendicular to `ns` (∂p/∂u made orthogonal to `ns`), for shading frames. Computed on
-    /// demand: the renderer's frames project and normalise ∂p/∂u themselves, and a square root per hit in the
-    /// record was about 3% of a small glass scene's time.
+    /// demand: the renderer's frames project and normalise ∂p/∂u themselves, and a square root and a division per
+    /// hit in every record showed in the time of small glass scenes (BENCHMARKS.md, "Why the traversal is as it
+    /// is").
     pub fn tangent(&self) -> Vec3 {
         (self.dpdu - self.ns * self.ns.dot(self.dpdu)).try_normalize().unwrap_or_else(|| coordinate_system(self.ns).0)
     }
@@ -294,7 +295,8 @@ impl Blas {
         let aabbs: Vec<Aabb> =
             prims.par_iter().map(|&(s, e)| to_aabb(&shapes[s as usize].element_bounds(e as usize))).collect();
         let bounds = shapes.iter().fold(Bounds3::EMPTY, |b, s| b.union(&s.bounds()));
-        // Leaves of up to two blocks of four: on the 1M-triangle benchmark, 8 beat 4 by 4–20% on every query.
+        // Leaves of up to two blocks of four: on the 1M-triangle benchmark, 8 beat 4 on every query (BENCHMARKS.md,
+        // "Why the traversal is as it is").
         // Primitives that are not triangles are tested one at a time, through their shapes.
         let alone: Vec<bool> =
             prims.par_iter().map(|&(s, e)| shapes[s as usize].element_triangle(e as usize).is_none()).collect();
@@ -390,8 +392,9 @@ impl Blas {
             let prefetch =
                 |node: &WideNode, mask| prefetch_leaf_blocks(&self.slots, node, mask, LEAF_PREFETCH_LINES, self.big);
             closest_first(test, &self.nodes, &node_ray, best.hit.t, prefetch, |node, mask| {
-                // Out of line (the loop calls it from three places) but compiled for the loop's instruction set:
-                // closest hits on the 1M-triangle benchmark 3.3-4.2% faster, 3% fewer instructions (BENCHMARKS.md).
+                // Out of line (the loop calls it from three places) but compiled for the loop's instruction set, not
+                // the baseline's: faster closest hits, fewer instructions (BENCHMARKS.md, "Why the traversal is as
+                // it is").
                 test.leaf_test(|| {
                     for (first, count) in node.leaves(mask) {
                         self.closest_in_leaf(&ray, first, count, instance, best);
@@ -769,7 +772,8 @@ impl GeometryScene {
     }
 
     /// A finite origin and direction, a direction not zero, and `t_max > 0` (false for NaN). Tested three
-    /// coordinates at a time: this runs before every query, and the per-coordinate tests were ~45 instructions.
+    /// coordinates at a time: this runs before every query, where testing one coordinate at a time took measurably
+    /// more instructions (BENCHMARKS.md, "Why the traversal is as it is").
     #[inline(always)]
     fn valid_ray(ray: &Ray, t_max: f32) -> bool {
         let (o, d) = (Vec3A::from(ray.o), Vec3A::from(ray.d));

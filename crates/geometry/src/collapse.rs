@@ -177,9 +177,10 @@ impl WideBvh {
 /// Cost of a node visit in the surface-area heuristic (per unit of surface area, as a fraction of the parent's).
 const NODE_COST: f32 = 1.0;
 /// Cost of a leaf block's test, by the BVH's size: blocks are cheaper against nodes in big BVHs, whose node visits
-/// miss the caches. Measured: on the 1M-triangle benchmark 0.5 was faster than 1 (smaller leaves, more nodes) on
-/// every query by 2–8%, and than 0.35 and 0.25 (bigger leaves) by as much on most; on killeroo-simple (17k
-/// triangles) and `scenes/prism-beam.pbrt` (36) 1 was 2% and 3.5% faster than 0.5.
+/// miss the caches, while a small BVH's nodes stay in the caches and its block tests weigh more. Measured: on the
+/// 1M-triangle benchmark 0.5 was faster than 1 (smaller leaves, more nodes) on every query, and than 0.35 and 0.25
+/// (bigger leaves) on most; on killeroo-simple and `scenes/prism-beam.pbrt` 1 was faster than 0.5 (BENCHMARKS.md,
+/// "Why the traversal is as it is").
 fn block_cost(primitives: usize) -> f32 {
     if primitives >= BIG_BVH {
         0.5
@@ -190,8 +191,8 @@ fn block_cost(primitives: usize) -> f32 {
 /// Primitives from which a BVH counts as big for [`block_cost`].
 pub(crate) const BIG_BVH: usize = 1 << 19;
 /// The test of a primitive that is not a triangle (a sphere, disk or bilinear patch, in f64), as much as a node
-/// visit: with the cost of a block, `scenes/metals.pbrt` put its four spheres in one leaf that every ray tested, 14%
-/// slower than leaves of one sphere each.
+/// visit: with the cost of a block, `scenes/metals.pbrt` put its four spheres in one leaf that every ray tested,
+/// slower than leaves of one sphere each (BENCHMARKS.md, "Why the traversal is as it is").
 const SHAPE_COST: f32 = 1.0;
 
 /// The binary BVH being collapsed, with the table of the optimal collapse.

@@ -3,17 +3,15 @@
 //! A ray through a big mesh's BVH touches nodes and leaf blocks all over tens of megabytes: with 4 KB pages nearly
 //! every such load also misses the address-translation caches. Linux backs memory with 2 MB pages ("transparent
 //! huge pages") when a program asks with `madvise(MADV_HUGEPAGE)`, the default mode of most distributions, as
-//! Embree does for its BVHs. Measured on the 1M-triangle benchmark (the same binary, the system switched between
-//! that mode and huge pages everywhere, 3 alternating runs): closest hits on bounce and shadow rays +5% and +7%,
-//! occlusion +5% and +4%, camera rays level (BENCHMARKS.md, "Huge pages").
+//! Embree does for its BVHs. On the 1M-triangle benchmark that made incoherent rays faster and left camera rays,
+//! whose nodes stay in the caches, level (BENCHMARKS.md, "Why the traversal is as it is").
 //!
 //! The advice only takes effect on memory the process has not touched yet, in whole 2 MB pages: an array taken
 //! from the allocator's heap (where it reuses memory freed during the build) got none, or only part, of them --
 //! on the benchmark the 11 MB node array, allocated after the build had freed its temporaries, had 0 to 8 MB of
 //! huge pages from one run to the next. So a large array gets a fresh anonymous mapping of its own, aligned to 2 MB,
-//! advised before it is written ([`LargeArray`]): occlusion on the 1M-triangle benchmark (interleaved with Embree,
-//! 8 alternating runs, medians of the ratio) one thread bounce rays 0.867 → 0.933 and shadow rays 0.897 → 0.934,
-//! two threads 0.842 → 0.871 and 0.874 → 0.894; closest hits level (BENCHMARKS.md).
+//! advised before it is written ([`LargeArray`]): occlusion on the 1M-triangle benchmark gained on one and two
+//! threads, closest hits stayed level (BENCHMARKS.md, "Why the traversal is as it is").
 
 use std::ops::Deref;
 use std::ptr::NonNull;
@@ -52,7 +50,7 @@ impl<T: Copy> LargeArray<T> {
     /// `v`'s elements: copied into a mapping of their own if they take at least [`MIN_BYTES`] and one can be
     /// made (Linux), else `v` itself. The copy holds the array twice for a moment, after the build has freed its
     /// larger temporaries: the 1M-triangle benchmark's peak resident memory is the same as with the leaf blocks
-    /// written in place (289.5 MB, `/usr/bin/time`).
+    /// written in place (BENCHMARKS.md, "Memory").
     pub fn new(mut v: Vec<T>) -> Self {
         let bytes = v.len().saturating_mul(std::mem::size_of::<T>());
         #[cfg(target_os = "linux")]

@@ -36,8 +36,7 @@ impl Avx2 {
     #[inline(always)]
     pub(crate) fn run<R>(self, query: impl FnOnce() -> R) -> R {
         // SAFETY: `run_avx2` requires only that the CPU supports AVX2, which `self` proves (`detect` checked it
-        // with `is_x86_feature_detected!`). Measured worth it: see BENCHMARKS.md, "The hit record, x86-64-v2, and
-        // the node test in one 8-wide pass".
+        // with `is_x86_feature_detected!`). Measured worth it: see BENCHMARKS.md, "Build settings".
         #[allow(unsafe_code)]
         unsafe {
             run_avx2(query)

@@ -261,8 +261,8 @@ pub(crate) fn xor_permute(m: u32, x: u32) -> u32 {
 /// that spills into a vector (which never allocates unless the fixed part is full), so that no tree depth can
 /// overflow it.
 ///
-/// The array is left uninitialised: zeroing its 512 bytes at the start of every query (a `memset` call) was about
-/// 115 of the ~2,800 instructions of a closest-hit query on the 1M-triangle benchmark.
+/// The array is left uninitialised: zeroing its 512 bytes at the start of every query was a `memset` call per query
+/// for entries that are never read before they are written (BENCHMARKS.md, "Why the traversal is as it is").
 struct NodeStack {
     /// Entries `..len` have been written by [`NodeStack::push`]; the rest are uninitialised.
     items: [MaybeUninit<(u32, f32)>; NODE_STACK],
@@ -322,10 +322,10 @@ impl NodeStack {
 /// The loop is pipelined against memory, which a ray through a large BVH mostly waits on: a visit asks the caches
 /// for its hit inner children's nodes (as Embree does) and, through `prefetch(node, mask)`, for its hit leaves,
 /// whose test it leaves to the visit after next, after that visit's slab test (or to the end), so that their
-/// misses overlap the next two nodes' instead of following one another. Two visits rather than one: closest hits
-/// on the 1M-triangle benchmark 1-10% faster (8 alternating runs, one and two threads), on a quarter of it that
-/// fits in the cache 0-5% (BENCHMARKS.md); the later tests cull with a closest distance that is a visit staler,
-/// which costs less than the wait. Culling uses the closest distance known at each
+/// misses overlap the next two nodes' instead of following one another. Two visits rather than one: faster closest
+/// hits on the 1M-triangle benchmark, on one and two threads, and on a quarter of it that fits in the cache
+/// (BENCHMARKS.md, "Why the traversal is as it is"); the later tests cull with a closest distance that is a visit
+/// staler, which costs less than the wait. Culling uses the closest distance known at each
 /// point, never nearer than the final one, so the hit is the same but for which of two primitives at the same
 /// distance is reported -- or an ulp apart: the triangle test compares a hit with the closest so far in scaled form
 /// (`t·det` against `t_max·det`, as pbrt-v4 does), and that rounding and the reported `t`'s can order such a pair
@@ -366,7 +366,7 @@ pub(crate) fn closest_first<'n>(
         }
         let mut inner_hits = hit8 & node.inner;
         // One or two inner children hit (the common cases) without the sort's data-dependent loop, whose branches
-        // the processor mispredicted (a tenth of the closest-hit time on camera rays); the same order as the sort.
+        // the processor mispredicted (BENCHMARKS.md, "Why the traversal is as it is"); the same order as the sort.
         if inner_hits.count_ones() <= 2 {
             if inner_hits != 0 {
                 let a = inner_hits.trailing_zeros() as usize;
@@ -427,10 +427,9 @@ fn prefetch_children(nodes: &[WideNode], node: &WideNode, hit8: u32, lines: usiz
 /// Asks the caches for the first `lines` lines of each block of each leaf among the children `mask` of `node`,
 /// where a leaf's slots are kept in `blocks` of four (its first slot divided by four is its first block's index; a
 /// leaf of more than four primitives has a second block after it, asked for too if `second_block`). The second
-/// block, on the 1M-triangle benchmark (5 runs of 10 interleaved rounds): closest hits on shadow rays 4.6% faster,
-/// occlusion of bounce and shadow rays 3.7% and 3.5%, bounce-ray closest hits 1.5%, camera rays level; on
-/// killeroo-simple, whose leaves stay in the caches, 1.7% slower (two paired comparisons), so the callers ask for it
-/// only in big BVHs.
+/// block speeds up incoherent rays in a big BVH, whose leaves are in memory, but slows down a mid-sized one such as
+/// killeroo-simple's, whose leaves stay in the caches, so the callers ask for it only in big BVHs (BENCHMARKS.md,
+/// "Why the traversal is as it is").
 #[inline(always)]
 pub(crate) fn prefetch_leaf_blocks<T>(blocks: &[T], node: &WideNode, mask: u32, lines: usize, second_block: bool) {
     let mut leaves = mask & !node.inner;
@@ -457,7 +456,8 @@ fn prefetch_lines<T>(p: *const T, lines: usize) {
         for line in 0..lines {
             // SAFETY: `_mm_prefetch` needs SSE, which every x86-64 processor has; a prefetch is a hint that reads
             // nothing architecturally and cannot fault, whatever the address (`wrapping_add` keeps the pointer
-            // arithmetic defined). Measured: see `closest_first`'s doc comment and BENCHMARKS.md.
+            // arithmetic defined). Measured: see `closest_first`'s doc comment and BENCHMARKS.md, "Why the traversal
+            // is as it is".
             #[allow(unsafe_code)]
             unsafe {
                 _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line));
@@ -474,11 +474,11 @@ fn prefetch_lines<T>(p: *const T, lines: usize) {
 /// Pipelined as [`closest_first`], one visit deep instead of two (`prefetch(node, mask)` starts loading a node's hit
 /// leaves, which are tested after the next visit's slab test): a hit ends the search, and each visit more before a
 /// leaf's test is one more node a hit makes useless. Since the BVH's arrays are fully in 2 MB pages (`LargeArray`),
-/// one visit is 4-5% faster than two on every incoherent occlusion query of the 1M-triangle benchmark (8 alternating
-/// runs, one and two threads; BENCHMARKS.md). The hit inner children are visited in the reverse of the octant order
-/// (farthest-looking first). Any hit ends the search, so the nearest surfaces are not the best bet: on the
-/// 1M-triangle benchmark this order beat nearest-first by distance (bounce rays 1.2 → 2.7 M/CPU-s, shadow rays 2.1
-/// → 2.6) and the octant order itself (bounce 1.6), and matched the unordered visit on shadow rays.
+/// one visit is faster than two on every incoherent occlusion query of the 1M-triangle benchmark, on one and two
+/// threads. The hit inner children are visited in the reverse of the octant order (farthest-looking first). Any hit
+/// ends the search, so the nearest surfaces are not the best bet: on the 1M-triangle benchmark this order beat
+/// nearest-first by distance and the octant order itself on bounce rays, and matched the unordered visit on shadow
+/// rays (BENCHMARKS.md, "Why the traversal is as it is").
 #[inline(always)]
 pub(crate) fn any_hit(
     test: impl NodeTest,
@@ -499,16 +499,15 @@ pub(crate) fn any_hit(
     let mut due: Option<(&WideNode, u32)> = None;
     loop {
         // One call site of `leaves` (inside the loop, for the last node's leaves too), so that the compiler inlines
-        // it into the AVX2 build of the loop: occlusion of camera rays 8% faster, shadow rays 2.5% (BENCHMARKS.md).
-        // The same in `closest_first` made closest hits 2-3% slower (and, once the other shapes' lanes were out of
-        // line, no faster), so it stays out of line there.
+        // it into the AVX2 build of the loop, which made occlusion of camera and shadow rays faster. The same in
+        // `closest_first` made closest hits slower (and, once the other shapes' lanes were out of line, no faster),
+        // so it stays out of line there (BENCHMARKS.md, "Why the traversal is as it is").
         let visit = next.take().or_else(|| stack.pop()).map(|(index, _)| {
             let node = &nodes[index as usize];
             let (hit8, _) = test.slabs(node, r, t_max);
-            // All four lines, the children's indices and masks (read right after a node's test) with the planes: on
-            // the Zen 3 EPYC, one-thread occlusion of incoherent rays 0.6-3.6% faster (medians and means of 16
-            // alternating runs), two threads level; the closest-hit loop keeps three (1-2% slower with four).
-            // BENCHMARKS.md.
+            // All four lines, the children's indices and masks (read right after a node's test) with the planes:
+            // one-thread occlusion of incoherent rays gained, two threads stayed level; the closest-hit loop keeps
+            // three, being slower with four (BENCHMARKS.md, "Why the traversal is as it is").
             prefetch_children(nodes, node, hit8, 4);
             (node, hit8)
         });

@@ -44,8 +44,8 @@
 //! each bin, which moves the table's mean cosine from the series g by ≤ 1e-6 (6e-7 for one 250 µm drop at 360 nm,
 //! ≤ 1e-7 otherwise).
 //!
-//! Cost: about N²/2 × 20 flops per radius (N ≈ x): 17–20 ms for a 250 µm drop in the blue (x ≈ 4000–4400) on one
-//! core of the 2-core test machine; radii and wavelengths run in parallel (rayon).
+//! Cost: about N²/2 × 20 flops per radius (N ≈ x), so a rain drop (x ≈ 4000–4400 in the blue) costs far more than
+//! a fog droplet; radii and wavelengths run in parallel (rayon). Timings: BENCHMARKS.md, "Build and setup times".
 
 use rayon::prelude::*;
 
@@ -662,8 +662,8 @@ impl MiePhaseTable {
 
 /// Fewest radii [`log_normal_node_count`] uses for a spread > 0.
 pub const MIN_RADIUS_NODES: usize = 5;
-/// Cost budget of [`log_normal_node_count`]: the nodes' Σ N_stop² stays below this (≈ 20 ms per wavelength on one
-/// core), unless [`MIN_RADIUS_NODES`] needs more.
+/// Cost budget of [`log_normal_node_count`]: the nodes' Σ N_stop² stays below this (a fixed amount of work per
+/// wavelength; its time is in BENCHMARKS.md, "Build and setup times"), unless [`MIN_RADIUS_NODES`] needs more.
 const RADIUS_NODE_BUDGET: f64 = 3.0e7;
 
 /// The number of radii [`MiePhaseTable::log_normal`] and [`MieSpectralTable`] use for number-mean size parameter
@@ -671,13 +671,13 @@ const RADIUS_NODE_BUDGET: f64 = 3.0e7;
 ///
 /// The phase function of one sphere ripples as x changes by ~1 (interference between ray paths); a size
 /// distribution averages that out only if neighbouring nodes are ≲ 0.25 apart in x, i.e. K ≈ 10·x̄·σ nodes
-/// (σ² = ln(1 + spread²)). That is affordable for fog (x ~ 100: hundreds of nodes at tens of µs each) but not for
-/// rain (x ~ 4000: 10⁴ nodes at ~12 ms each), so K is capped where Σ N_stop² would pass a fixed budget, and is at
-/// least [`MIN_RADIUS_NODES`]. Measured against 3000–6000-node references at 550 nm, as the largest difference of
-/// the density averaged over 0.25°, relative to the largest such density in the same range: water drops of 250 µm,
-/// spread 0.1, get 5 nodes (5–7 over the visible) and differ by 2.3 % in 120°–150° (the ripple left over; 7 % in
-/// single 0.05° bins) and by 6e-4 in C_sca; 10 µm drops get 114 nodes at spread 0.1 and 336 at 0.3 and differ by
-/// 2.0 % and 1.3 % in 120°–150°, 3.2 % and 1.9 % in 150°–180°.
+/// (σ² = ln(1 + spread²)). That is affordable for fog (x ~ 100: hundreds of cheap nodes) but not for rain
+/// (x ~ 4000: 10⁴ nodes, each costing about 1,600 times a fog node, as the cost grows with x²), so K is capped
+/// where Σ N_stop² would pass a fixed budget, and is at least [`MIN_RADIUS_NODES`]. Measured against 3000–6000-node
+/// references at 550 nm, as the largest difference of the density averaged over 0.25°, relative to the largest such
+/// density in the same range: water drops of 250 µm, spread 0.1, get 5 nodes (5–7 over the visible) and differ by
+/// 2.3 % in 120°–150° (the ripple left over; 7 % in single 0.05° bins) and by 6e-4 in C_sca; 10 µm drops get 114
+/// nodes at spread 0.1 and 336 at 0.3 and differ by 2.0 % and 1.3 % in 120°–150°, 3.2 % and 1.9 % in 150°–180°.
 pub fn log_normal_node_count(x_mean: f64, spread: f64) -> usize {
     if !(spread > 0.0 && x_mean > 0.0 && x_mean.is_finite()) {
         return 1;
@@ -769,9 +769,8 @@ pub fn particle_index(name: &str) -> Result<impl Fn(f64) -> Complex + Send + Syn
 /// floor; Δ = 20 nm doubles it at 400 nm. Drops of a single size have bow-region structure that changes within
 /// 2 nm (10 µm: ~40 % of the peak), which no practical grid resolves: the mixture then blends it.
 ///
-/// Build time (`cargo run --release -p optics --example mie_build_time`, 2 cores, default grid): 250 µm drops
-/// 0.21 s alone and 0.92 s with spread 0.1 (5–7 radii per wavelength); 10 µm drops 0.008 s and 0.18 s (76–175
-/// radii).
+/// Build time: `cargo run --release -p optics --example mie_build_time` measures it; figures in BENCHMARKS.md,
+/// "Build and setup times".
 #[derive(Clone, Debug)]
 pub struct MieSpectralTable {
     lambdas: Vec<f64>,

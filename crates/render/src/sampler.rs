@@ -26,10 +26,10 @@ pub fn hash_words(words: &[u32]) -> u32 {
 
 /// `sobol_burley::sample_4d` with the Sobol matrix product read from tables: the same values, bit for bit (a test
 /// compares them), without the crate's loop over the set bits of the shuffled index, whose trip count is random
-/// and whose exit the processor mispredicts (about a third of the sampler's time in a profile of
-/// killeroo-simple). The index shuffle, which depends only on the seed and the index, is done once per sample
-/// ([`Sampler::new`]); here only the per-dimension Owen scramble (Burley 2020, "Practical hash-based Owen
-/// scrambling", with `sobol_burley`'s hash and constants).
+/// and whose exit the processor mispredicts (a large share of the sampler's time in a profile of killeroo-simple;
+/// BENCHMARKS.md, "Why the sampling code is as it is"). The index shuffle, which depends only on the seed and the
+/// index, is done once per sample ([`Sampler::new`]); here only the per-dimension Owen scramble (Burley 2020,
+/// "Practical hash-based Owen scrambling", with `sobol_burley`'s hash and constants).
 mod sobol {
     use std::sync::LazyLock;
 

@@ -273,7 +273,8 @@ pub(crate) fn triangle_geom(mesh: &TriangleMesh, tri: usize, b: [f32; 3]) -> Sur
 
 /// [`triangle_geom`] given the triangle's vertex positions, which must equal `mesh.triangle_positions(tri)`: the
 /// BVH passes its inline copy, which the hit test has just read, so that a mesh without uvs or normals needs no
-/// further memory access (the index and vertex loads were 13% of the closest-hit time on a 1M-triangle mesh).
+/// further memory access: on a big mesh the index and vertex loads, two cache misses, were a large share of the
+/// closest-hit time (BENCHMARKS.md, "Why the traversal is as it is").
 ///
 /// Computed in `Vec3A` (three coordinates per instruction), whose operations are `Vec3`'s per coordinate and in the
 /// same order (sums, dot and cross products alike), so the result is the same to the bit.

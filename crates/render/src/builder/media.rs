@@ -144,7 +144,7 @@ fn homogeneous(m: &MediumEntity) -> Result<HomogeneousMedium> {
 }
 
 /// Mie tables already built for this scene, by (particle, radius, spread, forward cut-off): media that differ only in
-/// density share one table (a 250 µm drop's takes 0.2–0.9 s and ~6 MB).
+/// density share one table (a 250 µm drop's takes ~6 MB and the time in BENCHMARKS.md, "Build and setup times").
 type MieTables = HashMap<(String, u64, u64, u64), Arc<MieSpectralTable>>;
 
 /// Prismatic's `mie` medium: a cloud of spheres of a catalogue material (`particle`) with number-mean radius
