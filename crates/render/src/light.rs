@@ -425,7 +425,11 @@ impl Light {
     pub fn pdf_li_area(&self, from: Vec3, wi: Vec3) -> f32 {
         match self {
             Light::DiffuseArea { shape, element, .. } => shape.pdf_solid_angle(*element as usize, from, wi),
-            _ => 0.0,
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Distant { .. }
+            | Light::UniformInfinite { .. }
+            | Light::ImageInfinite { .. } => 0.0,
         }
     }
 
@@ -438,7 +442,7 @@ impl Light {
                 let (uv, jac) = map.uv(local);
                 map.distribution.pdf([uv.x as f64, uv.y as f64]) as f32 / jac
             }
-            _ => 0.0,
+            Light::Point { .. } | Light::Spot { .. } | Light::Distant { .. } | Light::DiffuseArea { .. } => 0.0,
         }
     }
 
@@ -452,7 +456,11 @@ impl Light {
                     SampledSpectrum::zero()
                 }
             }
-            _ => SampledSpectrum::zero(),
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Distant { .. }
+            | Light::UniformInfinite { .. }
+            | Light::ImageInfinite { .. } => SampledSpectrum::zero(),
         }
     }
 
@@ -464,7 +472,9 @@ impl Light {
                 let (uv, _) = map.uv(map.frame.to_local(w));
                 map.lookup(uv, wl) * *scale
             }
-            _ => SampledSpectrum::zero(),
+            Light::Point { .. } | Light::Spot { .. } | Light::Distant { .. } | Light::DiffuseArea { .. } => {
+                SampledSpectrum::zero()
+            }
         }
     }
 

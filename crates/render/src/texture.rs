@@ -352,7 +352,9 @@ impl ImageTexture {
                 let c = self.map.map_footprint(ctx);
                 mip.ewa(c.st, c.dst_dx, c.dst_dy, self.max_anisotropy)
             }
-            _ => self.image.bilerp_wrapped(self.map.map(ctx), self.wrap),
+            (ImageFilter::Bilinear | ImageFilter::Trilinear | ImageFilter::Ewa, None) => {
+                self.image.bilerp_wrapped(self.map.map(ctx), self.wrap)
+            }
         }
     }
 
@@ -463,7 +465,16 @@ impl FloatTexture {
         // Inline for constants (most roughness and bump parameters), which need no call into the recursive match.
         match self {
             FloatTexture::Constant(v) => *v,
-            _ => self.eval_varying(ctx),
+            FloatTexture::Scale { .. }
+            | FloatTexture::Mix { .. }
+            | FloatTexture::DirectionMix { .. }
+            | FloatTexture::Bilerp { .. }
+            | FloatTexture::Checkerboard { .. }
+            | FloatTexture::Dots { .. }
+            | FloatTexture::Fbm { .. }
+            | FloatTexture::Wrinkled { .. }
+            | FloatTexture::Windy { .. }
+            | FloatTexture::Image(_) => self.eval_varying(ctx),
         }
     }
 
@@ -527,7 +538,16 @@ impl FloatTexture {
     pub fn as_constant(&self) -> Option<f32> {
         match self {
             FloatTexture::Constant(v) => Some(*v),
-            _ => None,
+            FloatTexture::Scale { .. }
+            | FloatTexture::Mix { .. }
+            | FloatTexture::DirectionMix { .. }
+            | FloatTexture::Bilerp { .. }
+            | FloatTexture::Checkerboard { .. }
+            | FloatTexture::Dots { .. }
+            | FloatTexture::Fbm { .. }
+            | FloatTexture::Wrinkled { .. }
+            | FloatTexture::Windy { .. }
+            | FloatTexture::Image(_) => None,
         }
     }
 }
