@@ -14,8 +14,8 @@ use ply_rs_bw::ply::{
     ElementDef, Encoding, Header, Property, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType,
 };
 
+use crate::error::GeometryError;
 use crate::mesh::MeshData;
-use crate::GeometryError;
 
 #[derive(Default)]
 struct PlyVertex {
