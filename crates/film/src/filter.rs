@@ -121,7 +121,7 @@ impl Filter {
                 }
                 Ok(())
             }
-            _ => Ok(()),
+            Filter::Box { .. } | Filter::Gaussian { .. } | Filter::Triangle { .. } => Ok(()),
         }
     }
 
@@ -264,7 +264,7 @@ impl FilterSampler {
         filter.validate()?;
         let distribution = match filter {
             Filter::Box { .. } => None,
-            _ => {
+            Filter::Gaussian { .. } | Filter::Triangle { .. } | Filter::Mitchell { .. } => {
                 let r = filter.radius();
                 // One axis of |f| through the centre (f(x, 0) ∝ fx(x) for these separable filters, all non-zero
                 // at the origin), tabulated at 64 cells per pixel of radius.

@@ -582,7 +582,9 @@ fn read_exr(path: &Path) -> Result<ExrImage, ImageError> {
     use exr::prelude::*;
     let exr_err = |e: exr::error::Error| match e {
         exr::error::Error::Io(source) => ImageError::Io { path: path.to_path_buf(), source },
-        e => ImageError::Exr { path: path.to_path_buf(), message: e.to_string() },
+        e @ (exr::error::Error::Aborted | exr::error::Error::NotSupported(_) | exr::error::Error::Invalid(_)) => {
+            ImageError::Exr { path: path.to_path_buf(), message: e.to_string() }
+        }
     };
     let bytes = open_read(path)?;
     let meta = exr::meta::MetaData::read_from_buffered(bytes.as_slice(), false).map_err(exr_err)?;
@@ -612,7 +614,7 @@ fn exr_max_ratio(compression: exr::compression::Compression) -> u128 {
         C::ZIP1 | C::ZIP16 | C::PIZ => deflate,
         C::PXR24 => deflate * 4 / 3,
         C::B44 | C::B44A => 11,
-        _ => 64 * deflate,
+        C::DWAA(_) | C::DWAB(_) | C::HTJ2K32 | C::HTJ2K256 => 64 * deflate,
     }
 }
 
@@ -906,7 +908,7 @@ pub fn read_rgb_encoded(path: &Path, encoding: ColorEncoding) -> Result<(u32, u3
             };
             Ok((png.width, png.height, png.samples.iter().map(|s| s.map(decode)).collect()))
         }
-        _ => read_rgb(path),
+        ImageFormat::Exr | ImageFormat::Pfm => read_rgb(path),
     }
 }
 
@@ -987,7 +989,7 @@ fn read_png_samples(path: &Path) -> Result<PngSamples, ImageError> {
     let sixteen = match info.bit_depth {
         png::BitDepth::Eight => false,
         png::BitDepth::Sixteen => true,
-        d => {
+        d @ (png::BitDepth::One | png::BitDepth::Two | png::BitDepth::Four) => {
             return Err(ImageError::Malformed {
                 path: path.to_path_buf(),
                 message: format!("unexpected bit depth {d:?} after expansion"),

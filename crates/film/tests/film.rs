@@ -217,7 +217,12 @@ fn merge_of_two_half_films_equals_one_film() {
 fn spec_validation_names_the_parameter() {
     let name = |spec: FilmSpec| match Film::new(spec).unwrap_err() {
         FilmError::InvalidParameter { name, .. } => name,
-        e => panic!("unexpected {e:?}"),
+        e @ (FilmError::TooLarge { .. }
+        | FilmError::Mismatch(_)
+        | FilmError::OutOfBounds { .. }
+        | FilmError::Table(_)) => {
+            panic!("unexpected {e:?}")
+        }
     };
     assert_eq!(name(FilmSpec::new(0, 10, "a.exr")), "xresolution");
     assert_eq!(name(FilmSpec::new(10, 0, "a.exr")), "yresolution");

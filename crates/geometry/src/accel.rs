@@ -35,6 +35,7 @@ use crate::bounds::Bounds3;
 use crate::collapse::{WideBvh, BIG_BVH, EMPTY_SLOT};
 use crate::huge_pages::LargeArray;
 
+use crate::error::GeometryError;
 use crate::mesh::TriangleMesh;
 use crate::ray::{gamma, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
 pub use crate::shapes::Shape;
@@ -44,7 +45,6 @@ use crate::shapes::{
 use crate::simd::{with_best_simd, Portable};
 use crate::transform::Transform;
 use crate::wide::{any_hit, closest_first, octant, prefetch_leaf_blocks, NodeRay, NodeTest, WideNode};
-use crate::GeometryError;
 
 /// A ray–scene intersection: anything that answers closest-hit and occlusion queries.
 pub trait Accel: Send + Sync {

@@ -22,6 +22,7 @@ pub mod animated;
 pub mod bilinear;
 pub mod bounds;
 mod collapse;
+mod error;
 pub mod gzip;
 mod huge_pages;
 pub mod mesh;
@@ -48,31 +49,10 @@ pub use accel::{Accel, GeometryScene, Hit, Instance, MovingInstance, Object, Sha
 pub use animated::AnimatedTransform;
 pub use bilinear::BilinearMesh;
 pub use bounds::Bounds3;
+pub use error::GeometryError;
 pub use glam::{DMat4, DVec3, Vec2, Vec3, Vec3A};
 pub use huge_pages::LargeArray;
 pub use mesh::{BilinearMeshData, IndexedMesh, IndexedMeshData, MeshData, TriangleMesh};
 pub use ray::{offset_ray_origin, spawn_ray, spawn_ray_to, spawn_ray_to_point, Ray, SurfacePoint};
 pub use shapes::{Disk, PointSample, ShapeSample, Sphere, SurfaceDerivatives};
 pub use transform::Transform;
-
-/// Errors from building geometry from user data. Each names the problem.
-#[derive(Debug, thiserror::Error)]
-pub enum GeometryError {
-    /// A mesh's data is inconsistent (index out of range, wrong array length, non-finite value…).
-    #[error("invalid mesh: {0}")]
-    InvalidMesh(String),
-    /// A shape's parameters are invalid (negative radius…).
-    #[error("invalid shape: {0}")]
-    InvalidShape(String),
-    /// An instance refers to a missing object or has a bad transform.
-    #[error("invalid instance: {0}")]
-    InvalidInstance(String),
-    /// A PLY file could not be read or understood.
-    #[error("PLY file {path}: {message}")]
-    Ply {
-        /// The file.
-        path: String,
-        /// What went wrong.
-        message: String,
-    },
-}

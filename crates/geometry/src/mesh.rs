@@ -6,8 +6,8 @@
 use glam::{Vec2, Vec3};
 
 use crate::bounds::Bounds3;
+use crate::error::GeometryError;
 use crate::transform::Transform;
-use crate::GeometryError;
 
 /// Object-space mesh data, as a scene file gives it: positions, optional per-vertex normals and uvs, and `N` `u32`
 /// vertex indices per face. Used as [`MeshData`] (triangles) and [`BilinearMeshData`] (bilinear patches).

@@ -14,8 +14,8 @@ use ply_rs_bw::ply::{
     ElementDef, Encoding, Header, Property, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType,
 };
 
+use crate::error::GeometryError;
 use crate::mesh::MeshData;
-use crate::GeometryError;
 
 #[derive(Default)]
 struct PlyVertex {
@@ -74,7 +74,17 @@ impl PropertyAccess for PlyFace {
             Property::ListUShort(v) => v.into_iter().map(i64::from).collect(),
             Property::ListInt(v) => v.into_iter().map(i64::from).collect(),
             Property::ListUInt(v) => v.into_iter().map(i64::from).collect(),
-            _ => {
+            // Scalars and float lists are not vertex indices.
+            Property::Char(_)
+            | Property::UChar(_)
+            | Property::Short(_)
+            | Property::UShort(_)
+            | Property::Int(_)
+            | Property::UInt(_)
+            | Property::Float(_)
+            | Property::Double(_)
+            | Property::ListFloat(_)
+            | Property::ListDouble(_) => {
                 self.bad = true;
                 Vec::new()
             }

@@ -16,8 +16,8 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
+use crate::error::GeometryError;
 use crate::mesh::MeshData;
-use crate::GeometryError;
 
 /// Loop-subdivides the triangles of `data` (positions and indices; normals and uvs are ignored, as in pbrt)
 /// `levels` times and returns the mesh with limit positions and limit normals. Degenerate triangles (a repeated

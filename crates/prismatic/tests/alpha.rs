@@ -3,32 +3,14 @@
 //!
 //! Statistical tolerances come from the measured noise of each render (two seeds), never from earlier runs.
 
-use std::path::Path;
-
 use film::Film;
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::builder::BuiltScene;
+
+mod support;
+use support::{build, build_error};
 
 /// Allowed distance between an estimate and its expected value, in standard errors (fixed seeds: never flakes).
 const K_SIGMA: f64 = 4.5;
-
-fn build(text: &str, name: &str) -> BuiltScene {
-    let desc = pbrt::parse_str(text, Path::new(name)).unwrap_or_else(|e| panic!("{e}"));
-    let built = build_scene(&desc, &BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    assert!(built.warnings.is_empty(), "{name}: {:#?}", built.warnings);
-    built
-}
-
-/// The error parsing or building `text` gives (the parser checks texture names, the builder values).
-fn build_error(text: &str, name: &str) -> String {
-    let desc = match pbrt::parse_str(text, Path::new(name)) {
-        Ok(d) => d,
-        Err(e) => return e.to_string(),
-    };
-    match build_scene(&desc, &BuildOptions::default()) {
-        Ok(_) => panic!("{name}: expected an error"),
-        Err(e) => e.to_string(),
-    }
-}
 
 fn render(built: &BuiltScene, spp: u32, seed: u32) -> Film {
     let mut film = Film::new(built.film.clone()).unwrap();

@@ -9,13 +9,8 @@ use film::Film;
 use render::builder::{build_scene, BuildOptions, BuiltScene};
 use spectral::WavelengthStrategy;
 
-/// Parses and builds a scene given as pbrt text; the scene must build without warnings.
-fn build(text: &str) -> BuiltScene {
-    let desc = pbrt::parse_str(text, Path::new("test.pbrt")).unwrap_or_else(|e| panic!("{e}"));
-    let built = build_scene(&desc, &BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    assert!(built.warnings.is_empty(), "{:#?}", built.warnings);
-    built
-}
+mod support;
+use support::build;
 
 fn render(built: &BuiltScene, spp: u32, seed: u32) -> Film {
     let mut spec = built.film.clone();
@@ -241,7 +236,7 @@ AttributeBegin
         to[2],
         prism.mesh(),
     );
-    let built = build(&scene);
+    let built = build(&scene, "test.pbrt");
     let camera = &built.scene.camera;
     let cam_pos = camera.position();
     // Raster position of the beam's screen point at wavelength λ, and its Fresnel weight.

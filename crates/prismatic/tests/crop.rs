@@ -3,11 +3,14 @@
 //! inside the full display window; `savefp16` writes half floats; `Film "gbuffer"` writes pbrt-v4's AOV channels;
 //! bad values are errors naming the parameter.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
 use film::{Film, PixelBounds};
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::builder::{BuildOptions, BuiltScene};
+
+mod support;
+use support::{try_build, try_build_with};
 
 /// A 12×8 scene: a glass sphere (dispersive) and a diffuse one on a floor under an area light and a dim sky.
 fn scene(film: &str, integrator: &str) -> String {
@@ -42,15 +45,6 @@ fn scene(film: &str, integrator: &str) -> String {
 const RGB_FILM: &str = "\"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 8";
 const VOLPATH: &str = "\"volpath\" \"integer maxdepth\" 5";
 
-fn build_with(text: &str, options: &BuildOptions) -> Result<BuiltScene, String> {
-    let desc = pbrt::parse_str(text, Path::new("crop.pbrt")).map_err(|e| e.to_string())?;
-    build_scene(&desc, options).map_err(|e| e.to_string())
-}
-
-fn build(text: &str) -> Result<BuiltScene, String> {
-    build_with(text, &BuildOptions::default())
-}
-
 fn render(built: &BuiltScene) -> Film {
     let mut film = Film::new(built.film.clone()).unwrap();
     built.integrator.render(&built.scene, &mut film, 0..built.spp, 3, &|_| {}).unwrap();
@@ -78,23 +72,27 @@ fn assert_same_pixels(full: &Film, crop: &Film, b: PixelBounds) {
 
 #[test]
 fn a_crop_renders_exactly_the_full_renders_pixels() {
-    let full = render(&build(&scene(RGB_FILM, VOLPATH)).unwrap());
+    let full = render(&try_build(&scene(RGB_FILM, VOLPATH), "crop.pbrt").unwrap());
     // cropwindow [0.25 0.75 0.3 0.9] of 12×8: columns ⌈3⌉..⌈9⌉, rows ⌈2.4⌉..⌈7.2⌉ (pbrt-v4's rounding).
     let b = PixelBounds { x0: 3, x1: 9, y0: 3, y1: 8 };
-    let crop = build(&scene(&format!("{RGB_FILM} \"float cropwindow\" [ 0.25 0.75 0.3 0.9 ]"), VOLPATH)).unwrap();
+    let crop =
+        try_build(&scene(&format!("{RGB_FILM} \"float cropwindow\" [ 0.25 0.75 0.3 0.9 ]"), VOLPATH), "crop.pbrt")
+            .unwrap();
     assert!(crop.warnings.is_empty(), "{:?}", crop.warnings);
     assert_same_pixels(&full, &render(&crop), b);
     // pixelbounds [x0 x1 y0 y1], and the same window from the command line's options.
-    let pb = build(&scene(&format!("{RGB_FILM} \"integer pixelbounds\" [ 3 9 3 8 ]"), VOLPATH)).unwrap();
+    let pb =
+        try_build(&scene(&format!("{RGB_FILM} \"integer pixelbounds\" [ 3 9 3 8 ]"), VOLPATH), "crop.pbrt").unwrap();
     assert_same_pixels(&full, &render(&pb), b);
     let cli = BuildOptions { crop_window: Some([0.25, 0.75, 0.3, 0.9]), ..Default::default() };
-    assert_same_pixels(&full, &render(&build_with(&scene(RGB_FILM, VOLPATH), &cli).unwrap()), b);
+    assert_same_pixels(&full, &render(&try_build_with(&scene(RGB_FILM, VOLPATH), "crop.pbrt", &cli).unwrap()), b);
     let cli = BuildOptions { pixel_bounds: Some([3, 9, 3, 8]), ..Default::default() };
-    assert_same_pixels(&full, &render(&build_with(&scene(RGB_FILM, VOLPATH), &cli).unwrap()), b);
+    assert_same_pixels(&full, &render(&try_build_with(&scene(RGB_FILM, VOLPATH), "crop.pbrt", &cli).unwrap()), b);
     // The spectral film and the path integrator crop the same way.
     let spectral = "\"spectral\" \"integer xresolution\" 12 \"integer yresolution\" 8";
-    let full = render(&build(&scene(spectral, "\"path\"")).unwrap());
-    let crop = build(&scene(&format!("{spectral} \"integer pixelbounds\" [ 0 5 2 6 ]"), "\"path\"")).unwrap();
+    let full = render(&try_build(&scene(spectral, "\"path\""), "crop.pbrt").unwrap());
+    let crop =
+        try_build(&scene(&format!("{spectral} \"integer pixelbounds\" [ 0 5 2 6 ]"), "\"path\""), "crop.pbrt").unwrap();
     assert_same_pixels(&full, &render(&crop), PixelBounds { x0: 0, x1: 5, y0: 2, y1: 6 });
 }
 
@@ -102,22 +100,27 @@ fn a_crop_renders_exactly_the_full_renders_pixels() {
 fn command_line_bounds_override_the_films_and_crop_windows_win() {
     let text = scene(&format!("{RGB_FILM} \"integer pixelbounds\" [ 0 4 0 4 ]"), VOLPATH);
     let cli = BuildOptions { pixel_bounds: Some([2, 6, 1, 3]), ..Default::default() };
-    let built = build_with(&text, &cli).unwrap();
+    let built = try_build_with(&text, "crop.pbrt", &cli).unwrap();
     assert_eq!(built.film.pixel_bounds, Some(PixelBounds { x0: 2, x1: 6, y0: 1, y1: 3 }));
     assert!(built.warnings.iter().any(|w| w.contains("--pixelbounds")), "{:?}", built.warnings);
     // A crop window (film or command line) wins over pixel bounds, as in pbrt-v4.
     let text =
         scene(&format!("{RGB_FILM} \"integer pixelbounds\" [ 0 4 0 4 ] \"float cropwindow\" [ 0.5 1 0.5 1 ]"), VOLPATH);
-    let built = build(&text).unwrap();
+    let built = try_build(&text, "crop.pbrt").unwrap();
     assert_eq!(built.film.pixel_bounds, Some(PixelBounds { x0: 6, x1: 12, y0: 4, y1: 8 }));
     assert!(built.warnings.iter().any(|w| w.contains("crop window")), "{:?}", built.warnings);
     let cli = BuildOptions { crop_window: Some([0.0, 0.5, 0.0, 0.25]), ..Default::default() };
-    assert_eq!(build_with(&text, &cli).unwrap().film.pixel_bounds, Some(PixelBounds { x0: 0, x1: 6, y0: 0, y1: 2 }));
+    assert_eq!(
+        try_build_with(&text, "crop.pbrt", &cli).unwrap().film.pixel_bounds,
+        Some(PixelBounds { x0: 0, x1: 6, y0: 0, y1: 2 })
+    );
     // Pixel bounds beyond the image are clamped with a warning; the whole image means no crop.
-    let built = build(&scene(&format!("{RGB_FILM} \"integer pixelbounds\" [ -2 20 6 9 ]"), VOLPATH)).unwrap();
+    let built =
+        try_build(&scene(&format!("{RGB_FILM} \"integer pixelbounds\" [ -2 20 6 9 ]"), VOLPATH), "crop.pbrt").unwrap();
     assert_eq!(built.film.pixel_bounds, Some(PixelBounds { x0: 0, x1: 12, y0: 6, y1: 8 }));
     assert!(built.warnings.iter().any(|w| w.contains("clamped")), "{:?}", built.warnings);
-    let whole = build(&scene(&format!("{RGB_FILM} \"float cropwindow\" [ 0 1 0 1 ]"), VOLPATH)).unwrap();
+    let whole =
+        try_build(&scene(&format!("{RGB_FILM} \"float cropwindow\" [ 0 1 0 1 ]"), VOLPATH), "crop.pbrt").unwrap();
     assert_eq!(whole.film.pixel_bounds, None);
 }
 
@@ -133,12 +136,15 @@ fn bad_bounds_and_film_values_are_errors_naming_the_parameter() {
         ("\"integer pixelbounds\" [ 20 30 0 8 ]", "pixelbounds"),
         ("\"float diagonal\" 0", "diagonal"),
     ] {
-        let e = build(&scene(&format!("{RGB_FILM} {extra}"), VOLPATH)).err().unwrap_or_else(|| panic!("{extra}"));
+        let e = try_build(&scene(&format!("{RGB_FILM} {extra}"), VOLPATH), "crop.pbrt")
+            .err()
+            .unwrap_or_else(|| panic!("{extra}"));
         assert!(e.contains(name) && e.contains("crop.pbrt:3:"), "{extra}: {e}");
     }
-    let e = build(&scene("\"gbuffer\" \"string filename\" \"g.png\"", VOLPATH)).err().unwrap();
+    let e = try_build(&scene("\"gbuffer\" \"string filename\" \"g.png\"", VOLPATH), "crop.pbrt").err().unwrap();
     assert!(e.contains("gbuffer") && e.contains("EXR"), "{e}");
-    let e = build(&scene("\"gbuffer\" \"string coordinatesystem\" \"screen\"", VOLPATH)).err().unwrap();
+    let e =
+        try_build(&scene("\"gbuffer\" \"string coordinatesystem\" \"screen\"", VOLPATH), "crop.pbrt").err().unwrap();
     assert!(e.contains("coordinatesystem"), "{e}");
 }
 
@@ -152,10 +158,10 @@ fn temp_dir(name: &str) -> PathBuf {
 #[test]
 fn cropped_exrs_keep_the_full_display_window_and_savefp16_writes_half_floats() {
     let dir = temp_dir("exr");
-    let full = render(&build(&scene(RGB_FILM, VOLPATH)).unwrap());
+    let full = render(&try_build(&scene(RGB_FILM, VOLPATH), "crop.pbrt").unwrap());
     for fp16 in [false, true] {
         let film = format!("{RGB_FILM} \"integer pixelbounds\" [ 2 9 1 7 ] \"bool savefp16\" {fp16}");
-        let crop = render(&build(&scene(&film, VOLPATH)).unwrap());
+        let crop = render(&try_build(&scene(&film, VOLPATH), "crop.pbrt").unwrap());
         let path = dir.join(format!("crop-{fp16}.exr"));
         film::write_image(&crop, &path).unwrap();
         // pbrt-v4: data window = the pixel bounds, display window = the full resolution.
@@ -199,7 +205,7 @@ fn gbuffer_film_writes_pbrt_v4_channel_names_in_camera_space() {
              Material \"diffuse\" \"rgb reflectance\" [ 0.2 0.4 0.6 ]\nShape \"sphere\" \"float radius\" 3\n",
             path.display()
         );
-        let built = build(&text).unwrap();
+        let built = try_build(&text, "crop.pbrt").unwrap();
         assert!(built.warnings.is_empty(), "{:?}", built.warnings);
         let film = render(&built);
         film::write_image(&film, &path).unwrap();
@@ -240,7 +246,7 @@ fn the_command_line_crops_as_pbrt_v4() {
 fn every_pbrt_v4_sampler_name_is_accepted_with_its_sample_count() {
     let with = |sampler: &str| {
         let text = scene(RGB_FILM, VOLPATH).replace("Sampler \"zsobol\" \"integer pixelsamples\" 4", sampler);
-        build(&text)
+        try_build(&text, "crop.pbrt")
     };
     for name in ["zsobol", "halton", "sobol", "paddedsobol", "pmj02bn", "independent"] {
         let built = with(&format!("Sampler \"{name}\" \"integer pixelsamples\" 8")).unwrap();

@@ -2,11 +2,12 @@
 //! imaging ratio t · ISO / 100, `whitebalance` and `maxcomponentvalue` reach the film, measured camera sensors
 //! render a grey card grey, and unknown sensors or bad values are errors naming the parameter with file:line:column.
 
-use std::path::Path;
-
 use film::Film;
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::builder::BuiltScene;
 use spectral::WavelengthStrategy;
+
+mod support;
+use support::{build_error, try_build};
 
 fn scene(film_params: &str, camera_params: &str) -> String {
     format!(
@@ -21,18 +22,6 @@ fn scene(film_params: &str, camera_params: &str) -> String {
     )
 }
 
-fn build(text: &str) -> Result<BuiltScene, String> {
-    let desc = pbrt::parse_str(text, Path::new("sensor.pbrt")).map_err(|e| e.to_string())?;
-    build_scene(&desc, &BuildOptions::default()).map_err(|e| e.to_string())
-}
-
-fn build_err(text: &str) -> String {
-    match build(text) {
-        Ok(_) => panic!("expected an error for\n{text}"),
-        Err(e) => e,
-    }
-}
-
 fn render(built: &BuiltScene) -> Film {
     let mut spec = built.film.clone();
     spec.wavelengths = WavelengthStrategy::Hero;
@@ -43,7 +32,7 @@ fn render(built: &BuiltScene) -> Film {
 
 #[test]
 fn iso_and_shutter_scale_the_image_by_the_imaging_ratio() {
-    let base = build(&scene("", "")).unwrap();
+    let base = try_build(&scene("", ""), "sensor.pbrt").unwrap();
     assert_eq!(base.film.sensor.imaging_ratio, 1.0); // pbrt-v4 defaults: 1 s, ISO 100
     let reference = render(&base);
     // ISO 200 → ratio 2; ISO 100 with the shutter open 0.25 s (0.5 to 0.75) → ratio 0.25. Both are powers of two,
@@ -53,7 +42,7 @@ fn iso_and_shutter_scale_the_image_by_the_imaging_ratio() {
         ("\"float iso\" 100", "\"float shutteropen\" 0.5 \"float shutterclose\" 0.75", 0.25),
         ("\"float iso\" 400", "\"float shutterclose\" 0.5", 2.0),
     ] {
-        let built = build(&scene(film, camera)).unwrap();
+        let built = try_build(&scene(film, camera), "sensor.pbrt").unwrap();
         assert!(built.warnings.is_empty(), "{:#?}", built.warnings); // the parameters are used
         assert_eq!(built.film.sensor.imaging_ratio, k);
         let scaled = render(&built);
@@ -69,28 +58,29 @@ fn iso_and_shutter_scale_the_image_by_the_imaging_ratio() {
 
 #[test]
 fn white_balance_and_max_component_value_reach_the_film() {
-    let built = build(&scene("\"float whitebalance\" 5000 \"float maxcomponentvalue\" 10", "")).unwrap();
+    let built =
+        try_build(&scene("\"float whitebalance\" 5000 \"float maxcomponentvalue\" 10", ""), "sensor.pbrt").unwrap();
     assert!(built.warnings.is_empty(), "{:#?}", built.warnings);
     let want = spectral::daylight::white_balance_chromaticity(5000.0).unwrap();
     assert_eq!(built.film.sensor.white_balance_from, Some(want));
     assert_eq!(built.film.max_component_value, 10.0);
     // whitebalance 0 (the cie1931 default) means none; so does leaving it out.
-    let none = build(&scene("\"float whitebalance\" 0", "")).unwrap();
+    let none = try_build(&scene("\"float whitebalance\" 0", ""), "sensor.pbrt").unwrap();
     assert_eq!(none.film.sensor.white_balance_from, None);
-    assert_eq!(build(&scene("", "")).unwrap().film.max_component_value, f64::INFINITY);
+    assert_eq!(try_build(&scene("", ""), "sensor.pbrt").unwrap().film.max_component_value, f64::INFINITY);
 }
 
 #[test]
 fn unsupported_sensors_and_bad_values_are_errors_naming_the_parameter() {
-    let e = build_err(&scene("\"string sensor\" \"canon_eos_100\"", ""));
+    let e = build_error(&scene("\"string sensor\" \"canon_eos_100\"", ""), "sensor.pbrt");
     assert!(e.contains("'sensor'") && e.contains("canon_eos_100") && e.contains("cie1931"), "{e}");
     // The message lists every known sensor.
     for known in ["canon_eos_100d", "canon_eos_5d_mkiv", "hasselblad_l1d_20c", "nikon_d850", "sony_ilce_9"] {
         assert!(e.contains(known), "{e}");
     }
     assert!(e.contains("sensor.pbrt:3:"), "{e}"); // file:line:column of the parameter
-    assert!(build(&scene("\"string sensor\" \"cie1931\"", "")).is_ok());
-    let e = build_err(&scene("\"string sensor\" \"nikon_d810\" \"float whitebalance\" -5", ""));
+    assert!(try_build(&scene("\"string sensor\" \"cie1931\"", ""), "sensor.pbrt").is_ok());
+    let e = build_error(&scene("\"string sensor\" \"nikon_d810\" \"float whitebalance\" -5", ""), "sensor.pbrt");
     assert!(e.contains("whitebalance") && e.contains("sensor.pbrt:3:"), "{e}");
     for (film, camera, name) in [
         ("\"float iso\" 0", "", "'iso'"),
@@ -100,7 +90,7 @@ fn unsupported_sensors_and_bad_values_are_errors_naming_the_parameter() {
         ("\"float maxcomponentvalue\" 0", "", "maxcomponentvalue"),
         ("", "\"float shutteropen\" 1 \"float shutterclose\" 1", "'shutterclose'"),
     ] {
-        let e = build_err(&scene(film, camera));
+        let e = build_error(&scene(film, camera), "sensor.pbrt");
         assert!(e.contains(name) && e.contains("sensor.pbrt:"), "{film} {camera}: {e}");
     }
 }
@@ -119,7 +109,7 @@ fn grey_card(film_params: &str, light: &str) -> [f64; 3] {
          Material \"diffuse\" \"spectrum reflectance\" [ 360 0.5 830 0.5 ]\n\
          Shape \"sphere\" \"float radius\" 3\n"
     );
-    let built = build(&text).unwrap();
+    let built = try_build(&text, "sensor.pbrt").unwrap();
     assert!(built.warnings.is_empty(), "{:#?}", built.warnings);
     let mut film = Film::new(built.film.clone()).unwrap();
     built.integrator.render(&built.scene, &mut film, 0..built.spp, 7, &|_| {}).unwrap();

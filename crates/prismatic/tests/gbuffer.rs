@@ -13,15 +13,11 @@
 use std::path::Path;
 
 use film::{Film, GBufferPixel};
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::builder::BuiltScene;
 use spectral::SampledSpectrum;
 
-fn build(text: &str) -> BuiltScene {
-    let desc = pbrt::parse_str(text, Path::new("gbuffer.pbrt")).unwrap();
-    let built = build_scene(&desc, &BuildOptions::default()).unwrap();
-    assert!(built.warnings.is_empty(), "{:?}", built.warnings);
-    built
-}
+mod support;
+use support::build;
 
 fn render(built: &BuiltScene) -> Film {
     let mut film = Film::new(built.film.clone()).unwrap();
@@ -97,7 +93,7 @@ fn depth_and_its_change_per_pixel_on_planes_seen_by_a_perspective_camera() {
     // Facing the camera at z = 5: P = 5·(k·sx, k·sy, 1), linear over the pixel, so its mean is the value at the
     // centre; the neighbouring pixels' rays meet the plane at the same depth: dz/dx = dz/dy = 0.
     let quad = "Shape \"bilinearmesh\" \"point3 P\" [ -20 -20 5  20 -20 5  -20 20 5  20 20 5 ]";
-    let film = render(&build(&scene(PERSPECTIVE, w, h, 64, "camera", "path", quad)));
+    let film = render(&build(&scene(PERSPECTIVE, w, h, 64, "camera", "path", quad), "gbuffer.pbrt"));
     for y in 0..h {
         for x in 0..w {
             let (sx, sy, _, _) = screen(x, y, w, h);
@@ -111,7 +107,7 @@ fn depth_and_its_change_per_pixel_on_planes_seen_by_a_perspective_camera() {
         }
     }
     // Tilted about the x axis, z = 5 + b·y (see tilted_depth_and_change).
-    let film = render(&build(&scene(PERSPECTIVE, w, h, 64, "camera", "path", &tilted_quad(TILT))));
+    let film = render(&build(&scene(PERSPECTIVE, w, h, 64, "camera", "path", &tilted_quad(TILT)), "gbuffer.pbrt"));
     for y in 0..h {
         for x in 0..w {
             let (depth, change) = tilted_depth_and_change(TILT, y, h);
@@ -136,7 +132,7 @@ fn a_moving_cameras_space_is_the_one_at_each_samples_time() {
     let quad = "Shape \"bilinearmesh\" \"point3 P\" [ -20 -20 5  20 -20 5  -20 20 5  20 20 5 ]";
     let moving = "ActiveTransform EndTime\nTranslate -2 0 0\nActiveTransform All\n".to_string() + PERSPECTIVE;
     for (system, shift) in [("camera", 0.0), ("world", 1.0)] {
-        let film = render(&build(&scene(&moving, w, h, 64, system, "volpath", quad)));
+        let film = render(&build(&scene(&moving, w, h, 64, system, "volpath", quad), "gbuffer.pbrt"));
         for y in 0..h {
             for x in 0..w {
                 let (sx, sy, _, _) = screen(x, y, w, h);
@@ -161,7 +157,7 @@ fn an_orthographic_camera_sees_a_constant_slope_and_world_coordinates_are_the_sc
         z1 = 5.0 + 3.0 * a
     );
     let ortho = "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"orthographic\" \"float screenwindow\" [ -1 1 -1 1 ]";
-    let film = render(&build(&scene(ortho, w, h, 16, "camera", "volpath", &quad)));
+    let film = render(&build(&scene(ortho, w, h, 16, "camera", "volpath", &quad), "gbuffer.pbrt"));
     for y in 0..h {
         for x in 0..w {
             let (sx, sy, dx, _) = screen(x, y, w, h);
@@ -178,7 +174,7 @@ fn an_orthographic_camera_sees_a_constant_slope_and_world_coordinates_are_the_sc
     // z of dp/dx in the output coordinate system).
     let side = "LookAt -10 0 5  0 0 5  0 1 0\nCamera \"orthographic\" \"float screenwindow\" [ -1 1 -1 1 ]";
     let wall = "Shape \"bilinearmesh\" \"point3 P\" [ 0 -3 -3  0 3 -3  0 -3 13  0 3 13 ]";
-    let film = render(&build(&scene(side, w, h, 16, "world", "path", wall)));
+    let film = render(&build(&scene(side, w, h, 16, "world", "path", wall), "gbuffer.pbrt"));
     for y in 0..h {
         for x in 0..w {
             let (sx, sy, dx, _) = screen(x, y, w, h);
@@ -210,7 +206,7 @@ fn normals_and_uv_of_a_bilinear_quad() {
         ("LookAt 0 0 0  0 0 1  0 -1 0", "world", [0.0, 0.0, -1.0], [0.6, 0.0, -0.8]),
     ] {
         let camera = format!("{look}\nCamera \"orthographic\" \"float screenwindow\" [ -1 1 -1 1 ]");
-        let built = build(&scene(&camera, w, h, 16, system, "path", quad));
+        let built = build(&scene(&camera, w, h, 16, system, "path", quad), "gbuffer.pbrt");
         let film = render(&built);
         let aovs = film.to_aov_images().unwrap();
         let flipped = look.contains("0 -1 0");
@@ -264,7 +260,7 @@ fn variance_is_zero_on_black_the_colour_noise_on_an_emitter_and_bernoulli_across
                    Shape \"bilinearmesh\" \"point3 P\" [ -3 -3 5  0.25 -3 5  -3 3 5  0.25 3 5 ]\n\
                  AttributeEnd";
     let ortho = "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"orthographic\" \"float screenwindow\" [ -1 1 -1 1 ]";
-    let built = build(&scene(ortho, 4, 4, 256, "camera", "path", world));
+    let built = build(&scene(ortho, 4, 4, 256, "camera", "path", world), "gbuffer.pbrt");
     let film = render(&built);
     let (mu, sigma2) = emitter_colour_statistics(&film);
     let n = 256.0;
@@ -320,7 +316,7 @@ fn every_integrator_writes_the_same_geometry_and_no_thread_count_changes_the_buf
     let camera = "LookAt 0 1 -3  0 0.5 3  0 1 0\nCamera \"perspective\" \"float fov\" 50";
     let mut reference: Option<film::GBufferImages> = None;
     for integrator in ["path", "volpath", "bdpt", "lightpath", "sppm"] {
-        let built = build(&scene(camera, 12, 9, 4, "camera", integrator, ROOM));
+        let built = build(&scene(camera, 12, 9, 4, "camera", integrator, ROOM), "gbuffer.pbrt");
         let mut films = Vec::new();
         for threads in [1, 3] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();

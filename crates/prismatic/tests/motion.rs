@@ -11,19 +11,11 @@ use std::path::{Path, PathBuf};
 use film::Film;
 use render::builder::{build_scene, BuildOptions, BuiltScene};
 
+mod support;
+use support::build;
+
 /// Allowed distance between an estimate and its expected value, in standard errors (fixed seeds: never flakes).
 const K_SIGMA: f64 = 4.5;
-
-fn build(text: &str, name: &str) -> BuiltScene {
-    build_at(text, Path::new(name))
-}
-
-fn build_at(text: &str, path: &Path) -> BuiltScene {
-    let desc = pbrt::parse_str(text, path).unwrap_or_else(|e| panic!("{e}"));
-    let built = build_scene(&desc, &BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    assert!(built.warnings.is_empty(), "{}: {:#?}", path.display(), built.warnings);
-    built
-}
 
 fn render(built: &BuiltScene, spp: u32, seed: u32) -> Film {
     let mut film = Film::new(built.film.clone()).unwrap();
@@ -337,7 +329,7 @@ AttributeEnd
         let d = s.render_from_object.point(glam::DVec3::ZERO) - m.end.point(glam::DVec3::ZERO);
         assert!(d.length() > 20.0, "{d:?}");
     }
-    let (moving, frozen) = (build_at(&scene(true), &path), build_at(&scene(false), &path));
+    let (moving, frozen) = (build(&scene(true), &path), build(&scene(false), &path));
     let (a, b) = (render(&moving, 8, 1), render(&frozen, 8, 1));
     let changed = (0..32).flat_map(|j| (0..32).map(move |i| (i, j))).filter(|&(i, j)| {
         let (p, q) = (y(&a, i, j), y(&b, i, j));

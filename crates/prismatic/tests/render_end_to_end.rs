@@ -21,18 +21,12 @@ use render::builder::{build_scene, BuildOptions, BuiltScene};
 use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum};
 use spectral::{Observer, Spectrum, WavelengthSampler, WavelengthStrategy, Xyz};
 
+mod support;
+use support::build;
+
 // ------------------------------------------------------------------------------------------------------------------
 // Helpers
 // ------------------------------------------------------------------------------------------------------------------
-
-/// Parses and builds a scene given as pbrt text; the scene must build without warnings (so that a misspelt
-/// parameter cannot silently change what a test renders).
-fn build(text: &str, name: &str) -> BuiltScene {
-    let desc = pbrt::parse_str(text, Path::new(name)).unwrap_or_else(|e| panic!("{e}"));
-    let built = build_scene(&desc, &BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    assert!(built.warnings.is_empty(), "{name}: {:#?}", built.warnings);
-    built
-}
 
 /// Renders samples `0..spp` of every pixel with `strategy` (colours measured by the CIE 1931 observer).
 fn render(built: &BuiltScene, strategy: WavelengthStrategy, spp: u32, seed: u32) -> Film {

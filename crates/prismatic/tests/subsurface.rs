@@ -8,23 +8,11 @@
 //! - Each way of giving the coefficients (measured `name`, `sigma_a`/`sigma_s`, `reflectance`/`mfp`, defaults) and
 //!   bad values, named with file:line:column.
 
-use std::path::Path;
-
 use film::Film;
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::builder::BuiltScene;
 
-fn build(text: &str) -> BuiltScene {
-    let desc = pbrt::parse_str(text, Path::new("sss.pbrt")).unwrap_or_else(|e| panic!("{e}"));
-    build_scene(&desc, &BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn build_error(text: &str) -> String {
-    let desc = pbrt::parse_str(text, Path::new("sss.pbrt")).unwrap_or_else(|e| panic!("{e}"));
-    match build_scene(&desc, &BuildOptions::default()) {
-        Ok(_) => panic!("expected an error"),
-        Err(e) => e.to_string(),
-    }
-}
+mod support;
+use support::{build, build_error};
 
 fn render(built: &BuiltScene, spp: u32, seed: u32) -> Film {
     let mut film = Film::new(built.film.clone()).unwrap();
@@ -63,18 +51,24 @@ fn mean_y(built: &BuiltScene, spp: u32) -> (f64, f64) {
 
 #[test]
 fn subsurface_renders_exactly_as_a_dielectric_filled_with_its_medium() {
-    let sss = build(&scene(
-        "Material \"subsurface\" \"float eta\" 1.4 \"rgb sigma_a\" [ 0.3 0.5 0.9 ] \"rgb sigma_s\" [ 4 3 2 ] \
+    let sss = build(
+        &scene(
+            "Material \"subsurface\" \"float eta\" 1.4 \"rgb sigma_a\" [ 0.3 0.5 0.9 ] \"rgb sigma_s\" [ 4 3 2 ] \
          \"float scale\" 2 \"float g\" 0.3",
-        "",
-        1.0,
-    ));
-    let explicit = build(&scene(
-        "Material \"dielectric\" \"float eta\" 1.4",
-        "MakeNamedMedium \"inside\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [ 0.3 0.5 0.9 ] \
+            "",
+            1.0,
+        ),
+        "sss.pbrt",
+    );
+    let explicit = build(
+        &scene(
+            "Material \"dielectric\" \"float eta\" 1.4",
+            "MakeNamedMedium \"inside\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [ 0.3 0.5 0.9 ] \
          \"rgb sigma_s\" [ 4 3 2 ] \"float scale\" 2 \"float g\" 0.3\nMediumInterface \"inside\" \"\"",
-        1.0,
-    ));
+            1.0,
+        ),
+        "sss.pbrt",
+    );
     let (a, b) = (render(&sss, 16, 7), render(&explicit, 16, 7));
     let mut lit = 0;
     for y in 0..12 {
@@ -93,20 +87,25 @@ fn subsurface_renders_exactly_as_a_dielectric_filled_with_its_medium() {
 #[test]
 fn a_scattering_only_subsurface_sphere_vanishes_in_a_white_furnace() {
     for (eta, g) in [(1.33, 0.0), (1.5, 0.6)] {
-        let built = build(&scene(
-            &format!(
-                "Material \"subsurface\" \"float eta\" {eta} \"float g\" {g} \"spectrum sigma_a\" [ 360 0 830 0 ] \
+        let built = build(
+            &scene(
+                &format!(
+                    "Material \"subsurface\" \"float eta\" {eta} \"float g\" {g} \"spectrum sigma_a\" [ 360 0 830 0 ] \
                  \"rgb sigma_s\" [ 3 2 1 ]"
+                ),
+                "",
+                1.0,
             ),
-            "",
-            1.0,
-        ));
+            "sss.pbrt",
+        );
         let (y, se) = mean_y(&built, 64);
         assert!(se < 0.01, "η {eta}, g {g}: standard error {se}");
         assert!((y - 1.0).abs() < 4.5 * se + 1e-3, "η {eta}, g {g}: Y {y} ± {se}");
     }
-    let absorbing =
-        build(&scene("Material \"subsurface\" \"rgb sigma_a\" [ 1 1 1 ] \"rgb sigma_s\" [ 3 2 1 ]", "", 1.0));
+    let absorbing = build(
+        &scene("Material \"subsurface\" \"rgb sigma_a\" [ 1 1 1 ] \"rgb sigma_s\" [ 3 2 1 ]", "", 1.0),
+        "sss.pbrt",
+    );
     let (y, se) = mean_y(&absorbing, 16);
     assert!(y < 0.7 && se < 0.02, "{y} ± {se}");
 }
@@ -114,7 +113,7 @@ fn a_scattering_only_subsurface_sphere_vanishes_in_a_white_furnace() {
 #[test]
 fn the_four_ways_of_giving_coefficients() {
     let sigma = |material: &str| {
-        let built = build(&scene(material, "", 1.0));
+        let built = build(&scene(material, "", 1.0), "sss.pbrt");
         let m = built.scene.media.last().cloned().expect("the subsurface medium");
         let render::medium::Medium::Homogeneous(h) = m else { panic!("homogeneous") };
         (h.sigma_a.eval(550.0), h.sigma_s.eval(550.0))
@@ -147,7 +146,7 @@ fn bad_subsurface_parameters_are_errors_naming_them() {
         ("Material \"subsurface\" \"float scale\" -2", "scale"),
         ("Material \"subsurface\" \"rgb reflectance\" [ 0.5 0.5 0.5 ] \"spectrum mfp\" [ 360 0 830 0 ]", "mfp"),
     ] {
-        let e = build_error(&scene(material, "", 1.0));
+        let e = build_error(&scene(material, "", 1.0), "sss.pbrt");
         assert!(e.contains(needle) && e.contains("sss.pbrt:"), "{material}: {e}");
     }
 }

@@ -7,29 +7,13 @@
 //! - a bumped diffuse plane under a uniform sky keeps its albedo (a Lambertian surface reflects ρ·L whatever its
 //!   shading normal), with every integrator that renders it, while under a low sun the bumps do show.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use film::Film;
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::builder::BuiltScene;
 
-fn build(text: &str, name: &str) -> BuiltScene {
-    let desc = pbrt::parse_str(text, Path::new(name)).unwrap_or_else(|e| panic!("{e}"));
-    let built = build_scene(&desc, &BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    assert!(built.warnings.is_empty(), "{name}: {:#?}", built.warnings);
-    built
-}
-
-/// The error a scene gives, from the parser (which knows the texture names) or the builder.
-fn build_error(text: &str, name: &str) -> String {
-    let desc = match pbrt::parse_str(text, Path::new(name)) {
-        Ok(d) => d,
-        Err(e) => return e.to_string(),
-    };
-    build_scene(&desc, &BuildOptions::default())
-        .err()
-        .unwrap_or_else(|| panic!("{name}: expected an error"))
-        .to_string()
-}
+mod support;
+use support::{build, build_error};
 
 fn render(built: &BuiltScene, seed: u32) -> Film {
     let mut film = Film::new(built.film.clone()).unwrap();

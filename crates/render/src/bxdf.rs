@@ -233,9 +233,18 @@ impl Bxdf {
     /// [`Bxdf::f`] and [`Bxdf::pdf`] of the same pair, the same values, computed together where that saves work
     /// (a measured BRDF inverts its warp once instead of twice in radiance mode).
     pub fn f_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (SampledSpectrum, f32) {
-        match (self, mode) {
-            (Bxdf::Measured { brdf, lambda }, TransportMode::Radiance) => brdf.f_pdf(wo, wi, lambda),
-            _ => (self.f(wo, wi, mode), self.pdf(wo, wi, mode)),
+        match self {
+            Bxdf::Measured { brdf, lambda } => match mode {
+                TransportMode::Radiance => brdf.f_pdf(wo, wi, lambda),
+                TransportMode::Importance => (self.f(wo, wi, mode), self.pdf(wo, wi, mode)),
+            },
+            Bxdf::Diffuse { .. }
+            | Bxdf::DiffuseTransmission { .. }
+            | Bxdf::Conductor { .. }
+            | Bxdf::Dielectric { .. }
+            | Bxdf::DispersiveDielectric { .. }
+            | Bxdf::Layered(_)
+            | Bxdf::ThinDielectric { .. } => (self.f(wo, wi, mode), self.pdf(wo, wi, mode)),
         }
     }
 
@@ -466,7 +475,7 @@ fn sample_dispersive(
         let wi = Vec3::new(-wo.x, -wo.y, wo.z);
         let p_reflect = match lobes {
             Lobes::Reflection => 1.0,
-            _ => mean_r,
+            Lobes::All | Lobes::Transmission => mean_r,
         };
         if p_reflect <= 0.0 {
             return None;

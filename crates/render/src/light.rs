@@ -8,7 +8,7 @@ use spectral::{Distribution2D, SampledSpectrum, SampledWavelengths, Spectrum};
 use std::f32::consts::PI;
 
 use crate::sampling::{sample_uniform_sphere, Frame};
-use crate::texture::{FloatTexture, TextureEvalContext};
+use crate::texture::{octahedral_wrap, FloatTexture, TextureEvalContext};
 use std::sync::Arc;
 
 /// Where light arrives: a point and (for surfaces) its normal.
@@ -425,7 +425,11 @@ impl Light {
     pub fn pdf_li_area(&self, from: Vec3, wi: Vec3) -> f32 {
         match self {
             Light::DiffuseArea { shape, element, .. } => shape.pdf_solid_angle(*element as usize, from, wi),
-            _ => 0.0,
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Distant { .. }
+            | Light::UniformInfinite { .. }
+            | Light::ImageInfinite { .. } => 0.0,
         }
     }
 
@@ -438,7 +442,7 @@ impl Light {
                 let (uv, jac) = map.uv(local);
                 map.distribution.pdf([uv.x as f64, uv.y as f64]) as f32 / jac
             }
-            _ => 0.0,
+            Light::Point { .. } | Light::Spot { .. } | Light::Distant { .. } | Light::DiffuseArea { .. } => 0.0,
         }
     }
 
@@ -452,7 +456,11 @@ impl Light {
                     SampledSpectrum::zero()
                 }
             }
-            _ => SampledSpectrum::zero(),
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Distant { .. }
+            | Light::UniformInfinite { .. }
+            | Light::ImageInfinite { .. } => SampledSpectrum::zero(),
         }
     }
 
@@ -464,7 +472,9 @@ impl Light {
                 let (uv, _) = map.uv(map.frame.to_local(w));
                 map.lookup(uv, wl) * *scale
             }
-            _ => SampledSpectrum::zero(),
+            Light::Point { .. } | Light::Spot { .. } | Light::Distant { .. } | Light::DiffuseArea { .. } => {
+                SampledSpectrum::zero()
+            }
         }
     }
 
@@ -594,30 +604,6 @@ impl EnvironmentMap {
     pub fn average_luminance(&self) -> f32 {
         self.mean_luminance
     }
-}
-
-/// The texel of a `w`×`h` equal-area octahedral image that continues texel (x, y) when that lies one texel beyond
-/// the square's edge.
-///
-/// Each edge of the octahedral square is folded at its midpoint: the square's point (0, v) is the same direction
-/// as (0, 1 − v), and likewise along the other three edges (Clarberg 2008, the octahedral layout; pbrt-v4 wraps its
-/// environment maps the same way). So the texel just beyond an edge is the one just inside it, mirrored about the
-/// edge's midpoint: (−1, y) → (0, h−1−y), (w, y) → (w−1, h−1−y), (x, −1) → (w−1−x, 0), (x, h) → (w−1−x, h−1).
-/// Beyond a corner both reflections apply (all four corners are one direction). Anything still outside (only
-/// possible for coordinates more than one texel out, or a 1-texel side) is clamped.
-pub fn octahedral_wrap(x: i64, y: i64, w: i64, h: i64) -> (i64, i64) {
-    let (mut x, mut y) = (x, y);
-    if x < 0 {
-        (x, y) = (-1 - x, h - 1 - y);
-    } else if x >= w {
-        (x, y) = (2 * w - 1 - x, h - 1 - y);
-    }
-    if y < 0 {
-        (x, y) = (w - 1 - x, -1 - y);
-    } else if y >= h {
-        (x, y) = (w - 1 - x, 2 * h - 1 - y);
-    }
-    (x.clamp(0, w - 1), y.clamp(0, h - 1))
 }
 
 /// Clarberg's equal-area mapping from the square to the sphere (pbrt-v4's environment map layout).
@@ -757,27 +743,6 @@ mod tests {
     /// Radiance of grey `v` at 550 nm, the reference for lookups of grey maps.
     fn grey_at_550(v: f64) -> f32 {
         spectral::rgb_uplift::RgbIlluminantSpectrum::new([v, v, v]).unwrap().eval(550.0) as f32
-    }
-
-    #[test]
-    fn octahedral_wrap_mirrors_about_each_edge_midpoint() {
-        let (w, h) = (8, 6);
-        assert_eq!(octahedral_wrap(3, 2, w, h), (3, 2)); // inside: unchanged
-        assert_eq!(octahedral_wrap(-1, 1, w, h), (0, 4)); // (−1, y) → (0, h−1−y)
-        assert_eq!(octahedral_wrap(8, 0, w, h), (7, 5)); // (w, y) → (w−1, h−1−y)
-        assert_eq!(octahedral_wrap(2, -1, w, h), (5, 0)); // (x, −1) → (w−1−x, 0)
-        assert_eq!(octahedral_wrap(6, 6, w, h), (1, 5)); // (x, h) → (w−1−x, h−1)
-        assert_eq!(octahedral_wrap(-1, -1, w, h), (7, 5)); // beyond a corner: the opposite corner
-                                                           // The wrapped texel's centre is the mirror image's: the direction half a texel beyond the edge u = 0 at row
-                                                           // y is the direction half a texel inside it at row h−1−y.
-        let n = 16;
-        for y in 0..n {
-            let out = equal_area_square_to_sphere(Vec2::new(-1e-6, (y as f32 + 0.5) / n as f32));
-            let (xw, yw) = octahedral_wrap(-1, y, n, n);
-            let inside = equal_area_square_to_sphere(Vec2::new(1e-6, (yw as f32 + 0.5) / n as f32));
-            assert_eq!(xw, 0);
-            assert!((out - inside).length() < 1e-4, "row {y}: {out} vs {inside}");
-        }
     }
 
     #[test]

@@ -202,7 +202,16 @@ impl Material {
     pub(crate) fn smooth_dielectric_ior(&self, ctx: &TextureEvalContext) -> Option<&DielectricIor> {
         match self {
             Material::Dielectric { ior, roughness } if roughness.distribution(ctx).effectively_smooth() => Some(ior),
-            _ => None,
+            Material::Diffuse { .. }
+            | Material::DiffuseTransmission { .. }
+            | Material::Conductor { .. }
+            | Material::Dielectric { .. }
+            | Material::ThinDielectric { .. }
+            | Material::CoatedDiffuse { .. }
+            | Material::CoatedConductor { .. }
+            | Material::Mix { .. }
+            | Material::Measured { .. }
+            | Material::Interface => None,
         }
     }
 

@@ -313,7 +313,7 @@ impl Medium {
     pub fn absorption_transmittance(&self, d: f32, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Medium::Homogeneous(h) if self.is_absorbing_only() => (h.sigma_a.sample(wl) * -d).exp(),
-            _ => SampledSpectrum::splat(1.0),
+            Medium::Homogeneous(_) | Medium::Grid(_) => SampledSpectrum::splat(1.0),
         }
     }
 
@@ -332,7 +332,7 @@ impl Medium {
             Medium::Homogeneous(h) => {
                 (h.sigma_a.sample(wl) + h.sigma_s.sample(wl)).map(|s| if s > 0.0 { (-s * d).exp() } else { 1.0 })
             }
-            _ => SampledSpectrum::splat(1.0),
+            Medium::Grid(_) => SampledSpectrum::splat(1.0),
         }
     }
 

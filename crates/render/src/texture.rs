@@ -230,6 +230,30 @@ pub enum WrapMode {
     OctahedralSphere,
 }
 
+/// The texel of a `w`×`h` equal-area octahedral image that continues texel (x, y) when that lies one texel beyond
+/// the square's edge.
+///
+/// Each edge of the octahedral square is folded at its midpoint: the square's point (0, v) is the same direction
+/// as (0, 1 − v), and likewise along the other three edges (Clarberg 2008, the octahedral layout; pbrt-v4 wraps its
+/// environment maps the same way). So the texel just beyond an edge is the one just inside it, mirrored about the
+/// edge's midpoint: (−1, y) → (0, h−1−y), (w, y) → (w−1, h−1−y), (x, −1) → (w−1−x, 0), (x, h) → (w−1−x, h−1).
+/// Beyond a corner both reflections apply (all four corners are one direction). Anything still outside (only
+/// possible for coordinates more than one texel out, or a 1-texel side) is clamped.
+pub fn octahedral_wrap(x: i64, y: i64, w: i64, h: i64) -> (i64, i64) {
+    let (mut x, mut y) = (x, y);
+    if x < 0 {
+        (x, y) = (-1 - x, h - 1 - y);
+    } else if x >= w {
+        (x, y) = (2 * w - 1 - x, h - 1 - y);
+    }
+    if y < 0 {
+        (x, y) = (w - 1 - x, -1 - y);
+    } else if y >= h {
+        (x, y) = (w - 1 - x, 2 * h - 1 - y);
+    }
+    (x.clamp(0, w - 1), y.clamp(0, h - 1))
+}
+
 /// How an image texture is sampled between texels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ImageFilter {
@@ -271,7 +295,7 @@ impl RgbImage {
                 }
                 (x, y)
             }
-            WrapMode::OctahedralSphere => crate::light::octahedral_wrap(x, y, w, h),
+            WrapMode::OctahedralSphere => octahedral_wrap(x, y, w, h),
         };
         self.pixels[(y * w + x) as usize]
     }
@@ -352,7 +376,9 @@ impl ImageTexture {
                 let c = self.map.map_footprint(ctx);
                 mip.ewa(c.st, c.dst_dx, c.dst_dy, self.max_anisotropy)
             }
-            _ => self.image.bilerp_wrapped(self.map.map(ctx), self.wrap),
+            (ImageFilter::Bilinear | ImageFilter::Trilinear | ImageFilter::Ewa, None) => {
+                self.image.bilerp_wrapped(self.map.map(ctx), self.wrap)
+            }
         }
     }
 
@@ -463,7 +489,16 @@ impl FloatTexture {
         // Inline for constants (most roughness and bump parameters), which need no call into the recursive match.
         match self {
             FloatTexture::Constant(v) => *v,
-            _ => self.eval_varying(ctx),
+            FloatTexture::Scale { .. }
+            | FloatTexture::Mix { .. }
+            | FloatTexture::DirectionMix { .. }
+            | FloatTexture::Bilerp { .. }
+            | FloatTexture::Checkerboard { .. }
+            | FloatTexture::Dots { .. }
+            | FloatTexture::Fbm { .. }
+            | FloatTexture::Wrinkled { .. }
+            | FloatTexture::Windy { .. }
+            | FloatTexture::Image(_) => self.eval_varying(ctx),
         }
     }
 
@@ -527,7 +562,16 @@ impl FloatTexture {
     pub fn as_constant(&self) -> Option<f32> {
         match self {
             FloatTexture::Constant(v) => Some(*v),
-            _ => None,
+            FloatTexture::Scale { .. }
+            | FloatTexture::Mix { .. }
+            | FloatTexture::DirectionMix { .. }
+            | FloatTexture::Bilerp { .. }
+            | FloatTexture::Checkerboard { .. }
+            | FloatTexture::Dots { .. }
+            | FloatTexture::Fbm { .. }
+            | FloatTexture::Wrinkled { .. }
+            | FloatTexture::Windy { .. }
+            | FloatTexture::Image(_) => None,
         }
     }
 }

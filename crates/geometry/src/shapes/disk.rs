@@ -5,9 +5,9 @@ use glam::{DVec3, Vec2, Vec3};
 use super::placement::{dpdu_or_frame, Placement};
 use super::{ElementHit, ShapeKind, ShapeRay, ShapeSample, SurfaceGeom};
 use crate::bounds::Bounds3;
+use crate::error::GeometryError;
 use crate::ray::{gamma, Ray};
 use crate::transform::Transform;
-use crate::GeometryError;
 
 /// A disk (annulus) at object-space `z = height` between `inner_radius` and `radius`, facing +z, swept by `phi_max`
 /// radians (pbrt's `disk`).

@@ -4,9 +4,9 @@ use glam::{DMat3, DVec3, Vec3};
 
 use super::coordinate_system;
 use crate::bounds::Bounds3;
+use crate::error::GeometryError;
 use crate::ray::{gamma, Ray};
 use crate::transform::Transform;
-use crate::GeometryError;
 
 /// Object-to-render transform of an analytic shape with cached pieces.
 #[derive(Clone, Debug, PartialEq)]

@@ -11,9 +11,9 @@ use super::{
     PointSample, ShapeKind, ShapeRay, ShapeSample, SurfaceDerivatives, SurfaceGeom,
 };
 use crate::bounds::Bounds3;
+use crate::error::GeometryError;
 use crate::ray::{gamma, Ray};
 use crate::transform::Transform;
-use crate::GeometryError;
 
 /// A sphere of `radius` about the object-space origin (pbrt's `sphere`), optionally partial: only the part with
 /// `z_min ≤ z ≤ z_max` and azimuth `0 ≤ φ ≤ φ_max` exists. Any transform is intersected exactly; sampling and area

@@ -33,7 +33,11 @@ pub(super) fn make_lights(
 fn photometric(s: &Spectrum) -> f64 {
     match s {
         Spectrum::RgbIlluminant(_) => 1.0, // the colour space illuminant is normalised to Y = 1
-        other => Observer::Cie1931.spectrum_to_xyz(other).y,
+        other @ (Spectrum::Constant(_)
+        | Spectrum::PiecewiseLinear(_)
+        | Spectrum::Blackbody(_)
+        | Spectrum::RgbAlbedo(_)
+        | Spectrum::RgbUnbounded(_)) => Observer::Cie1931.spectrum_to_xyz(other).y,
     }
 }
 

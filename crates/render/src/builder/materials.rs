@@ -226,7 +226,21 @@ fn named_eta(p: &ParamSet, loc: &Loc, name: &str, default: f64) -> Result<Dielec
             })?;
             Ok(DielectricIor::Model(ior))
         }
-        _ => {
+        // Any other type: read as a spectrum, whose reader refuses the types a spectrum cannot be given as.
+        Some(
+            ParamType::Integer
+            | ParamType::Bool
+            | ParamType::String
+            | ParamType::Point2
+            | ParamType::Vector2
+            | ParamType::Point3
+            | ParamType::Vector3
+            | ParamType::Normal3
+            | ParamType::Rgb
+            | ParamType::Spectrum
+            | ParamType::Blackbody
+            | ParamType::Texture,
+        ) => {
             let s = p.get_spectrum(name, SpectrumKind::Unbounded)?.unwrap_or(Spectrum::Constant(default));
             Ok(DielectricIor::Spectrum(s))
         }

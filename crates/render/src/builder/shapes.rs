@@ -84,7 +84,17 @@ fn shape_alpha(textures: &Textures, p: &ParamSet, loc: &Loc) -> Result<ShapeAlph
         }
         FloatTexture::Constant(a) if a >= 1.0 => ShapeAlpha::Opaque,
         FloatTexture::Constant(a) if a <= 0.0 => ShapeAlpha::Invisible,
-        t => ShapeAlpha::CutOut(t),
+        t @ (FloatTexture::Constant(_)
+        | FloatTexture::Scale { .. }
+        | FloatTexture::Mix { .. }
+        | FloatTexture::DirectionMix { .. }
+        | FloatTexture::Bilerp { .. }
+        | FloatTexture::Checkerboard { .. }
+        | FloatTexture::Dots { .. }
+        | FloatTexture::Fbm { .. }
+        | FloatTexture::Wrinkled { .. }
+        | FloatTexture::Windy { .. }
+        | FloatTexture::Image(_)) => ShapeAlpha::CutOut(t),
     })
 }
 
@@ -225,7 +235,7 @@ fn split_moving(shapes: &[ShapeEntity]) -> (Vec<&ShapeEntity>, Vec<&ShapeEntity>
 fn shape_triangles(s: &Shape) -> usize {
     match s {
         Shape::Mesh(m) => m.triangle_count(),
-        _ => 0,
+        Shape::Bilinear(_) | Shape::Sphere(_) | Shape::Disk(_) => 0,
     }
 }
 

@@ -156,6 +156,28 @@ fn wrap_modes_decide_the_texels_beyond_the_edges() {
 }
 
 #[test]
+fn octahedral_wrap_mirrors_about_each_edge_midpoint() {
+    let (w, h) = (8, 6);
+    assert_eq!(octahedral_wrap(3, 2, w, h), (3, 2)); // inside: unchanged
+    assert_eq!(octahedral_wrap(-1, 1, w, h), (0, 4)); // (−1, y) → (0, h−1−y)
+    assert_eq!(octahedral_wrap(8, 0, w, h), (7, 5)); // (w, y) → (w−1, h−1−y)
+    assert_eq!(octahedral_wrap(2, -1, w, h), (5, 0)); // (x, −1) → (w−1−x, 0)
+    assert_eq!(octahedral_wrap(6, 6, w, h), (1, 5)); // (x, h) → (w−1−x, h−1)
+    assert_eq!(octahedral_wrap(-1, -1, w, h), (7, 5)); // beyond a corner: the opposite corner
+
+    // The wrapped texel's centre is the mirror image's: the direction half a texel beyond the edge u = 0 at row
+    // y is the direction half a texel inside it at row h−1−y.
+    let n = 16;
+    for y in 0..n {
+        let out = crate::light::equal_area_square_to_sphere(Vec2::new(-1e-6, (y as f32 + 0.5) / n as f32));
+        let (xw, yw) = octahedral_wrap(-1, y, n, n);
+        let inside = crate::light::equal_area_square_to_sphere(Vec2::new(1e-6, (yw as f32 + 0.5) / n as f32));
+        assert_eq!(xw, 0);
+        assert!((out - inside).length() < 1e-4, "row {y}: {out} vs {inside}");
+    }
+}
+
+#[test]
 fn image_textures_scale_invert_and_read_channels_as_pbrt_does() {
     let img = Arc::new(RgbImage { width: 1, height: 1, pixels: vec![[0.2, 0.4, 0.9]] });
     let tex = |filter, scale, invert| ImageTexture {

@@ -180,7 +180,7 @@ impl Ggx {
     pub fn channels(&self) -> usize {
         match self.facet {
             Facet::Rgb(_) => 3,
-            _ => self.wavelengths.len(),
+            Facet::Conductor { .. } | Facet::White => self.wavelengths.len(),
         }
     }
 
@@ -282,7 +282,7 @@ impl Ggx {
         ];
         match self.facet {
             Facet::Rgb(_) => fields.push(f32_field("rgb", &[np, r.theta_i, 3, n, n], &refl)),
-            _ => {
+            Facet::Conductor { .. } | Facet::White => {
                 fields.push(f32_field("wavelengths", &[nc], &self.wavelengths));
                 fields.push(f32_field("spectra", &[np, r.theta_i, nc, n, n], &refl));
             }
