@@ -219,5 +219,5 @@ fn make_filter(e: &Entity) -> Result<Filter> {
         Filter::Triangle { .. } => Filter::triangle(radius),
         Filter::Mitchell { b, c, .. } => Filter::mitchell(radius, p.get_float("B", b)?, p.get_float("C", c)?),
     };
-    f.map_err(|x| SceneError::at(e.loc.clone(), x.to_string()))
+    Ok(f.map_err(|x| SceneError::at(e.loc.clone(), x.to_string()))?)
 }

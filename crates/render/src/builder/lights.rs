@@ -11,7 +11,7 @@ use spectral::{Observer, Spectrum};
 use std::sync::Arc;
 
 use super::shapes::ShapeAlpha;
-use super::{err, unsupported, Result};
+use super::{err, file_err, unsupported, Result};
 use crate::light::{EnvironmentMap, Light};
 use crate::sampling::Frame;
 
@@ -178,15 +178,16 @@ fn light(le: &scene::LightEntity, scene_radius: f32, warnings: &mut Vec<String>)
 
 /// An environment map (square: equal-area, 2:1: latitude-longitude) with its sampling distribution, oriented by `t`.
 fn environment_map(path: &std::path::Path, loc: &Loc, t: &Transform) -> Result<EnvironmentMap> {
-    let (w, h, pixels) = film::read_rgb(path)
-        .map_err(|e| SceneError::at(loc.clone(), format!("cannot read {}: {e}", path.display())))?;
+    let (w, h, pixels) =
+        film::read_rgb(path).map_err(|e| file_err(loc, path, format!("cannot read {}: {e}", path.display())))?;
     let (w, h) = (w as usize, h as usize);
     let equal_area = w == h;
     if !equal_area && w != 2 * h {
-        return err(loc, format!("environment map {}×{} is neither square (equal-area) nor 2:1 (lat-long)", w, h));
+        let message = format!("environment map {}×{} is neither square (equal-area) nor 2:1 (lat-long)", w, h);
+        return Err(file_err(loc, path, message));
     }
     let x = t.vector(DVec3::X).as_vec3().normalize();
     let y = t.vector(DVec3::Y).as_vec3().normalize();
     let z = t.vector(DVec3::Z).as_vec3().normalize();
-    EnvironmentMap::from_rgb(w, h, &pixels, Frame { x, y, z }).map_err(|e| SceneError::at(loc.clone(), e))
+    EnvironmentMap::from_rgb(w, h, &pixels, Frame { x, y, z }).map_err(|e| file_err(loc, path, e.to_string()))
 }

@@ -13,7 +13,7 @@ use scene::{Entity, Loc, MaterialRef, ParamSet, ParamType, SceneDescription, Sce
 use spectral::Spectrum;
 
 use super::textures::Textures;
-use super::{err, finite_positive, unsupported, Result};
+use super::{err, file_err, finite_positive, unsupported, Result};
 use crate::bump::NormalPerturbation;
 use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
 use crate::measured::MeasuredBrdf;
@@ -249,8 +249,8 @@ impl MeasuredFiles {
         if let Some(brdf) = self.0.borrow().get(&path) {
             return Ok(Material::Measured { brdf: brdf.clone() });
         }
-        let brdf = MeasuredBrdf::read(&path)
-            .map_err(|m| SceneError::at(loc.clone(), format!("'filename': {}: {m}", path.display())))?;
+        // The error names the file.
+        let brdf = MeasuredBrdf::read(&path).map_err(|e| file_err(&loc, &path, format!("'filename': {e}")))?;
         let brdf = Arc::new(brdf);
         self.0.borrow_mut().insert(path, brdf.clone());
         Ok(Material::Measured { brdf })
@@ -334,5 +334,5 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &M
 }
 
 fn named_metal(name: &str, loc: &Loc) -> Result<Spectrum> {
-    optics::catalogue::named_spectrum_checked(name).map_err(|e| SceneError::at(loc.clone(), e.to_string()))
+    Ok(optics::catalogue::named_spectrum_checked(name).map_err(|e| SceneError::at(loc.clone(), e.to_string()))?)
 }

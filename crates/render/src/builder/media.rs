@@ -62,7 +62,7 @@ impl Media {
                 .get(n)
                 .copied()
                 .map(Some)
-                .ok_or_else(|| SceneError::at(loc.clone(), format!("no medium named '{n}'"))),
+                .ok_or_else(|| SceneError::at(loc.clone(), format!("no medium named '{n}'")).into()),
         }
     }
 }

@@ -3,13 +3,14 @@
 //! two-level BVH, with their area lights) and lights (with pbrt-v4's photometric normalisation). The sampler's
 //! `pixelsamples` is read here; the `Integrator` directive by [`Integrator::read`], next to the integrators.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use ::film::FilmSpec;
 use scene::{Loc, SceneDescription, SceneError};
 
 use crate::integrator::{Integrator, IntegratorParams};
 use crate::scene::RenderScene;
+use crate::RenderError;
 
 mod camera;
 mod film;
@@ -51,11 +52,17 @@ pub struct BuiltScene {
     pub warnings: Vec<String>,
 }
 
-type Result<T> = std::result::Result<T, SceneError>;
+type Result<T> = std::result::Result<T, RenderError>;
 
 /// An error at `loc`.
 fn err<T>(loc: &Loc, message: impl Into<String>) -> Result<T> {
-    Err(SceneError::at(loc.clone(), message))
+    Err(SceneError::at(loc.clone(), message).into())
+}
+
+/// An error at `loc` about the file `path` that the scene names there: it cannot be read or holds data that
+/// cannot be used (`message` names the file).
+fn file_err(loc: &Loc, path: &Path, message: impl Into<String>) -> RenderError {
+    RenderError::ReferencedFile { loc: loc.clone(), path: path.to_path_buf(), message: message.into() }
 }
 
 /// `v` if it is finite and positive; otherwise an error naming parameter `name`.

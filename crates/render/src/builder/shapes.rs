@@ -26,7 +26,7 @@ use super::lights::area_lights;
 use super::materials::Materials;
 use super::media::Media;
 use super::textures::Textures;
-use super::{err, unsupported, Result};
+use super::{err, file_err, unsupported, Result};
 use crate::light::Light;
 use crate::scene::{LightMedium, MediumInterface, SceneGeometry, ShapeInfo, NO_MATERIAL};
 use crate::texture::FloatTexture;
@@ -55,6 +55,7 @@ fn animated(start: Transform, motion: &Option<TransformMotion>, loc: &Loc, what:
                  into translation, rotation and scale"
             ),
         )
+        .into()
     })
 }
 
@@ -241,8 +242,9 @@ fn indices_u32(p: &ParamSet, loc: &Loc, name: &str) -> Result<Option<Vec<u32>>> 
     let Some(ints) = p.get_ints(name) else { return Ok(None) };
     ints.iter()
         .map(|&i| {
-            u32::try_from(i)
-                .map_err(|_| SceneError::at(loc.clone(), format!("'{name}': index {i} is negative or too large")))
+            u32::try_from(i).map_err(|_| {
+                SceneError::at(loc.clone(), format!("'{name}': index {i} is negative or too large")).into()
+            })
         })
         .collect::<Result<Vec<_>>>()
         .map(Some)
@@ -277,7 +279,7 @@ fn make_shape(se: &ShapeEntity) -> Result<Option<Shape>> {
         }
         "plymesh" => {
             let Some(path) = p.get_filename("filename")? else { return err(loc, "plymesh needs 'string filename'") };
-            let data = geometry::ply::read_ply_file(&path).map_err(|e| geo_err(loc, e))?;
+            let data = geometry::ply::read_ply_file(&path).map_err(|e| file_err(loc, &path, e.to_string()))?;
             if p.contains("displacement") {
                 p.mark_used("displacement");
             }

@@ -45,6 +45,7 @@ pub(super) fn subsurface(e: &Entity, roughness: Roughness) -> Result<(Material, 
                     e.loc.clone(),
                     format!("'sigma_a' and 'sigma_s' must be given together ('{n}' is missing)"),
                 )
+                .into()
             })
         };
         (get("sigma_a")?, get("sigma_s")?)

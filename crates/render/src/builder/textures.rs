@@ -16,7 +16,7 @@ use scene::{FloatParam, Loc, ParamSet, SceneDescription, SceneError, SpectrumKin
 use scene::{TextureEntity, TextureValueType};
 use spectral::Spectrum;
 
-use super::{err, unsupported, Result};
+use super::{err, file_err, unsupported, Result};
 use crate::texture::{
     CheckerMapping, FloatTexture, ImageFilter, ImageTexture, MipMap, PointMapping, RgbImage, RgbKind, SpectrumTexture,
     TextureMapping2D, UvMapping, WrapMode,
@@ -270,9 +270,9 @@ impl Textures {
             return Ok(img.clone());
         }
         let (w, h, pixels) = film::read_rgb_encoded(path, encoding)
-            .map_err(|e| SceneError::at(loc.clone(), format!("cannot read image {}: {e}", path.display())))?;
+            .map_err(|e| file_err(loc, path, format!("cannot read image {}: {e}", path.display())))?;
         if w == 0 || h == 0 {
-            return err(loc, format!("image {} is empty", path.display()));
+            return Err(file_err(loc, path, format!("image {} is empty", path.display())));
         }
         let img = Arc::new(RgbImage { width: w as usize, height: h as usize, pixels });
         self.images.borrow_mut().insert(key, img.clone());
@@ -339,7 +339,7 @@ impl Textures {
             },
             "windy" => FloatTexture::Windy { map: Box::new(mapping_3d(rft)) },
             "imagemap" => FloatTexture::Image(Box::new(image_texture(self, te)?)),
-            "ptex" => return Err(ptex_error(te)),
+            "ptex" => return Err(ptex_error(te).into()),
             other => return err(loc, unsupported("float texture", other, FLOAT_CLASSES)),
         })
     }
@@ -396,7 +396,7 @@ impl Textures {
                 tex: Box::new(image_texture(self, te)?),
                 kind: if kind == SpectrumKind::Albedo { RgbKind::Albedo } else { RgbKind::Unbounded },
             },
-            "ptex" => return Err(ptex_error(te)),
+            "ptex" => return Err(ptex_error(te).into()),
             other => return err(loc, unsupported("spectrum texture", other, SPECTRUM_CLASSES)),
         })
     }
@@ -418,6 +418,7 @@ impl Textures {
                 }
                 self.float.get(&t).cloned().ok_or_else(|| {
                     SceneError::at(p.get(name).map(|q| q.loc.clone()).unwrap(), format!("no float texture named '{t}'"))
+                        .into()
                 })
             }
         }

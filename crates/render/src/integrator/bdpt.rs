@@ -28,9 +28,8 @@
 use std::f32::consts::PI;
 use std::ops::Range;
 
-use film::{Film, FilmError};
+use film::Film;
 use glam::{Vec2, Vec3};
-use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{
@@ -41,7 +40,7 @@ use super::transport::{
     begin_bounce, sample_light_path, scatter, shadow_transmittance, weigh_tracking, Bounce, BounceSamples, PathRay,
     RayCounts, ShadowTarget, ShadowTransmittance, SpectralMis,
 };
-use super::{Integrate, IntegratorParams, Needs, RenderJob};
+use super::{Integrate, IntegratorParams, Needs, RenderError, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
 use crate::camera::Camera;
 use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
@@ -972,7 +971,7 @@ impl BdptIntegrator {
 const BDPT_CONNECT_SEED_SALT: u32 = 0x636f_6e6e;
 
 impl Integrate for BdptIntegrator {
-    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+    fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         params.warn_unrendered_media_glow("bdpt");
         Ok(BdptIntegrator { max_depth: params.max_depth()? })
     }
@@ -986,7 +985,7 @@ impl Integrate for BdptIntegrator {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         Ok(Box::new(BdptRender { integrator: self, scene, camera: CameraSampler::new(film)?, seed }))
     }
 }

@@ -11,9 +11,8 @@
 
 use std::ops::Range;
 
-use film::{Film, FilmError};
+use film::Film;
 use glam::{Vec2, Vec3};
-use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{render_splatting, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
@@ -23,7 +22,7 @@ use super::transport::{
     weigh_tracking, Bounce, BounceSamples, PathRay, RayCounts, ShadowTarget, SpectralMis,
 };
 use super::volpath::VolPathIntegrator;
-use super::{Integrate, IntegratorParams, Needs, RenderJob};
+use super::{Integrate, IntegratorParams, Needs, RenderError, RenderJob};
 use crate::bxdf::TransportMode;
 use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::{hash_words, Sampler};
@@ -274,7 +273,7 @@ impl LightPathIntegrator {
 }
 
 impl Integrate for LightPathIntegrator {
-    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+    fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         params.warn_unrendered_media_glow("lightpath");
         Ok(LightPathIntegrator { max_depth: params.max_depth()? })
     }
@@ -288,7 +287,7 @@ impl Integrate for LightPathIntegrator {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         // Emitters seen directly (through media, and media that glow): a volumetric path tracer that stops before
         // the first scattering event.
         let direct = VolPathIntegrator { max_depth: 0, split_dispersion: true };

@@ -6,7 +6,6 @@ use std::ops::Range;
 
 use film::{Film, FilmError};
 use glam::{Vec2, Vec3};
-use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{finite_or_zero, render_rows, CameraSampler, RenderStats, SurfaceRecords};
@@ -15,7 +14,7 @@ use super::transport::{
     begin_bounce, russian_roulette, sample_direct_light, scatter, Bounce, BounceSamples, DirectLight, PathRay,
     RayCounts,
 };
-use super::{Integrate, IntegratorParams, RenderJob};
+use super::{Integrate, IntegratorParams, RenderError, RenderJob};
 use crate::bxdf::{BsdfSample, Bxdf, DispersiveSplit, TransportMode};
 use crate::sampler::Sampler;
 use crate::sampling::{power_heuristic, Frame};
@@ -279,7 +278,7 @@ impl Radiance for PathIntegrator {
 }
 
 impl Integrate for PathIntegrator {
-    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+    fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         let max_depth = params.max_depth()?;
         let split_dispersion = params.entity.params.get_bool("splitdispersion", true)?;
         let manifold_nee = params.entity.params.get_bool("manifoldnee", false)?;
@@ -298,7 +297,7 @@ impl Integrate for PathIntegrator {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         Ok(Box::new(CameraPaths::new(*self, scene, film, seed)?))
     }
 }

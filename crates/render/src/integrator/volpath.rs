@@ -8,7 +8,6 @@
 //! Absorbing-only media attenuate in closed form (Beer–Lambert) instead of by tracking.
 
 use glam::Vec3;
-use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::path::{CameraPaths, FirstHit, Radiance};
@@ -16,14 +15,14 @@ use super::transport::{
     begin_bounce, next_medium, russian_roulette, scatter, shadow_transmittance, weigh_tracking, Bounce, BounceSamples,
     PathRay, RayCounts, Scattered, ShadowTarget, SpectralMis,
 };
-use super::{Integrate, IntegratorParams, RenderJob};
+use super::{Integrate, IntegratorParams, RenderError, RenderJob};
 use crate::bxdf::{Bxdf, DispersiveSplit, TransportMode};
 use crate::light::LightSampleContext;
 use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::Sampler;
 use crate::sampling::Frame;
 use crate::scene::{RenderScene, SurfaceHit};
-use film::{Film, FilmError};
+use film::Film;
 
 /// The `volpath` integrator.
 #[derive(Clone, Copy, Debug)]
@@ -402,7 +401,7 @@ impl Radiance for VolPathIntegrator {
 }
 
 impl Integrate for VolPathIntegrator {
-    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+    fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         Ok(VolPathIntegrator {
             max_depth: params.max_depth()?,
             split_dispersion: params.entity.params.get_bool("splitdispersion", true)?,
@@ -414,7 +413,7 @@ impl Integrate for VolPathIntegrator {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         Ok(Box::new(CameraPaths::new(*self, scene, film, seed)?))
     }
 }
