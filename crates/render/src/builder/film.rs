@@ -8,7 +8,7 @@ use film::{CameraResponse, FilmKind, FilmSpec, Filter, GBuffer, GBufferCoordinat
 use scene::{Entity, SceneDescription, SceneError};
 use spectral::sensor::CameraSensor;
 
-use super::{err, unsupported, BuildOptions, Result};
+use super::context::{err, unsupported, BuildOptions, Result};
 
 /// The film to render into; `options` override the resolution, the output file and the pixel bounds.
 pub(super) fn make_film(

@@ -6,12 +6,11 @@ use geometry::{Shape, Transform};
 use glam::DVec3;
 use scene::{Entity, Loc, SceneDescription, SceneError, SpectrumKind};
 use spectral::rgb_uplift::RgbIlluminantSpectrum;
-use spectral::{Observer, Spectrum};
+use spectral::Spectrum;
 
 use std::sync::Arc;
 
-use super::shapes::ShapeAlpha;
-use super::{err, file_err, unsupported, Result};
+use super::context::{err, file_err, normalise_emission, unsupported, Result, ShapeAlpha};
 use crate::light::{EnvironmentMap, Light};
 use crate::sampling::Frame;
 
@@ -28,34 +27,8 @@ pub(super) fn make_lights(
     Ok(())
 }
 
-/// Luminance Y of a spectrum in our convention (Y = 1 for a constant 1); for an RGB illuminant only the
-/// illuminant counts, as pbrt-v4's `SpectrumToPhotometric` does.
-fn photometric(s: &Spectrum) -> f64 {
-    match s {
-        Spectrum::RgbIlluminant(_) => 1.0, // the colour space illuminant is normalised to Y = 1
-        other => Observer::Cie1931.spectrum_to_xyz(other).y,
-    }
-}
-
-/// Scales an emission spectrum so that `scale` is its luminance in nits (pbrt-v4: `scale /= SpectrumToPhotometric`).
-pub(super) fn normalise_emission(loc: &Loc, s: Spectrum, scale: f64) -> Result<Spectrum> {
-    let y = photometric(&s);
-    if y.is_nan() || y <= 0.0 {
-        return err(loc, "emission spectrum has no luminance (it is zero across the visible range)");
-    }
-    if !scale.is_finite() || scale < 0.0 {
-        return err(loc, format!("emission scale must be a finite non-negative number, got {scale}"));
-    }
-    let scaled = s.scaled(scale / y);
-    // Radiance is carried in f32: anything near its range would overflow along a path.
-    let peak = scaled.max_value();
-    if peak.is_nan() || peak >= 1e30 {
-        return err(loc, format!("emission is too large ('scale'/'power' give a peak of {:e})", scaled.max_value()));
-    }
-    Ok(scaled)
-}
-
-/// Creates one area light per primitive of `shape` (whose alpha is `alpha`); returns the index of the first.
+/// Creates one area light per primitive of `shape` (whose alpha is `alpha`); returns the index of the first. Called
+/// by `shapes.rs` for each shape it builds (`mod.rs` hands it over), so that area lights come in shape order.
 pub(super) fn area_lights(al: &Entity, shape: &Shape, alpha: &ShapeAlpha, lights: &mut Vec<Light>) -> Result<u32> {
     let p = &al.params;
     if al.name != "diffuse" {
