@@ -364,7 +364,7 @@ impl Checkpoint {
 
     /// Writes the checkpoint to `path` atomically.
     pub fn save(&self, path: &Path) -> Result<()> {
-        film::write_file_atomic(path, &self.encode()).map_err(|e| anyhow!("cannot write checkpoint: {e}"))
+        film::write_file_atomic(path, &self.encode()).context("cannot write checkpoint")
     }
 
     /// Reads the checkpoint at `path`.

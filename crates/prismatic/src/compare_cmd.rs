@@ -3,7 +3,7 @@
 use std::fmt::Write;
 use std::path::PathBuf;
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 
 /// Arguments of `prismatic compare`.
@@ -123,8 +123,8 @@ pub fn compare(w: u32, h: u32, a: &[[f32; 3]], b: &[[f32; 3]], region: Option<[u
 
 /// Runs the subcommand and returns what to print.
 pub fn run(args: &CompareArgs) -> Result<String> {
-    let (wa, ha, a) = film::read_rgb(&args.a).map_err(|e| anyhow!("cannot read {}: {e}", args.a.display()))?;
-    let (wb, hb, b) = film::read_rgb(&args.b).map_err(|e| anyhow!("cannot read {}: {e}", args.b.display()))?;
+    let (wa, ha, a) = film::read_rgb(&args.a).with_context(|| format!("cannot read {}", args.a.display()))?;
+    let (wb, hb, b) = film::read_rgb(&args.b).with_context(|| format!("cannot read {}", args.b.display()))?;
     if (wa, ha) != (wb, hb) {
         bail!("the images differ in size: {wa}x{ha} and {wb}x{hb}");
     }

@@ -1,12 +1,13 @@
 //! `prismatic`: the command-line front end of the Prismatic spectral renderer.
 //!
 //! A thin layer: it parses arguments, calls the library crates and prints. Errors are reported as one message and a
-//! non-zero exit status, never a panic.
+//! non-zero exit status that says what failed ([`exit`]; README.md, "Exit status"), never a panic.
 
 #![forbid(unsafe_code)]
 
 mod checkpoint;
 mod compare_cmd;
+mod exit;
 mod ior_cmd;
 mod merge_cmd;
 mod render_cmd;
@@ -53,18 +54,15 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         Err(e) => {
-            if let Some(stopped) = e.downcast_ref::<render_cmd::Interrupted>() {
-                eprintln!("prismatic: {stopped}");
-                return ExitCode::from(stopped.exit_code);
-            }
-            // Scene errors already read "file:line:column: error: …".
-            let msg = format!("{e:#}");
-            if msg.contains(": error: ") {
+            let code = exit::code(&e);
+            let msg = exit::message(&e);
+            // A stopped render says so without "error"; scene errors already read "file:line:column: error: …".
+            if e.is::<render_cmd::Interrupted>() || msg.contains(": error: ") {
                 eprintln!("prismatic: {msg}");
             } else {
                 eprintln!("prismatic: error: {msg}");
             }
-            ExitCode::FAILURE
+            ExitCode::from(code)
         }
     }
 }

@@ -68,7 +68,7 @@ struct Part {
 
 impl Part {
     fn read(path: &Path) -> Result<Self> {
-        let (attrs, state) = film::read_part(path).map_err(|e| anyhow!("{e}"))?;
+        let (attrs, state) = film::read_part(path)?;
         if attrs.get("prismatic.part").map(String::as_str) != Some("1") {
             bail!("{}: not a part of a sharded render (no prismatic.part attribute)", path.display());
         }
@@ -98,7 +98,7 @@ impl Part {
 
 /// Runs the subcommand; returns the summary to print.
 pub fn run(args: &MergeArgs) -> Result<String> {
-    film::ImageFormat::from_path(&args.output).map_err(|e| anyhow!("{e}"))?;
+    film::ImageFormat::from_path(&args.output)?;
     let mut parts = args.parts.iter().map(|p| Part::read(p)).collect::<Result<Vec<_>>>()?;
     parts.sort_by_key(|p| p.shard.0);
     let first = &parts[0];
@@ -154,7 +154,11 @@ pub fn run(args: &MergeArgs) -> Result<String> {
         plan.scene = scene.clone();
     }
     if !plan.scene.exists() {
-        bail!("the scene {} the parts were rendered from is not there; name it with --scene", plan.scene.display());
+        let message = format!(
+            "the scene {} the parts were rendered from is not there; name it with --scene",
+            plan.scene.display()
+        );
+        return Err(crate::exit::io_error(std::io::ErrorKind::NotFound, message));
     }
     plan.output = Some(args.output.clone());
     let setup = Setup::new(&plan)?;
@@ -167,7 +171,7 @@ pub fn run(args: &MergeArgs) -> Result<String> {
     if format!("{:016x}", setup.options_hash) != first.attr("prismatic.optionsHash") {
         bail!("the scene {} with the recorded options is not the render the parts come from", plan.scene.display());
     }
-    let mut film = film::Film::new(setup.spec.clone()).map_err(|e| anyhow!("{e}"))?;
+    let mut film = film::Film::new(setup.spec.clone())?;
     let total = setup.total;
     let sppm = first.attr("prismatic.unit") == render::integrator::PassUnit::Iterations.name();
     for part in &parts {
@@ -199,7 +203,7 @@ pub fn run(args: &MergeArgs) -> Result<String> {
         } else {
             film.add_state(&part.state)
         };
-        r.map_err(|e| anyhow!("{}: {e}", part.path.display()))?;
+        r.with_context(|| format!("{}", part.path.display()))?;
     }
     let header = vec![
         ("samplesPerPixel".to_string(), total.to_string()),
@@ -207,7 +211,7 @@ pub fn run(args: &MergeArgs) -> Result<String> {
         ("mergedParts".to_string(), n.to_string()),
     ];
     film::write_image_with(&film, &args.output, &header)
-        .map_err(|e| anyhow!("cannot write {}: {e}", args.output.display()))?;
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
     if args.quiet {
         return Ok(String::new());
     }

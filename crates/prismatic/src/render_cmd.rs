@@ -14,6 +14,7 @@ use render::integrator::{Integrator, PassUnit};
 use render::{build_scene, BuildOptions};
 
 use crate::checkpoint::{self, Checkpoint, Plan};
+use crate::exit;
 use spectral::WavelengthStrategy;
 
 /// Arguments of `prismatic render`.
@@ -31,6 +32,9 @@ use spectral::WavelengthStrategy;
                         about a second), writes the image of the samples done (the EXR header's samplesPerPixel \
                         says how many) and exits with status 130 (SIGINT) or 143 (SIGTERM); a second signal exits \
                         at once, leaving any earlier output file as it was.\n\n\
+                        Exit status: 0 done, 1 any other failure, 2 a command line that cannot be parsed, 3 an \
+                        error in the scene (file:line:column), 4 a file that cannot be read or written, 130 or 143 \
+                        stopped by a signal.\n\n\
                         Checkpoints: with --checkpoint FILE the render's accumulated state is written to FILE \
                         (atomically) at a pass boundary every --checkpoint-every seconds, when a signal stops it, \
                         and at the end. After a crash, a kill or a lost node, `prismatic render --resume FILE` \
@@ -134,7 +138,6 @@ pub fn peak_rss_bytes() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// Runs the subcommand; returns the summary to print.
 /// A render stopped by a signal: its image was written (if any sample pass had finished) and the process should
 /// exit with `exit_code` (128 + the signal's number, as shells report a death by that signal).
 #[derive(Debug)]
@@ -206,7 +209,14 @@ impl Setup {
     /// Parses and builds the scene of `plan` and works out the film and the passes (of its shard, if any).
     pub fn new(plan: &Plan) -> Result<Self> {
         let start = Instant::now();
-        let desc = pbrt::parse_file(&plan.scene).map_err(|e| anyhow!("{e}"))?;
+        let desc = pbrt::parse_file(&plan.scene).map_err(|e| {
+            // The scene file itself cannot be opened: an I/O error for the exit status (the operating system's
+            // error is the cause), with the parser's message.
+            match std::fs::File::open(&plan.scene) {
+                Err(io) => anyhow::Error::new(io).context(e),
+                Ok(_) => anyhow::Error::new(e),
+            }
+        })?;
         let parsed = start.elapsed();
         let options = BuildOptions {
             resolution: plan.resolution,
@@ -215,7 +225,7 @@ impl Setup {
             crop_window: plan.crop_window,
             pixel_bounds: plan.pixel_bounds,
         };
-        let mut built = build_scene(&desc, &options).map_err(|e| anyhow!("{e}"))?;
+        let mut built = build_scene(&desc, &options)?;
         let scene_hash = checkpoint::scene_hash(&desc.input_files())?;
         let mut spec = built.film.clone();
         if plan.aovs {
@@ -319,6 +329,7 @@ fn plan_from_args(args: &RenderArgs, scene: &Path) -> Result<Plan> {
     })
 }
 
+/// Runs the subcommand; returns the summary to print.
 pub fn run(args: &RenderArgs) -> Result<String> {
     if let Some(s) = args.spp {
         if s == 0 || s > 1 << 24 {
@@ -378,10 +389,11 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     }
     // Check the output before spending time on the render.
     let out_path = built.film.filename.clone();
-    let format = film::ImageFormat::from_path(&out_path).map_err(|e| anyhow!("{e}"))?;
+    let format = film::ImageFormat::from_path(&out_path)?;
     if let Some(dir) = out_path.parent().filter(|d| !d.as_os_str().is_empty()) {
         if !dir.is_dir() {
-            bail!("cannot write {}: directory {} does not exist", out_path.display(), dir.display());
+            let message = format!("cannot write {}: directory {} does not exist", out_path.display(), dir.display());
+            return Err(exit::io_error(std::io::ErrorKind::NotFound, message));
         }
     }
     if plan.aovs && format != film::ImageFormat::Exr {
@@ -398,9 +410,9 @@ pub fn run(args: &RenderArgs) -> Result<String> {
         Some(std::path::absolute(&out_path).with_context(|| format!("cannot resolve {}", out_path.display()))?);
     // Scene load: parsing the files, then building (shapes and their PLY files, textures, lights, the BVH).
     let setup_time = start.elapsed();
-    let mut film = film::Film::new(setup.spec.clone()).map_err(|e| anyhow!("{e}"))?;
+    let mut film = film::Film::new(setup.spec.clone())?;
     let unit = built.integrator.needs().unit.name();
-    let mut job = built.integrator.begin(&built.scene, &film, plan.seed).map_err(|e| anyhow!("{e}"))?;
+    let mut job = built.integrator.begin(&built.scene, &film, plan.seed)?;
     let passes = setup.passes.clone();
     let mut done = passes.start;
     if let (Some(ck), Some(path)) = (&resume, &args.resume) {
@@ -414,8 +426,8 @@ pub fn run(args: &RenderArgs) -> Result<String> {
         if ck.film.bounds != film.bounds() {
             bail!("checkpoint {at} holds pixels {:?}, the render {:?}", ck.film.bounds, film.bounds());
         }
-        film.paste(&ck.film).map_err(|e| anyhow!("checkpoint {at}: {e}"))?;
-        job.restore_state(&ck.job).map_err(|e| anyhow!("checkpoint {at}: {e}"))?;
+        film.paste(&ck.film).with_context(|| format!("checkpoint {at}"))?;
+        job.restore_state(&ck.job).with_context(|| format!("checkpoint {at}"))?;
         done = ck.done;
     }
     let save_checkpoint = |film: &film::Film, job: &dyn render::integrator::RenderJob, done: u32| -> Result<()> {
@@ -544,9 +556,9 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     }
     if plan.shard.is_some() {
         header.extend(setup.part_attributes(&plan, done));
-        film::write_part(&film, &path, &header).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+        film::write_part(&film, &path, &header).with_context(|| format!("cannot write {}", path.display()))?;
     } else {
-        film::write_image_with(&film, &path, &header).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+        film::write_image_with(&film, &path, &header).with_context(|| format!("cannot write {}", path.display()))?;
     }
     if signal != 0 {
         return Err(Interrupted {

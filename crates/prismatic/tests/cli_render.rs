@@ -225,6 +225,7 @@ fn malformed_scenes_name_file_line_and_column() {
         std::fs::write(&scene, text).unwrap();
         let run = prismatic(&dir, &[scene.to_str().unwrap(), "-o", "out.exr", "--quiet"]);
         let stderr = assert_clean_failure(&run, text);
+        assert_eq!(run.status.code(), Some(3), "{text:?}: a scene error's status\n{stderr}");
         let at = format!("{}:{line}:{column}: error", scene.display());
         assert!(stderr.contains(&at), "{text:?}: expected '{at}' in\n{stderr}");
         assert!(stderr.contains(needle), "{text:?}: expected '{needle}' in\n{stderr}");
@@ -234,6 +235,52 @@ fn malformed_scenes_name_file_line_and_column() {
     let run = prismatic(&dir, &["missing.pbrt", "--quiet"]);
     let stderr = assert_clean_failure(&run, "missing scene");
     assert!(stderr.contains("missing.pbrt"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The exit status says what failed (README.md, "Exit status"), from the error's type: 3 for an error in the scene
+/// (found by the parser or the builder, or in a file the scene references), 4 for a file that cannot be read or
+/// written (the scene file itself, the output and its directory), 2 for a command line that cannot be parsed, 1 for
+/// anything else; a render stopped by SIGINT exits with 130.
+#[test]
+fn exit_status_says_what_failed() {
+    let dir = temp_dir("exit-status");
+    std::fs::write(dir.join("scene.pbrt"), SMALL_SCENE).unwrap();
+    let scenes = [
+        ("syntax.pbrt", "WorldBegin\nShape \"sphere\" \"float radius\" [ 1\nShape \"disk\"\n"),
+        ("builder.pbrt", "Integrator \"mlt\"\nWorldBegin\n"),
+        ("mesh.pbrt", "WorldBegin\nShape \"plymesh\" \"string filename\" \"nowhere.ply\"\n"),
+    ];
+    for (name, text) in scenes {
+        std::fs::write(dir.join(name), text).unwrap();
+    }
+    std::fs::create_dir(dir.join("taken.exr")).unwrap();
+    let cases: &[(&[&str], i32, &str)] = &[
+        (&["syntax.pbrt", "-o", "out.exr"], 3, "syntax.pbrt:2:31: error"),
+        (&["builder.pbrt", "-o", "out.exr"], 3, "builder.pbrt:1:1: error: integrator 'mlt'"),
+        (&["mesh.pbrt", "-o", "out.exr"], 3, "nowhere.ply"),
+        (&["missing.pbrt", "-o", "out.exr"], 4, "missing.pbrt"),
+        (&["scene.pbrt", "-o", "no/such/dir/out.exr"], 4, "no/such/dir does not exist"),
+        // The output path is a directory: found when the rendered image is written.
+        (&["scene.pbrt", "-o", "taken.exr"], 4, "cannot write"),
+        (&["scene.pbrt", "--no-such-option"], 2, "--no-such-option"),
+        (&["scene.pbrt", "--spp", "0"], 1, "--spp"),
+        (&["scene.pbrt", "-o", "out.jpg"], 1, "jpg"),
+    ];
+    for &(args, code, needle) in cases {
+        let mut all = args.to_vec();
+        all.push("--quiet");
+        let run = prismatic(&dir, &all);
+        let stderr = assert_clean_failure(&run, &format!("{args:?}"));
+        assert_eq!(run.status.code(), Some(code), "{args:?}\n{stderr}");
+        assert!(stderr.contains(needle), "{args:?}: expected '{needle}' in\n{stderr}");
+        assert!(!dir.join("out.exr").exists(), "{args:?}: an image was written");
+    }
+    #[cfg(unix)]
+    {
+        let run = render_then_signal(&dir, &["scene.pbrt", "--spp", "10000000", "-o", "stopped.exr"], &["INT"]);
+        assert_eq!(run.status.code(), Some(130), "{}", String::from_utf8_lossy(&run.stderr));
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

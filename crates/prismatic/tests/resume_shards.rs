@@ -31,7 +31,8 @@ fn ok(out: Output) -> Output {
     out
 }
 
-/// Asserts that the run failed with an error message (exit status 1, no panic) and returns the message.
+/// Asserts that the run failed with an error message (exit status 1: a refusal, not a scene or I/O error; no panic)
+/// and returns the message.
 #[track_caller]
 fn failure(out: &Output) -> String {
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
@@ -238,7 +239,10 @@ fn resume_refuses_other_scenes_options_and_damaged_checkpoints() {
         let e = failure(&prismatic(&dir, &["render", "--resume", name]));
         assert!(e.contains(want), "{name}: {e}");
     }
-    let e = failure(&prismatic(&dir, &["render", "--resume", "nowhere.ckpt"]));
+    // A checkpoint that cannot be read is an I/O error (exit status 4), not a refusal (1).
+    let out = prismatic(&dir, &["render", "--resume", "nowhere.ckpt"]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(4), "{e}");
     assert!(e.contains("cannot read checkpoint"), "{e}");
     // Options that cannot be checkpointed or sharded.
     assert_eq!(render(&["--time", "1", "--checkpoint", "x.ckpt"]).status.code(), Some(2));

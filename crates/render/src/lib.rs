@@ -11,6 +11,7 @@
 //! - Underneath: [`bxdf`], [`layered`], [`microfacet`] and [`measured`] (scattering models; RGL tensor files), [`material`], [`texture`] and
 //!   [`bump`] (what builds them at a hit), [`light`], [`camera`], [`sampler`] (the per-sample random numbers) and
 //!   [`sampling`] (warps and MIS heuristics).
+//! - Every fallible public function returns a [`RenderError`].
 //!
 //! ```no_run
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -30,6 +31,7 @@ pub mod builder;
 pub mod bump;
 pub mod bxdf;
 pub mod camera;
+mod error;
 pub mod footprint;
 pub mod integrator;
 pub mod layered;
@@ -44,5 +46,6 @@ pub mod scene;
 pub mod texture;
 
 pub use builder::{build_scene, BuildOptions, BuiltScene};
+pub use error::RenderError;
 pub use integrator::{Integrate, Integrator, Needs, PassUnit, RenderJob, RenderStats};
 pub use scene::{Geometry, RenderScene, SceneGeometry, SurfaceHit};

@@ -7,8 +7,10 @@ use glam::{Vec2, Vec3};
 use spectral::{Distribution2D, SampledSpectrum, SampledWavelengths, Spectrum};
 use std::f32::consts::PI;
 
+use crate::error::invalid_data;
 use crate::sampling::{sample_uniform_sphere, Frame};
 use crate::texture::{octahedral_wrap, FloatTexture, TextureEvalContext};
+use crate::RenderError;
 use std::sync::Arc;
 
 /// Where light arrives: a point and (for surfaces) its normal.
@@ -511,13 +513,15 @@ impl EnvironmentMap {
     /// The map of a `width`×`height` linear sRGB image (row-major from the top; negative values count as 0):
     /// square for the equal-area octahedral layout, 2:1 for lat-long. Texels are uplifted to illuminant spectra,
     /// and the sampling distribution is built over the texel grid (see [`EnvironmentMap::distribution`]).
-    pub fn from_rgb(width: usize, height: usize, pixels: &[[f32; 3]], frame: Frame) -> Result<Self, String> {
+    pub fn from_rgb(width: usize, height: usize, pixels: &[[f32; 3]], frame: Frame) -> Result<Self, RenderError> {
         let equal_area = width == height;
         if !equal_area && width != 2 * height {
-            return Err(format!("environment map {width}×{height} is neither square (equal-area) nor 2:1 (lat-long)"));
+            return Err(invalid_data(format!(
+                "environment map {width}×{height} is neither square (equal-area) nor 2:1 (lat-long)"
+            )));
         }
         if pixels.len() != width * height {
-            return Err(format!("environment map {width}×{height} given {} pixels", pixels.len()));
+            return Err(invalid_data(format!("environment map {width}×{height} given {} pixels", pixels.len())));
         }
         let cs = spectral::RgbColorSpace::srgb();
         let mut texels = Vec::with_capacity(pixels.len());
@@ -525,7 +529,8 @@ impl EnvironmentMap {
         let mut lum_sum = 0.0f64;
         for (i, px) in pixels.iter().enumerate() {
             let rgb = px.map(|c| (c.max(0.0)) as f64);
-            texels.push(spectral::rgb_uplift::RgbIlluminantSpectrum::new(rgb).map_err(|e| e.to_string())?);
+            texels
+                .push(spectral::rgb_uplift::RgbIlluminantSpectrum::new(rgb).map_err(|e| invalid_data(e.to_string()))?);
             lum_sum += cs.to_xyz(rgb).y.max(0.0);
             // pbrt-v4 samples the mean of the texel's channels (Image::GetSamplingDistribution); lat-long rows
             // cover less solid angle near the poles, so they are weighted by sin θ at the row's centre. A black
@@ -535,8 +540,8 @@ impl EnvironmentMap {
                 if equal_area { 1.0 } else { ((row as f64 + 0.5) / height as f64 * std::f64::consts::PI).sin() };
             weights.push((rgb[0] + rgb[1] + rgb[2]) / 3.0 * sin_theta);
         }
-        let distribution =
-            Distribution2D::new(&weights, width, height, (0.0, 1.0), (0.0, 1.0)).map_err(|e| e.to_string())?;
+        let distribution = Distribution2D::new(&weights, width, height, (0.0, 1.0), (0.0, 1.0))
+            .map_err(|e| invalid_data(e.to_string()))?;
         Ok(Self {
             width,
             height,

@@ -154,7 +154,7 @@ fn the_reader_returns_every_field_as_written() {
         assert!((spectra[c * 9] - expected).abs() < 1e-6, "{c}: {} vs {expected}", spectra[c * 9]);
     }
     assert!(t.field("rgb").is_none());
-    assert!(t.f32s(t.field("jacobian").unwrap()).unwrap_err().contains("uint8"));
+    assert!(t.f32s(t.field("jacobian").unwrap()).unwrap_err().to_string().contains("uint8"));
 }
 
 #[test]
@@ -529,14 +529,14 @@ fn header_of(bytes: &[u8], name: &str) -> usize {
 fn parse_err(bytes: Vec<u8>) -> String {
     match TensorFile::parse(bytes) {
         Ok(_) => panic!("expected an error"),
-        Err(e) => e,
+        Err(e) => e.to_string(),
     }
 }
 
 fn brdf_err(bytes: Vec<u8>) -> String {
     match TensorFile::parse(bytes).and_then(|t| MeasuredBrdf::from_tensor(&t)) {
         Ok(_) => panic!("expected an error"),
-        Err(e) => e,
+        Err(e) => e.to_string(),
     }
 }
 

@@ -7,7 +7,7 @@ use scene::SceneDescription;
 
 use geometry::AnimatedTransform;
 
-use super::{err, unsupported, Result};
+use super::context::{err, unsupported, Result};
 use crate::camera::{Camera, Projection, ScreenWindow};
 
 /// The camera for a film of `res` pixels (whose aspect ratio is the default `frameaspectratio`).

@@ -8,7 +8,7 @@ use film::{CameraResponse, FilmKind, FilmSpec, Filter, GBuffer, GBufferCoordinat
 use scene::{Entity, SceneDescription, SceneError};
 use spectral::sensor::CameraSensor;
 
-use super::{err, unsupported, BuildOptions, Result};
+use super::context::{err, unsupported, BuildOptions, Result};
 
 /// The film to render into; `options` override the resolution, the output file and the pixel bounds.
 pub(super) fn make_film(
@@ -219,5 +219,5 @@ fn make_filter(e: &Entity) -> Result<Filter> {
         Filter::Triangle { .. } => Filter::triangle(radius),
         Filter::Mitchell { b, c, .. } => Filter::mitchell(radius, p.get_float("B", b)?, p.get_float("C", c)?),
     };
-    f.map_err(|x| SceneError::at(e.loc.clone(), x.to_string()))
+    Ok(f.map_err(|x| SceneError::at(e.loc.clone(), x.to_string()))?)
 }

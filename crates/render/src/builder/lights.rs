@@ -6,12 +6,11 @@ use geometry::{Shape, Transform};
 use glam::DVec3;
 use scene::{Entity, Loc, SceneDescription, SceneError, SpectrumKind};
 use spectral::rgb_uplift::RgbIlluminantSpectrum;
-use spectral::{Observer, Spectrum};
+use spectral::Spectrum;
 
 use std::sync::Arc;
 
-use super::shapes::ShapeAlpha;
-use super::{err, unsupported, Result};
+use super::context::{err, file_err, normalise_emission, unsupported, Result, ShapeAlpha};
 use crate::light::{EnvironmentMap, Light};
 use crate::sampling::Frame;
 
@@ -28,38 +27,8 @@ pub(super) fn make_lights(
     Ok(())
 }
 
-/// Luminance Y of a spectrum in our convention (Y = 1 for a constant 1); for an RGB illuminant only the
-/// illuminant counts, as pbrt-v4's `SpectrumToPhotometric` does.
-fn photometric(s: &Spectrum) -> f64 {
-    match s {
-        Spectrum::RgbIlluminant(_) => 1.0, // the colour space illuminant is normalised to Y = 1
-        other @ (Spectrum::Constant(_)
-        | Spectrum::PiecewiseLinear(_)
-        | Spectrum::Blackbody(_)
-        | Spectrum::RgbAlbedo(_)
-        | Spectrum::RgbUnbounded(_)) => Observer::Cie1931.spectrum_to_xyz(other).y,
-    }
-}
-
-/// Scales an emission spectrum so that `scale` is its luminance in nits (pbrt-v4: `scale /= SpectrumToPhotometric`).
-pub(super) fn normalise_emission(loc: &Loc, s: Spectrum, scale: f64) -> Result<Spectrum> {
-    let y = photometric(&s);
-    if y.is_nan() || y <= 0.0 {
-        return err(loc, "emission spectrum has no luminance (it is zero across the visible range)");
-    }
-    if !scale.is_finite() || scale < 0.0 {
-        return err(loc, format!("emission scale must be a finite non-negative number, got {scale}"));
-    }
-    let scaled = s.scaled(scale / y);
-    // Radiance is carried in f32: anything near its range would overflow along a path.
-    let peak = scaled.max_value();
-    if peak.is_nan() || peak >= 1e30 {
-        return err(loc, format!("emission is too large ('scale'/'power' give a peak of {:e})", scaled.max_value()));
-    }
-    Ok(scaled)
-}
-
-/// Creates one area light per primitive of `shape` (whose alpha is `alpha`); returns the index of the first.
+/// Creates one area light per primitive of `shape` (whose alpha is `alpha`); returns the index of the first. Called
+/// by `shapes.rs` for each shape it builds (`mod.rs` hands it over), so that area lights come in shape order.
 pub(super) fn area_lights(al: &Entity, shape: &Shape, alpha: &ShapeAlpha, lights: &mut Vec<Light>) -> Result<u32> {
     let p = &al.params;
     if al.name != "diffuse" {
@@ -182,15 +151,16 @@ fn light(le: &scene::LightEntity, scene_radius: f32, warnings: &mut Vec<String>)
 
 /// An environment map (square: equal-area, 2:1: latitude-longitude) with its sampling distribution, oriented by `t`.
 fn environment_map(path: &std::path::Path, loc: &Loc, t: &Transform) -> Result<EnvironmentMap> {
-    let (w, h, pixels) = film::read_rgb(path)
-        .map_err(|e| SceneError::at(loc.clone(), format!("cannot read {}: {e}", path.display())))?;
+    let (w, h, pixels) =
+        film::read_rgb(path).map_err(|e| file_err(loc, path, format!("cannot read {}: {e}", path.display())))?;
     let (w, h) = (w as usize, h as usize);
     let equal_area = w == h;
     if !equal_area && w != 2 * h {
-        return err(loc, format!("environment map {}×{} is neither square (equal-area) nor 2:1 (lat-long)", w, h));
+        let message = format!("environment map {}×{} is neither square (equal-area) nor 2:1 (lat-long)", w, h);
+        return Err(file_err(loc, path, message));
     }
     let x = t.vector(DVec3::X).as_vec3().normalize();
     let y = t.vector(DVec3::Y).as_vec3().normalize();
     let z = t.vector(DVec3::Z).as_vec3().normalize();
-    EnvironmentMap::from_rgb(w, h, &pixels, Frame { x, y, z }).map_err(|e| SceneError::at(loc.clone(), e))
+    EnvironmentMap::from_rgb(w, h, &pixels, Frame { x, y, z }).map_err(|e| file_err(loc, path, e.to_string()))
 }

@@ -1,118 +1,75 @@
 //! Materials: pbrt-v4's `Material` and `MakeNamedMaterial` directives (`diffuse`, `diffusetransmission`,
 //! `conductor`, `dielectric`, `thindielectric`, `coateddiffuse`, `coatedconductor`, `mix`, `interface`,
 //! `subsurface`, `measured`) with their
-//! roughness, conductor, index-of-refraction and layer parameters, and the index a shape's material reference
-//! resolves to.
+//! roughness, conductor, index-of-refraction and layer parameters, into the scene's [`Materials`] (the index a
+//! shape's material reference resolves to is looked up there).
 
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use scene::{Entity, Loc, MaterialRef, ParamSet, ParamType, SceneDescription, SceneError, SpectrumKind};
+use scene::{Entity, Loc, ParamSet, ParamType, SceneDescription, SceneError, SpectrumKind};
 use spectral::Spectrum;
 
-use super::textures::Textures;
-use super::{err, finite_positive, unsupported, Result};
+use super::context::{err, file_err, finite_positive, unsupported, Materials, Result, Textures};
 use crate::bump::NormalPerturbation;
 use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
 use crate::measured::MeasuredBrdf;
-use crate::medium::{HomogeneousMedium, Medium};
-use crate::scene::NO_MATERIAL;
+use crate::medium::HomogeneousMedium;
 use crate::texture::{FloatTexture, SpectrumTexture};
 use film::ColorEncoding;
 
-/// The scene's materials, anonymous first, then named; a name maps to its index.
-pub(super) struct Materials {
-    /// In the order of [`crate::scene::RenderScene::materials`].
-    pub(super) list: Vec<Material>,
-    /// Each material's bump or normal map, in the same order.
-    pub(super) perturbations: Vec<Option<NormalPerturbation>>,
-    /// The medium inside a `subsurface` material's shapes, in the same order (appended to the scene's media by
-    /// [`Materials::attach_interiors`]).
-    pub(super) interiors: Vec<Option<HomogeneousMedium>>,
-    /// The index of that medium among the scene's media, once attached.
-    pub(super) interior_index: Vec<Option<u32>>,
-    /// Whether each material reads a texture through the ray's footprint (an image map; for a mix, its amount or
-    /// a material it may pick), so that hits on it need their footprint.
-    pub(super) reads_footprint: Vec<bool>,
-    names: HashMap<String, u32>,
-}
+/// How a `subsurface` material is made: its boundary material and interior medium, from the directive and the
+/// roughness read here.
+pub(super) type MakeSubsurface = fn(&Entity, Roughness) -> Result<(Material, HomogeneousMedium)>;
 
-impl Materials {
-    /// Reads every material; names are known before any is read, since a `mix` refers to others by name.
-    pub(super) fn build(desc: &SceneDescription, textures: &Textures) -> Result<Self> {
-        let mut names: HashMap<String, u32> = HashMap::new();
-        let n_anon = desc.materials.len();
-        for (i, (name, _)) in desc.named_materials.iter().enumerate() {
-            names.insert(name.clone(), (n_anon + i) as u32);
-        }
-        let mut materials = Vec::with_capacity(n_anon + desc.named_materials.len());
-        let mut perturbations = Vec::with_capacity(materials.capacity());
-        let mut interiors = Vec::with_capacity(materials.capacity());
-        let measured = MeasuredFiles::default();
-        let mut reads_footprint = Vec::with_capacity(materials.capacity());
-        for e in desc.materials.iter().chain(desc.named_materials.iter().map(|(_, e)| e)) {
-            textures.take_image_use();
-            let (m, interior) = if e.name == "subsurface" {
-                let (m, medium) = super::subsurface::subsurface(e, roughness(textures, &e.params)?)?;
-                (m, Some(medium))
-            } else {
-                (material(textures, e, &names, &measured)?, None)
-            };
-            reads_footprint.push(textures.take_image_use());
-            interiors.push(interior);
-            // A mix has none of its own (the material it picks brings its own), nor has an interface.
-            let own = !matches!(m, Material::Mix { .. } | Material::Interface);
-            perturbations.push(if own { normal_perturbation(textures, e)? } else { None });
-            materials.push(m);
-        }
-        // A mix needs the footprint if a material it may pick does (mixes nest: one pass per level).
-        for _ in 0..materials.len() {
-            let mut changed = false;
-            for (i, m) in materials.iter().enumerate() {
-                if let Material::Mix { materials: picks, .. } = m {
-                    let any = picks.iter().any(|&k| reads_footprint.get(k as usize).copied().unwrap_or(false));
-                    if any && !reads_footprint[i] {
-                        reads_footprint[i] = true;
-                        changed = true;
-                    }
+/// Reads every material; names are known before any is read, since a `mix` refers to others by name. A `subsurface`
+/// material is made by `subsurface` (`subsurface.rs`'s, handed over by `mod.rs`) in its turn, so that the first
+/// error in the file is the one reported.
+pub(super) fn build(desc: &SceneDescription, textures: &Textures, subsurface: MakeSubsurface) -> Result<Materials> {
+    let mut names: HashMap<String, u32> = HashMap::new();
+    let n_anon = desc.materials.len();
+    for (i, (name, _)) in desc.named_materials.iter().enumerate() {
+        names.insert(name.clone(), (n_anon + i) as u32);
+    }
+    let mut materials = Vec::with_capacity(n_anon + desc.named_materials.len());
+    let mut perturbations = Vec::with_capacity(materials.capacity());
+    let mut interiors = Vec::with_capacity(materials.capacity());
+    let measured = MeasuredFiles::default();
+    let mut reads_footprint = Vec::with_capacity(materials.capacity());
+    for e in desc.materials.iter().chain(desc.named_materials.iter().map(|(_, e)| e)) {
+        textures.take_image_use();
+        let (m, interior) = if e.name == "subsurface" {
+            let (m, medium) = subsurface(e, roughness(textures, &e.params)?)?;
+            (m, Some(medium))
+        } else {
+            (material(textures, e, &names, &measured)?, None)
+        };
+        reads_footprint.push(textures.take_image_use());
+        interiors.push(interior);
+        // A mix has none of its own (the material it picks brings its own), nor has an interface.
+        let own = !matches!(m, Material::Mix { .. } | Material::Interface);
+        perturbations.push(if own { normal_perturbation(textures, e)? } else { None });
+        materials.push(m);
+    }
+    // A mix needs the footprint if a material it may pick does (mixes nest: one pass per level).
+    for _ in 0..materials.len() {
+        let mut changed = false;
+        for (i, m) in materials.iter().enumerate() {
+            if let Material::Mix { materials: picks, .. } = m {
+                let any = picks.iter().any(|&k| reads_footprint.get(k as usize).copied().unwrap_or(false));
+                if any && !reads_footprint[i] {
+                    reads_footprint[i] = true;
+                    changed = true;
                 }
             }
-            if !changed {
-                break;
-            }
         }
-        let interior_index = vec![None; materials.len()];
-        Ok(Materials { list: materials, perturbations, interiors, interior_index, reads_footprint, names })
-    }
-
-    /// Appends the interior media of `subsurface` materials to `media` and records their indices.
-    pub(super) fn attach_interiors(&mut self, media: &mut Vec<Medium>) {
-        for (i, interior) in self.interiors.iter_mut().enumerate() {
-            if let Some(m) = interior.take() {
-                self.interior_index[i] = Some(media.len() as u32);
-                media.push(Medium::Homogeneous(m));
-            }
+        if !changed {
+            break;
         }
     }
-
-    /// The medium inside shapes of material `index` (a `subsurface` material's), if any.
-    pub(super) fn interior(&self, index: u32) -> Option<u32> {
-        self.interior_index.get(index as usize).copied().flatten()
-    }
-
-    /// The index a shape's material reference resolves to; an `interface` material is [`NO_MATERIAL`], a boundary
-    /// between media only.
-    pub(super) fn index(&self, r: &MaterialRef, loc: &Loc) -> Result<u32> {
-        let i = match r {
-            MaterialRef::Anonymous(i) => *i as u32,
-            MaterialRef::Named(n) => {
-                *self.names.get(n).ok_or_else(|| SceneError::at(loc.clone(), format!("no material named '{n}'")))?
-            }
-        };
-        Ok(if matches!(self.list[i as usize], Material::Interface) { NO_MATERIAL } else { i })
-    }
+    Ok(Materials::new(materials, perturbations, interiors, reads_footprint, names))
 }
 
 /// pbrt-v4's `"string normalmap"` (an image read linearly) or `"texture displacement"` (a float texture, or a
@@ -263,8 +220,8 @@ impl MeasuredFiles {
         if let Some(brdf) = self.0.borrow().get(&path) {
             return Ok(Material::Measured { brdf: brdf.clone() });
         }
-        let brdf = MeasuredBrdf::read(&path)
-            .map_err(|m| SceneError::at(loc.clone(), format!("'filename': {}: {m}", path.display())))?;
+        // The error names the file.
+        let brdf = MeasuredBrdf::read(&path).map_err(|e| file_err(&loc, &path, format!("'filename': {e}")))?;
         let brdf = Arc::new(brdf);
         self.0.borrow_mut().insert(path, brdf.clone());
         Ok(Material::Measured { brdf })
@@ -348,5 +305,5 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &M
 }
 
 fn named_metal(name: &str, loc: &Loc) -> Result<Spectrum> {
-    optics::catalogue::named_spectrum_checked(name).map_err(|e| SceneError::at(loc.clone(), e.to_string()))
+    Ok(optics::catalogue::named_spectrum_checked(name).map_err(|e| SceneError::at(loc.clone(), e.to_string()))?)
 }

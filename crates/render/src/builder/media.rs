@@ -1,5 +1,6 @@
 //! Media: pbrt-v4's `MakeNamedMedium` directive (`homogeneous`, with pbrt-v4's named measured `preset`s, and
-//! `uniformgrid`) and the medium names that `MediumInterface` and the camera's medium refer to.
+//! `uniformgrid`), and Prismatic's `mie`, into the scene's [`Media`] (which the names that `MediumInterface` and
+//! the camera's medium give are looked up in).
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -10,61 +11,25 @@ use scene::{Loc, MediumEntity, SceneDescription, SceneError, SpectrumKind};
 use spectral::rgb_uplift::RgbUnboundedSpectrum;
 use spectral::Spectrum;
 
-use super::lights::normalise_emission;
-use super::{err, unsupported, Result};
+use super::context::{err, normalise_emission, unsupported, Media, Result, MEASURED_MEDIA};
 use crate::medium::{DensityGrid, GridMedium, HomogeneousMedium, Medium, PhaseFunction};
 
-/// The scene's media and the index each name maps to.
-pub(super) struct Media {
-    /// In the order of [`crate::scene::RenderScene::media`].
-    pub(super) list: Vec<Medium>,
-    index: HashMap<String, u32>,
-}
-
-impl Media {
-    /// Reads every named medium.
-    pub(super) fn build(desc: &SceneDescription) -> Result<Self> {
-        let mut list = vec![];
-        let mut index: HashMap<String, u32> = HashMap::new();
-        let mut mie_tables = MieTables::default();
-        for m in &desc.media {
-            let medium = match m.entity.name.as_str() {
-                "homogeneous" => Medium::Homogeneous(homogeneous(m)?),
-                "uniformgrid" => Medium::Grid(Box::new(uniform_grid(m)?)),
-                "mie" => Medium::Homogeneous(mie(m, &mut mie_tables)?),
-                other => {
-                    return err(&m.entity.loc, unsupported("medium", other, &["homogeneous", "uniformgrid", "mie"]))
-                }
-            };
-            index.insert(m.medium_name.clone(), list.len() as u32);
-            list.push(medium);
-        }
-        Ok(Media { list, index })
+/// Reads every named medium.
+pub(super) fn build(desc: &SceneDescription) -> Result<Media> {
+    let mut list = vec![];
+    let mut index: HashMap<String, u32> = HashMap::new();
+    let mut mie_tables = MieTables::default();
+    for m in &desc.media {
+        let medium = match m.entity.name.as_str() {
+            "homogeneous" => Medium::Homogeneous(homogeneous(m)?),
+            "uniformgrid" => Medium::Grid(Box::new(uniform_grid(m)?)),
+            "mie" => Medium::Homogeneous(mie(m, &mut mie_tables)?),
+            other => return err(&m.entity.loc, unsupported("medium", other, &["homogeneous", "uniformgrid", "mie"])),
+        };
+        index.insert(m.medium_name.clone(), list.len() as u32);
+        list.push(medium);
     }
-
-    /// True if some medium scatters or glows (not only absorbs).
-    pub(super) fn any_scattering(&self) -> bool {
-        self.list.iter().any(|m| !m.is_absorbing_only())
-    }
-
-    /// True if some medium glows.
-    pub(super) fn any_emissive(&self) -> bool {
-        self.list.iter().any(|m| m.is_emissive())
-    }
-
-    /// The medium `name` refers to; no name or an empty one is vacuum.
-    pub(super) fn of(&self, name: &Option<String>, loc: &Loc) -> Result<Option<u32>> {
-        match name {
-            None => Ok(None),
-            Some(n) if n.is_empty() => Ok(None),
-            Some(n) => self
-                .index
-                .get(n)
-                .copied()
-                .map(Some)
-                .ok_or_else(|| SceneError::at(loc.clone(), format!("no medium named '{n}'"))),
-        }
-    }
+    Ok(Media::new(list, index))
 }
 
 /// Where parameter `name` of medium `m` was written.
@@ -281,99 +246,4 @@ fn uniform_grid(m: &MediumEntity) -> Result<GridMedium> {
         return err(&m.entity.loc, "the transform in effect at this medium cannot be inverted");
     }
     Ok(GridMedium { medium_from_render, bounds: (p0, p1), density, sigma_a, sigma_s, le, phase: phase(m)? })
-}
-
-/// pbrt-v4's named measured medium `name` as (σa, σs) spectra in mm⁻¹ (reduced scattering as σs, for g = 0), or
-/// the list of known names.
-pub(super) fn measured_medium(name: &str) -> std::result::Result<(Spectrum, Spectrum), String> {
-    let Some(preset) = MEASURED_MEDIA.iter().find(|mm| mm.name == name) else {
-        let names: Vec<&str> = MEASURED_MEDIA.iter().map(|mm| mm.name).collect();
-        return Err(format!("unknown measured medium '{name}'; known names: {}", names.join(", ")));
-    };
-    let rgb = |v: [f64; 3]| RgbUnboundedSpectrum::new(v).map(Spectrum::RgbUnbounded).map_err(|e| e.to_string());
-    Ok((rgb(preset.sigma_a)?, rgb(preset.sigma_prime_s)?))
-}
-
-/// One of pbrt-v4's named measured media: reduced scattering σ's and absorption σa in mm⁻¹ at red, green and
-/// blue, used as σs and σa of a `homogeneous` medium (`"string preset"`).
-struct MeasuredMedium {
-    name: &'static str,
-    sigma_prime_s: [f64; 3],
-    sigma_a: [f64; 3],
-}
-
-const fn mm(name: &'static str, sigma_prime_s: [f64; 3], sigma_a: [f64; 3]) -> MeasuredMedium {
-    MeasuredMedium { name, sigma_prime_s, sigma_a }
-}
-
-/// Measured scattering data in mm⁻¹: the first twelve from Jensen, Marschner, Levoy & Hanrahan 2001, "A Practical
-/// Model for Subsurface Light Transport", Figure 5; the others from Narasimhan, Gupta, Donner, Ramamoorthi, Nayar &
-/// Jensen 2006, "Acquiring Scattering Properties of Participating Media by Dilution", Table 1 — the names and values
-/// pbrt-v4 uses for its `preset` parameter.
-const MEASURED_MEDIA: &[MeasuredMedium] = &[
-    mm("Apple", [2.29, 2.39, 1.97], [0.0030, 0.0034, 0.046]),
-    mm("Chicken1", [0.15, 0.21, 0.38], [0.015, 0.077, 0.19]),
-    mm("Chicken2", [0.19, 0.25, 0.32], [0.018, 0.088, 0.20]),
-    mm("Cream", [7.38, 5.47, 3.15], [0.0002, 0.0028, 0.0163]),
-    mm("Ketchup", [0.18, 0.07, 0.03], [0.061, 0.97, 1.45]),
-    mm("Marble", [2.19, 2.62, 3.00], [0.0021, 0.0041, 0.0071]),
-    mm("Potato", [0.68, 0.70, 0.55], [0.0024, 0.0090, 0.12]),
-    mm("Skimmilk", [0.70, 1.22, 1.90], [0.0014, 0.0025, 0.0142]),
-    mm("Skin1", [0.74, 0.88, 1.01], [0.032, 0.17, 0.48]),
-    mm("Skin2", [1.09, 1.59, 1.79], [0.013, 0.070, 0.145]),
-    mm("Spectralon", [11.6, 20.4, 14.9], [0.00, 0.00, 0.00]),
-    mm("Wholemilk", [2.55, 3.21, 3.77], [0.0011, 0.0024, 0.014]),
-    mm("Lowfat Milk", [0.89187, 1.5136, 2.532], [0.002875, 0.00575, 0.0115]),
-    mm("Reduced Milk", [2.4858, 3.1669, 4.5214], [0.0025556, 0.0051111, 0.012778]),
-    mm("Regular Milk", [4.5513, 5.8294, 7.136], [0.0015333, 0.0046, 0.019933]),
-    mm("Espresso", [0.72378, 0.84557, 1.0247], [4.7984, 6.5751, 8.8493]),
-    mm("Mint Mocha Coffee", [0.31602, 0.38538, 0.48131], [3.772, 5.8228, 7.82]),
-    mm("Lowfat Soy Milk", [0.30576, 0.34233, 0.61664], [0.0014375, 0.0071875, 0.035937]),
-    mm("Regular Soy Milk", [0.59223, 0.73866, 1.4693], [0.0019167, 0.0095833, 0.065167]),
-    mm("Lowfat Chocolate Milk", [0.64925, 0.83916, 1.1057], [0.0115, 0.0368, 0.1564]),
-    mm("Regular Chocolate Milk", [1.4585, 2.1289, 2.9527], [0.010063, 0.043125, 0.14375]),
-    mm("Coke", [8.9053e-05, 8.372e-05, 0.0], [0.10014, 0.16503, 0.2468]),
-    mm("Pepsi", [6.1697e-05, 4.2564e-05, 0.0], [0.091641, 0.14158, 0.20729]),
-    mm("Sprite", [6.0306e-06, 6.4139e-06, 6.5504e-06], [0.001886, 0.0018308, 0.0020025]),
-    mm("Gatorade", [0.0024574, 0.003007, 0.0037325], [0.024794, 0.019289, 0.008878]),
-    mm("Chardonnay", [1.7982e-05, 1.3758e-05, 1.2023e-05], [0.010782, 0.011855, 0.023997]),
-    mm("White Zinfandel", [1.7501e-05, 1.9069e-05, 1.288e-05], [0.012072, 0.016184, 0.019843]),
-    mm("Merlot", [2.1129e-05, 0.0, 0.0], [0.11632, 0.25191, 0.29434]),
-    mm("Budweiser Beer", [2.4356e-05, 2.4079e-05, 1.0564e-05], [0.011492, 0.024911, 0.057786]),
-    mm("Coors Light Beer", [5.0922e-05, 4.301e-05, 0.0], [0.006164, 0.013984, 0.034983]),
-    mm("Clorox", [0.0024035, 0.0031373, 0.003991], [0.0033542, 0.014892, 0.026297]),
-    mm("Apple Juice", [0.00013612, 0.00015836, 0.000227], [0.012957, 0.023741, 0.052184]),
-    mm("Cranberry Juice", [0.00010402, 0.00011646, 7.8139e-05], [0.039437, 0.094223, 0.12426]),
-    mm("Grape Juice", [5.382e-05, 0.0, 0.0], [0.10404, 0.23958, 0.29325]),
-    mm("Ruby Grapefruit Juice", [0.011002, 0.010927, 0.011036], [0.085867, 0.18314, 0.25262]),
-    mm("White Grapefruit Juice", [0.22826, 0.23998, 0.32748], [0.0138, 0.018831, 0.056781]),
-    mm("Shampoo", [0.0007176, 0.0008303, 0.0009016], [0.014107, 0.045693, 0.061717]),
-    mm("Strawberry Shampoo", [0.00015671, 0.00015947, 1.518e-05], [0.01449, 0.05796, 0.075823]),
-    mm("Head & Shoulders Shampoo", [0.023805, 0.028804, 0.034306], [0.084621, 0.15688, 0.20365]),
-    mm("Lemon Tea Powder", [0.040224, 0.045264, 0.051081], [2.4288, 4.5757, 7.2127]),
-    mm("Orange Powder", [0.00015617, 0.00017482, 0.0001762], [0.001449, 0.003441, 0.007863]),
-    mm("Pink Lemonade Powder", [0.00012103, 0.00013073, 0.00012528], [0.001165, 0.002366, 0.003195]),
-    mm("Cappuccino Powder", [1.8436, 2.5851, 2.1662], [35.844, 49.547, 61.084]),
-    mm("Salt Powder", [0.027333, 0.032451, 0.031979], [0.28415, 0.3257, 0.34148]),
-    mm("Sugar Powder", [0.00022272, 0.00025513, 0.000271], [0.012638, 0.031051, 0.050124]),
-    mm("Suisse Mocha Powder", [2.7979, 3.5452, 4.3365], [17.502, 27.004, 35.433]),
-    mm("Pacific Ocean Surface Water", [0.0001764, 0.00032095, 0.00019617], [0.031845, 0.031324, 0.030147]),
-];
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn presets_are_valid_and_named_once() {
-        let mut names: Vec<&str> = MEASURED_MEDIA.iter().map(|m| m.name).collect();
-        names.sort_unstable();
-        names.dedup();
-        assert_eq!(names.len(), MEASURED_MEDIA.len());
-        assert_eq!(MEASURED_MEDIA.len(), 47);
-        for m in MEASURED_MEDIA {
-            assert!(RgbUnboundedSpectrum::new(m.sigma_a).is_ok(), "{}", m.name);
-            assert!(RgbUnboundedSpectrum::new(m.sigma_prime_s).is_ok(), "{}", m.name);
-        }
-    }
 }

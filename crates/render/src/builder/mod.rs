@@ -1,17 +1,21 @@
 //! From a scene description to a render-ready scene. [`build_scene`] reads the directives family by family, each
-//! in its own file: the film (with its filter and sensor), the camera, textures, materials, media, shapes (into the
-//! two-level BVH, with their area lights) and lights (with pbrt-v4's photometric normalisation). The sampler's
-//! `pixelsamples` is read here; the `Integrator` directive by [`Integrator::read`], next to the integrators.
-
-use std::path::PathBuf;
+//! in its own file: the film (with its filter and sensor), the camera, textures, materials (`subsurface` in a file
+//! of its own), media, shapes (into the two-level BVH, with their area lights) and lights (with pbrt-v4's
+//! photometric normalisation). The sampler's `pixelsamples` is read here; the `Integrator` directive by
+//! [`Integrator::read`], next to the integrators.
+//!
+//! The family files depend only on `context` (what they share: the named textures, materials and media with their
+//! lookups, the error helpers, emission and the measured media), never on each other: this file calls them in
+//! order and hands each what the earlier ones made, the functions of one family that another calls included.
 
 use ::film::FilmSpec;
-use scene::{Loc, SceneDescription, SceneError};
+use scene::SceneDescription;
 
 use crate::integrator::{Integrator, IntegratorParams};
 use crate::scene::RenderScene;
 
 mod camera;
+mod context;
 mod film;
 mod lights;
 mod materials;
@@ -20,20 +24,8 @@ mod shapes;
 mod subsurface;
 mod textures;
 
-/// Command-line overrides of the scene's settings.
-#[derive(Clone, Debug, Default)]
-pub struct BuildOptions {
-    /// Film resolution instead of the scene's.
-    pub resolution: Option<(u32, u32)>,
-    /// Samples per pixel instead of the scene's.
-    pub spp: Option<u32>,
-    /// Output file instead of the film's `filename`.
-    pub output: Option<PathBuf>,
-    /// pbrt-v4's `--cropwindow x0 x1 y0 y1` (fractions of the image in [0, 1]): overrides the film's.
-    pub crop_window: Option<[f64; 4]>,
-    /// pbrt-v4's `--pixelbounds x0 x1 y0 y1` (pixels, half-open): overrides the film's.
-    pub pixel_bounds: Option<[u32; 4]>,
-}
+pub use context::BuildOptions;
+use context::{err, unsupported, Result};
 
 /// A scene ready to render, with the settings the scene file chose.
 pub struct BuiltScene {
@@ -49,27 +41,6 @@ pub struct BuiltScene {
     pub triangles: usize,
     /// Warnings (unused parameters, ignored features), each with file, line and column.
     pub warnings: Vec<String>,
-}
-
-type Result<T> = std::result::Result<T, SceneError>;
-
-/// An error at `loc`.
-fn err<T>(loc: &Loc, message: impl Into<String>) -> Result<T> {
-    Err(SceneError::at(loc.clone(), message))
-}
-
-/// `v` if it is finite and positive; otherwise an error naming parameter `name`.
-fn finite_positive(loc: &Loc, name: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        err(loc, format!("'{name}' must be a positive number, got {v}"))
-    }
-}
-
-/// The message for a type name Prismatic does not know, listing the ones it does.
-fn unsupported(what: &str, name: &str, supported: &[&str]) -> String {
-    format!("{what} '{name}' is not supported; supported: {}", supported.join(", "))
 }
 
 /// pbrt-v4's sampler names. Each one maps to Prismatic's own sampler (Owen-scrambled Sobol points per pixel);
@@ -106,9 +77,9 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
 
     // Sampler and integrator.
     let scene_spp = sampler_spp(desc)?;
-    let textures = textures::Textures::build(desc)?;
-    let mut materials = materials::Materials::build(desc, &textures)?;
-    let mut media = media::Media::build(desc)?;
+    let textures = textures::build(desc)?;
+    let mut materials = materials::build(desc, &textures, subsurface::subsurface)?;
+    let mut media = media::build(desc)?;
     // A `subsurface` material's shapes are filled with its medium.
     materials.attach_interiors(&mut media.list);
     let integrator = Integrator::read(&mut IntegratorParams {
@@ -131,7 +102,8 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     let camera_medium = media.of(&desc.camera.medium, &desc.camera.entity.loc)?;
     // Area lights are made with their shapes, so they come before the `LightSource` lights.
     let (mut lights, mut light_media) = (vec![], vec![]);
-    let shapes = shapes::make_geometry(desc, &textures, &materials, &media, &mut lights, &mut light_media)?;
+    let shapes =
+        shapes::make_geometry(desc, &textures, &materials, &media, lights::area_lights, &mut lights, &mut light_media)?;
     lights::make_lights(desc, shapes.scene_radius, &mut lights, &mut warnings)?;
     for le in &desc.lights {
         light_media.push(crate::scene::LightMedium::Fixed(media.of(&le.medium, &le.entity.loc)?));

@@ -20,13 +20,9 @@ use geometry::{
 };
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
-use scene::{Loc, ParamSet, SceneDescription, SceneError, ShapeEntity, TransformMotion};
+use scene::{Entity, Loc, ParamSet, SceneDescription, SceneError, ShapeEntity, TransformMotion};
 
-use super::lights::area_lights;
-use super::materials::Materials;
-use super::media::Media;
-use super::textures::Textures;
-use super::{err, unsupported, Result};
+use super::context::{err, file_err, unsupported, Materials, Media, Result, ShapeAlpha, Textures};
 use crate::light::Light;
 use crate::scene::{LightMedium, MediumInterface, SceneGeometry, ShapeInfo, NO_MATERIAL};
 use crate::texture::FloatTexture;
@@ -55,22 +51,12 @@ fn animated(start: Transform, motion: &Option<TransformMotion>, loc: &Loc, what:
                  into translation, rotation and scale"
             ),
         )
+        .into()
     })
 }
 
 /// An object's shapes, what a hit on each means, and each one's alpha texture (an index into the scene's list).
 type ObjectShapes = (Vec<Shape>, Vec<ShapeInfo>, Vec<Option<u32>>);
-
-/// A shape's alpha (pbrt-v4's `"float alpha"` / `"texture alpha"`): what rays and its area light make of it.
-pub(super) enum ShapeAlpha {
-    /// No alpha, or a constant 1: the fast path.
-    Opaque,
-    /// A constant 0: rays never hit the shape (it is left out of the BVH); an area light on it still emits, found
-    /// only by light sampling, as pbrt-v4's invisible area lights.
-    Invisible,
-    /// Anything else: a stochastic test at every hit.
-    CutOut(FloatTexture),
-}
 
 /// Reads a shape's `alpha`: a constant must lie in [0, 1] (an error naming `alpha` otherwise); a texture is taken
 /// as it is (values are clamped by the test).
@@ -98,12 +84,18 @@ fn shape_alpha(textures: &Textures, p: &ParamSet, loc: &Loc) -> Result<ShapeAlph
     })
 }
 
-/// Builds every shape into the BVH; the world's area lights are appended to `lights`, one per primitive.
+/// How the area lights of a shape are made (`lights.rs`'s `area_lights`, handed over by `mod.rs`): from the
+/// `AreaLightSource` directive, the shape and its alpha, appended to the lights; returns the index of the first.
+pub(super) type MakeAreaLights = fn(&Entity, &Shape, &ShapeAlpha, &mut Vec<Light>) -> Result<u32>;
+
+/// Builds every shape into the BVH; the world's area lights are made by `area_lights` as each shape is (so that the
+/// first error in the file is the one reported) and appended to `lights`, one per primitive.
 pub(super) fn make_geometry(
     desc: &SceneDescription,
     textures: &Textures,
     materials: &Materials,
     named_media: &Media,
+    area_lights: MakeAreaLights,
     lights: &mut Vec<Light>,
     light_media: &mut Vec<LightMedium>,
 ) -> Result<BuiltGeometry> {
@@ -251,8 +243,9 @@ fn indices_u32(p: &ParamSet, loc: &Loc, name: &str) -> Result<Option<Vec<u32>>> 
     let Some(ints) = p.get_ints(name) else { return Ok(None) };
     ints.iter()
         .map(|&i| {
-            u32::try_from(i)
-                .map_err(|_| SceneError::at(loc.clone(), format!("'{name}': index {i} is negative or too large")))
+            u32::try_from(i).map_err(|_| {
+                SceneError::at(loc.clone(), format!("'{name}': index {i} is negative or too large")).into()
+            })
         })
         .collect::<Result<Vec<_>>>()
         .map(Some)
@@ -287,7 +280,7 @@ fn make_shape(se: &ShapeEntity) -> Result<Option<Shape>> {
         }
         "plymesh" => {
             let Some(path) = p.get_filename("filename")? else { return err(loc, "plymesh needs 'string filename'") };
-            let data = geometry::ply::read_ply_file(&path).map_err(|e| geo_err(loc, e))?;
+            let data = geometry::ply::read_ply_file(&path).map_err(|e| file_err(loc, &path, e.to_string()))?;
             if p.contains("displacement") {
                 p.mark_used("displacement");
             }

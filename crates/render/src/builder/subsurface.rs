@@ -9,11 +9,11 @@
 //! the data are reduced coefficients), `sigma_a` and `sigma_s`, `reflectance` with `mfp`, or pbrt-v4's defaults;
 //! all times `scale`.
 
-use scene::{Entity, SceneError, SpectrumKind};
+use scene::{Entity, Loc, SceneError, SpectrumKind};
 use spectral::rgb_uplift::RgbUnboundedSpectrum;
 use spectral::Spectrum;
 
-use super::{err, Result};
+use super::context::{err, measured_medium, Result};
 use crate::material::{DielectricIor, Material, Roughness};
 use crate::medium::{HomogeneousMedium, PhaseFunction};
 
@@ -37,7 +37,7 @@ pub(super) fn subsurface(e: &Entity, roughness: Roughness) -> Result<(Material, 
     let (sigma_a, sigma_s) = if !name.is_empty() {
         // The measured data are reduced scattering coefficients: pbrt-v4 forces g = 0 (with a warning if given).
         g = 0.0;
-        super::media::measured_medium(&name).map_err(|m| SceneError::at(loc("name"), m))?
+        measured_medium(&name, &loc("name"))?
     } else if p.contains("sigma_a") || p.contains("sigma_s") {
         let get = |n: &str| -> Result<Spectrum> {
             p.get_spectrum(n, SpectrumKind::Unbounded)?.ok_or_else(|| {
@@ -45,13 +45,14 @@ pub(super) fn subsurface(e: &Entity, roughness: Roughness) -> Result<(Material, 
                     e.loc.clone(),
                     format!("'sigma_a' and 'sigma_s' must be given together ('{n}' is missing)"),
                 )
+                .into()
             })
         };
         (get("sigma_a")?, get("sigma_s")?)
     } else if p.contains("reflectance") {
         let r = p.get_spectrum("reflectance", SpectrumKind::Albedo)?.unwrap_or(Spectrum::Constant(0.5));
         let mfp = p.get_spectrum("mfp", SpectrumKind::Unbounded)?.unwrap_or(Spectrum::Constant(1.0));
-        from_reflectance(&r, &mfp, eta, g).map_err(|m| SceneError::at(loc("mfp"), m))?
+        from_reflectance(&r, &mfp, eta, g, &loc("mfp"))?
     } else {
         // pbrt-v4's defaults (in mm⁻¹): a skin-like medium.
         let rgb = |v: [f64; 3]| {
@@ -114,18 +115,13 @@ pub(super) fn invert_dipole_reflectance(rd: f64, eta: f64) -> f64 {
 /// albedo that reflects `reflectance` ([`invert_dipole_reflectance`]), turned into the single-scattering albedo of
 /// phase asymmetry g (α' = α(1−g)/(1−αg)). pbrt-v4 inverts its photon-beam-diffusion table instead; both invert
 /// a diffusion model of a flat semi-infinite medium.
-fn from_reflectance(
-    r: &Spectrum,
-    mfp: &Spectrum,
-    eta: f64,
-    g: f64,
-) -> std::result::Result<(Spectrum, Spectrum), String> {
+fn from_reflectance(r: &Spectrum, mfp: &Spectrum, eta: f64, g: f64, loc: &Loc) -> Result<(Spectrum, Spectrum)> {
     let lambdas: Vec<f64> = (0..=94).map(|i| 360.0 + 5.0 * i as f64).collect();
     let (mut sa, mut ss) = (Vec::with_capacity(lambdas.len()), Vec::with_capacity(lambdas.len()));
     for &l in &lambdas {
         let m = mfp.eval(l);
         if !(m.is_finite() && m > 0.0) {
-            return Err(format!("'mfp' must be positive and finite at every wavelength (it is {m} at {l} nm)"));
+            return err(loc, format!("'mfp' must be positive and finite at every wavelength (it is {m} at {l} nm)"));
         }
         let ap = invert_dipole_reflectance(r.eval(l), eta);
         let alpha = ap / (1.0 - g + ap * g);
@@ -133,13 +129,19 @@ fn from_reflectance(
         ss.push(alpha * sigma_t);
         sa.push((1.0 - alpha) * sigma_t);
     }
-    let pl = |v: Vec<f64>| Spectrum::piecewise_linear(lambdas.clone(), v).map_err(|e| e.to_string());
+    let pl = |v: Vec<f64>| {
+        Spectrum::piecewise_linear(lambdas.clone(), v).map_err(|e| SceneError::at(loc.clone(), e.to_string()))
+    };
     Ok((pl(sa)?, pl(ss)?))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn here() -> Loc {
+        Loc::builtin(std::sync::Arc::from(std::path::Path::new("test.pbrt")))
+    }
 
     #[test]
     fn dipole_reflectance_ends_and_inversion() {
@@ -162,7 +164,8 @@ mod tests {
 
     #[test]
     fn reflectance_and_mfp_give_coefficients_that_reflect_it() {
-        let (sa, ss) = from_reflectance(&Spectrum::Constant(0.6), &Spectrum::Constant(0.5), 1.33, 0.0).unwrap();
+        let (sa, ss) =
+            from_reflectance(&Spectrum::Constant(0.6), &Spectrum::Constant(0.5), 1.33, 0.0, &here()).unwrap();
         for l in [400.0, 550.0, 700.0] {
             let (a, s) = (sa.eval(l), ss.eval(l));
             assert!(((a + s) - 2.0).abs() < 1e-9, "σt = 1/mfp");
@@ -170,10 +173,10 @@ mod tests {
         }
         // With g the reduced albedo is what reflects.
         let g = 0.7;
-        let (sa, ss) = from_reflectance(&Spectrum::Constant(0.6), &Spectrum::Constant(1.0), 1.33, g).unwrap();
+        let (sa, ss) = from_reflectance(&Spectrum::Constant(0.6), &Spectrum::Constant(1.0), 1.33, g, &here()).unwrap();
         let alpha = ss.eval(550.0) / (sa.eval(550.0) + ss.eval(550.0));
         let ap = alpha * (1.0 - g) / (1.0 - alpha * g);
         assert!((dipole_reflectance(ap, 1.33) - 0.6).abs() < 1e-6);
-        assert!(from_reflectance(&Spectrum::Constant(0.6), &Spectrum::Constant(0.0), 1.33, 0.0).is_err());
+        assert!(from_reflectance(&Spectrum::Constant(0.6), &Spectrum::Constant(0.0), 1.33, 0.0, &here()).is_err());
     }
 }

@@ -1,25 +1,20 @@
 //! Textures: pbrt-v4's `Texture "name" "float"|"spectrum" "class"` directives — `constant`, `scale`, `mix`,
 //! `directionmix`, `bilerp`, `checkerboard` (2-D and 3-D), `dots`, `fbm`, `wrinkled`, `windy`, `marble` and
 //! `imagemap` — with the 2-D mappings (`uv`, `spherical`, `cylindrical`, `planar`) and the texture's own transform,
-//! and the lookups materials make when a parameter names a texture instead of giving a value. Images are read once
-//! per file and encoding.
-
-use std::cell::{Cell, RefCell};
-use std::collections::{HashMap, HashSet};
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
+//! into the scene's [`Textures`] (in `context.rs`, with the lookups materials make when a parameter names a texture
+//! instead of giving a value, and the images, read once per file and encoding).
 
 use film::ColorEncoding;
 use geometry::Transform;
 use glam::{Affine3A, DVec3, Vec3};
-use scene::{FloatParam, Loc, ParamSet, SceneDescription, SceneError, SpectrumKind, SpectrumParam};
+use scene::{Loc, ParamSet, SceneDescription, SceneError, SpectrumKind};
 use scene::{TextureEntity, TextureValueType};
 use spectral::Spectrum;
 
-use super::{err, unsupported, Result};
+use super::context::{err, unsupported, Result, Textures};
 use crate::texture::{
-    CheckerMapping, FloatTexture, ImageFilter, ImageTexture, MipMap, PointMapping, RgbImage, RgbKind, SpectrumTexture,
-    TextureMapping2D, UvMapping, WrapMode,
+    CheckerMapping, FloatTexture, ImageFilter, ImageTexture, PointMapping, RgbKind, SpectrumTexture, TextureMapping2D,
+    UvMapping, WrapMode,
 };
 
 /// Float texture classes Prismatic reads (pbrt-v4's, `ptex` aside).
@@ -39,22 +34,6 @@ const FLOAT_CLASSES: &[&str] = &[
 /// Spectrum texture classes Prismatic reads (pbrt-v4's, `ptex` aside).
 const SPECTRUM_CLASSES: &[&str] =
     &["constant", "scale", "mix", "directionmix", "bilerp", "checkerboard", "dots", "marble", "imagemap"];
-
-/// The scene's named textures. A spectrum texture is kept twice, uplifted as an albedo and as an unbounded
-/// spectrum, because which one a parameter needs is only known where it is used.
-pub(super) struct Textures {
-    float: HashMap<String, FloatTexture>,
-    spectrum: HashMap<String, (SpectrumTexture, SpectrumTexture)>, // (albedo, unbounded) variants
-    /// Images read so far, by file and encoding (textures and normal maps share them).
-    images: RefCell<HashMap<(PathBuf, String), Arc<RgbImage>>>,
-    /// MIP maps built so far, by image (its address in `images`) and wrap mode.
-    mipmaps: RefCell<HashMap<(usize, WrapMode), Arc<MipMap>>>,
-    /// The named float and spectrum textures that contain an image map (directly or through textures they use).
-    float_with_image: HashSet<String>,
-    spectrum_with_image: HashSet<String>,
-    /// Set whenever a texture containing an image map is built or handed out (see [`Textures::take_image_use`]).
-    image_used: Cell<bool>,
-}
 
 /// A float parameter that must be finite.
 fn finite(p: &ParamSet, loc: &Loc, name: &str, default: f64) -> Result<f32> {
@@ -214,240 +193,142 @@ fn ptex_error(e: &TextureEntity) -> SceneError {
     )
 }
 
-impl Textures {
-    /// Reads every `Texture` directive in order, so a texture can use those defined before it.
-    pub(super) fn build(desc: &SceneDescription) -> Result<Self> {
-        let mut t = Textures {
-            float: HashMap::new(),
-            spectrum: HashMap::new(),
-            images: RefCell::default(),
-            mipmaps: RefCell::default(),
-            float_with_image: HashSet::new(),
-            spectrum_with_image: HashSet::new(),
-            image_used: Cell::new(false),
-        };
-        for te in &desc.textures {
-            t.take_image_use();
-            match te.value_type {
-                TextureValueType::Float => {
-                    let tex = t.float_texture(te)?;
-                    t.float.insert(te.texture_name.clone(), tex);
-                    if t.take_image_use() {
-                        t.float_with_image.insert(te.texture_name.clone());
-                    }
-                }
-                TextureValueType::Spectrum => {
-                    let pair = (
-                        t.spectrum_texture(te, SpectrumKind::Albedo)?,
-                        t.spectrum_texture(te, SpectrumKind::Unbounded)?,
-                    );
-                    t.spectrum.insert(te.texture_name.clone(), pair);
-                    if t.take_image_use() {
-                        t.spectrum_with_image.insert(te.texture_name.clone());
-                    }
-                }
+/// Reads every `Texture` directive in order, so a texture can use those defined before it.
+pub(super) fn build(desc: &SceneDescription) -> Result<Textures> {
+    let mut t = Textures::new();
+    for te in &desc.textures {
+        t.take_image_use();
+        match te.value_type {
+            TextureValueType::Float => {
+                let tex = float_texture(&t, te)?;
+                let with_image = t.take_image_use();
+                t.define_float(&te.texture_name, tex, with_image);
             }
-        }
-        Ok(t)
-    }
-
-    /// Whether a texture containing an image map was built or handed out (by [`Textures::float_param`],
-    /// [`Textures::spectrum_param`]) since the last call: what a material reads through footprints.
-    pub(super) fn take_image_use(&self) -> bool {
-        self.image_used.replace(false)
-    }
-
-    /// The image at `path` read with `encoding` (named `enc_name`), from the cache if it was read before.
-    pub(super) fn image(
-        &self,
-        path: &Path,
-        encoding: ColorEncoding,
-        enc_name: &str,
-        loc: &Loc,
-    ) -> Result<Arc<RgbImage>> {
-        let key = (path.to_path_buf(), enc_name.to_ascii_lowercase());
-        if let Some(img) = self.images.borrow().get(&key) {
-            return Ok(img.clone());
-        }
-        let (w, h, pixels) = film::read_rgb_encoded(path, encoding)
-            .map_err(|e| SceneError::at(loc.clone(), format!("cannot read image {}: {e}", path.display())))?;
-        if w == 0 || h == 0 {
-            return err(loc, format!("image {} is empty", path.display()));
-        }
-        let img = Arc::new(RgbImage { width: w as usize, height: h as usize, pixels });
-        self.images.borrow_mut().insert(key, img.clone());
-        Ok(img)
-    }
-
-    /// The MIP map of `image` (one of `images`) under `wrap`, built once.
-    fn mipmap(&self, image: &Arc<RgbImage>, wrap: WrapMode) -> Arc<MipMap> {
-        self.image_used.set(true);
-        let key = (Arc::as_ptr(image) as usize, wrap);
-        self.mipmaps.borrow_mut().entry(key).or_insert_with(|| Arc::new(MipMap::new(image, wrap))).clone()
-    }
-
-    fn float_texture(&self, te: &TextureEntity) -> Result<FloatTexture> {
-        let (e, rft) = (&te.entity, &te.render_from_texture);
-        let (p, loc) = (&e.params, &e.loc);
-        let b = |t: FloatTexture| Box::new(t);
-        Ok(match e.name.as_str() {
-            "constant" => FloatTexture::Constant(finite(p, loc, "value", 1.0)?),
-            "scale" => FloatTexture::Scale {
-                tex: b(self.float_param(p, "tex", 1.0)?),
-                scale: b(self.float_param(p, "scale", 1.0)?),
-            },
-            "mix" => FloatTexture::Mix {
-                tex1: b(self.float_param(p, "tex1", 0.0)?),
-                tex2: b(self.float_param(p, "tex2", 1.0)?),
-                amount: b(self.float_param(p, "amount", 0.5)?),
-            },
-            "directionmix" => FloatTexture::DirectionMix {
-                tex1: b(self.float_param(p, "tex1", 0.0)?),
-                tex2: b(self.float_param(p, "tex2", 1.0)?),
-                dir: mix_direction(p, loc, rft)?,
-            },
-            "bilerp" => FloatTexture::Bilerp {
-                map: Box::new(mapping_2d(p, loc, rft)?),
-                v: [
-                    finite(p, loc, "v00", 0.0)?,
-                    finite(p, loc, "v01", 1.0)?,
-                    finite(p, loc, "v10", 0.0)?,
-                    finite(p, loc, "v11", 1.0)?,
-                ],
-            },
-            "checkerboard" => FloatTexture::Checkerboard {
-                map: Box::new(checker_mapping(p, loc, rft)?),
-                tex1: b(self.float_param(p, "tex1", 1.0)?),
-                tex2: b(self.float_param(p, "tex2", 0.0)?),
-            },
-            // pbrt-v4 hands `inside` and `outside` to its dots texture in swapped order, so its dots show
-            // `outside` and the rest `inside`; Prismatic renders pbrt-v4 scenes as pbrt-v4 does.
-            "dots" => FloatTexture::Dots {
-                map: Box::new(mapping_2d(p, loc, rft)?),
-                background: b(self.float_param(p, "inside", 1.0)?),
-                dot: b(self.float_param(p, "outside", 0.0)?),
-            },
-            "fbm" => FloatTexture::Fbm {
-                map: Box::new(mapping_3d(rft)),
-                octaves: octaves(p, loc)?,
-                omega: finite(p, loc, "roughness", 0.5)?,
-            },
-            "wrinkled" => FloatTexture::Wrinkled {
-                map: Box::new(mapping_3d(rft)),
-                octaves: octaves(p, loc)?,
-                omega: finite(p, loc, "roughness", 0.5)?,
-            },
-            "windy" => FloatTexture::Windy { map: Box::new(mapping_3d(rft)) },
-            "imagemap" => FloatTexture::Image(Box::new(image_texture(self, te)?)),
-            "ptex" => return Err(ptex_error(te)),
-            other => return err(loc, unsupported("float texture", other, FLOAT_CLASSES)),
-        })
-    }
-
-    fn spectrum_texture(&self, te: &TextureEntity, kind: SpectrumKind) -> Result<SpectrumTexture> {
-        let (e, rft) = (&te.entity, &te.render_from_texture);
-        let (p, loc) = (&e.params, &e.loc);
-        let b = |t: SpectrumTexture| Box::new(t);
-        let f = |t: FloatTexture| Box::new(t);
-        Ok(match e.name.as_str() {
-            "constant" => SpectrumTexture::Constant(spectrum_or(p, "value", kind, 1.0)?),
-            "scale" => SpectrumTexture::Scale {
-                tex: b(self.spectrum_param(p, "tex", kind, 1.0)?),
-                scale: f(self.float_param(p, "scale", 1.0)?),
-            },
-            "mix" => SpectrumTexture::Mix {
-                tex1: b(self.spectrum_param(p, "tex1", kind, 0.0)?),
-                tex2: b(self.spectrum_param(p, "tex2", kind, 1.0)?),
-                amount: f(self.float_param(p, "amount", 0.5)?),
-            },
-            "directionmix" => SpectrumTexture::DirectionMix {
-                tex1: b(self.spectrum_param(p, "tex1", kind, 0.0)?),
-                tex2: b(self.spectrum_param(p, "tex2", kind, 1.0)?),
-                dir: mix_direction(p, loc, rft)?,
-            },
-            "bilerp" => SpectrumTexture::Bilerp {
-                map: Box::new(mapping_2d(p, loc, rft)?),
-                v: Box::new([
-                    spectrum_or(p, "v00", kind, 0.0)?,
-                    spectrum_or(p, "v01", kind, 1.0)?,
-                    spectrum_or(p, "v10", kind, 0.0)?,
-                    spectrum_or(p, "v11", kind, 1.0)?,
-                ]),
-            },
-            "checkerboard" => SpectrumTexture::Checkerboard {
-                map: Box::new(checker_mapping(p, loc, rft)?),
-                tex1: b(self.spectrum_param(p, "tex1", kind, 1.0)?),
-                tex2: b(self.spectrum_param(p, "tex2", kind, 0.0)?),
-            },
-            // Swapped as in pbrt-v4 (see the float dots).
-            "dots" => SpectrumTexture::Dots {
-                map: Box::new(mapping_2d(p, loc, rft)?),
-                background: b(self.spectrum_param(p, "inside", kind, 1.0)?),
-                dot: b(self.spectrum_param(p, "outside", kind, 0.0)?),
-            },
-            "marble" => SpectrumTexture::Marble {
-                map: Box::new(mapping_3d(rft)),
-                octaves: octaves(p, loc)?,
-                omega: finite(p, loc, "roughness", 0.5)?,
-                scale: finite(p, loc, "scale", 1.0)?,
-                variation: finite(p, loc, "variation", 0.2)?,
-            },
-            "imagemap" => SpectrumTexture::Image {
-                tex: Box::new(image_texture(self, te)?),
-                kind: if kind == SpectrumKind::Albedo { RgbKind::Albedo } else { RgbKind::Unbounded },
-            },
-            "ptex" => return Err(ptex_error(te)),
-            other => return err(loc, unsupported("spectrum texture", other, SPECTRUM_CLASSES)),
-        })
-    }
-
-    /// A float parameter that may name a float texture.
-    pub(super) fn float_param(&self, p: &ParamSet, name: &str, default: f64) -> Result<FloatTexture> {
-        match p.get_float_texture(name, default)? {
-            FloatParam::Value(v) => {
-                if !v.is_finite() {
-                    let at =
-                        p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| Loc::builtin(Arc::from(PathBuf::new())));
-                    return err(&at, format!("'{name}' must be a finite number, got {v}"));
-                }
-                Ok(FloatTexture::Constant(v as f32))
-            }
-            FloatParam::Texture(t) => {
-                if self.float_with_image.contains(&t) {
-                    self.image_used.set(true);
-                }
-                self.float.get(&t).cloned().ok_or_else(|| {
-                    SceneError::at(p.get(name).map(|q| q.loc.clone()).unwrap(), format!("no float texture named '{t}'"))
-                })
+            TextureValueType::Spectrum => {
+                let pair = (
+                    spectrum_texture(&t, te, SpectrumKind::Albedo)?,
+                    spectrum_texture(&t, te, SpectrumKind::Unbounded)?,
+                );
+                let with_image = t.take_image_use();
+                t.define_spectrum(&te.texture_name, pair, with_image);
             }
         }
     }
+    Ok(t)
+}
 
-    /// A spectrum parameter that may be a texture; `kind` chooses the albedo or unbounded uplifting.
-    pub(super) fn spectrum_param(
-        &self,
-        p: &ParamSet,
-        name: &str,
-        kind: SpectrumKind,
-        default: f64,
-    ) -> Result<SpectrumTexture> {
-        match p.get_spectrum_texture(name, kind)? {
-            None => Ok(SpectrumTexture::Constant(Spectrum::Constant(default))),
-            Some(SpectrumParam::Value(v)) => Ok(SpectrumTexture::Constant(v)),
-            Some(SpectrumParam::Texture(t)) => {
-                let pair = self.spectrum.get(&t).ok_or_else(|| {
-                    SceneError::at(
-                        p.get(name).map(|q| q.loc.clone()).unwrap(),
-                        format!("no spectrum texture named '{t}'"),
-                    )
-                })?;
-                if self.spectrum_with_image.contains(&t) {
-                    self.image_used.set(true);
-                }
-                Ok(if kind == SpectrumKind::Albedo { pair.0.clone() } else { pair.1.clone() })
-            }
+fn float_texture(t: &Textures, te: &TextureEntity) -> Result<FloatTexture> {
+    let (e, rft) = (&te.entity, &te.render_from_texture);
+    let (p, loc) = (&e.params, &e.loc);
+    let b = |t: FloatTexture| Box::new(t);
+    Ok(match e.name.as_str() {
+        "constant" => FloatTexture::Constant(finite(p, loc, "value", 1.0)?),
+        "scale" => {
+            FloatTexture::Scale { tex: b(t.float_param(p, "tex", 1.0)?), scale: b(t.float_param(p, "scale", 1.0)?) }
         }
-    }
+        "mix" => FloatTexture::Mix {
+            tex1: b(t.float_param(p, "tex1", 0.0)?),
+            tex2: b(t.float_param(p, "tex2", 1.0)?),
+            amount: b(t.float_param(p, "amount", 0.5)?),
+        },
+        "directionmix" => FloatTexture::DirectionMix {
+            tex1: b(t.float_param(p, "tex1", 0.0)?),
+            tex2: b(t.float_param(p, "tex2", 1.0)?),
+            dir: mix_direction(p, loc, rft)?,
+        },
+        "bilerp" => FloatTexture::Bilerp {
+            map: Box::new(mapping_2d(p, loc, rft)?),
+            v: [
+                finite(p, loc, "v00", 0.0)?,
+                finite(p, loc, "v01", 1.0)?,
+                finite(p, loc, "v10", 0.0)?,
+                finite(p, loc, "v11", 1.0)?,
+            ],
+        },
+        "checkerboard" => FloatTexture::Checkerboard {
+            map: Box::new(checker_mapping(p, loc, rft)?),
+            tex1: b(t.float_param(p, "tex1", 1.0)?),
+            tex2: b(t.float_param(p, "tex2", 0.0)?),
+        },
+        // pbrt-v4 hands `inside` and `outside` to its dots texture in swapped order, so its dots show
+        // `outside` and the rest `inside`; Prismatic renders pbrt-v4 scenes as pbrt-v4 does.
+        "dots" => FloatTexture::Dots {
+            map: Box::new(mapping_2d(p, loc, rft)?),
+            background: b(t.float_param(p, "inside", 1.0)?),
+            dot: b(t.float_param(p, "outside", 0.0)?),
+        },
+        "fbm" => FloatTexture::Fbm {
+            map: Box::new(mapping_3d(rft)),
+            octaves: octaves(p, loc)?,
+            omega: finite(p, loc, "roughness", 0.5)?,
+        },
+        "wrinkled" => FloatTexture::Wrinkled {
+            map: Box::new(mapping_3d(rft)),
+            octaves: octaves(p, loc)?,
+            omega: finite(p, loc, "roughness", 0.5)?,
+        },
+        "windy" => FloatTexture::Windy { map: Box::new(mapping_3d(rft)) },
+        "imagemap" => FloatTexture::Image(Box::new(image_texture(t, te)?)),
+        "ptex" => return Err(ptex_error(te).into()),
+        other => return err(loc, unsupported("float texture", other, FLOAT_CLASSES)),
+    })
+}
+
+fn spectrum_texture(t: &Textures, te: &TextureEntity, kind: SpectrumKind) -> Result<SpectrumTexture> {
+    let (e, rft) = (&te.entity, &te.render_from_texture);
+    let (p, loc) = (&e.params, &e.loc);
+    let b = |t: SpectrumTexture| Box::new(t);
+    let f = |t: FloatTexture| Box::new(t);
+    Ok(match e.name.as_str() {
+        "constant" => SpectrumTexture::Constant(spectrum_or(p, "value", kind, 1.0)?),
+        "scale" => SpectrumTexture::Scale {
+            tex: b(t.spectrum_param(p, "tex", kind, 1.0)?),
+            scale: f(t.float_param(p, "scale", 1.0)?),
+        },
+        "mix" => SpectrumTexture::Mix {
+            tex1: b(t.spectrum_param(p, "tex1", kind, 0.0)?),
+            tex2: b(t.spectrum_param(p, "tex2", kind, 1.0)?),
+            amount: f(t.float_param(p, "amount", 0.5)?),
+        },
+        "directionmix" => SpectrumTexture::DirectionMix {
+            tex1: b(t.spectrum_param(p, "tex1", kind, 0.0)?),
+            tex2: b(t.spectrum_param(p, "tex2", kind, 1.0)?),
+            dir: mix_direction(p, loc, rft)?,
+        },
+        "bilerp" => SpectrumTexture::Bilerp {
+            map: Box::new(mapping_2d(p, loc, rft)?),
+            v: Box::new([
+                spectrum_or(p, "v00", kind, 0.0)?,
+                spectrum_or(p, "v01", kind, 1.0)?,
+                spectrum_or(p, "v10", kind, 0.0)?,
+                spectrum_or(p, "v11", kind, 1.0)?,
+            ]),
+        },
+        "checkerboard" => SpectrumTexture::Checkerboard {
+            map: Box::new(checker_mapping(p, loc, rft)?),
+            tex1: b(t.spectrum_param(p, "tex1", kind, 1.0)?),
+            tex2: b(t.spectrum_param(p, "tex2", kind, 0.0)?),
+        },
+        // Swapped as in pbrt-v4 (see the float dots).
+        "dots" => SpectrumTexture::Dots {
+            map: Box::new(mapping_2d(p, loc, rft)?),
+            background: b(t.spectrum_param(p, "inside", kind, 1.0)?),
+            dot: b(t.spectrum_param(p, "outside", kind, 0.0)?),
+        },
+        "marble" => SpectrumTexture::Marble {
+            map: Box::new(mapping_3d(rft)),
+            octaves: octaves(p, loc)?,
+            omega: finite(p, loc, "roughness", 0.5)?,
+            scale: finite(p, loc, "scale", 1.0)?,
+            variation: finite(p, loc, "variation", 0.2)?,
+        },
+        "imagemap" => SpectrumTexture::Image {
+            tex: Box::new(image_texture(t, te)?),
+            kind: if kind == SpectrumKind::Albedo { RgbKind::Albedo } else { RgbKind::Unbounded },
+        },
+        "ptex" => return Err(ptex_error(te).into()),
+        other => return err(loc, unsupported("spectrum texture", other, SPECTRUM_CLASSES)),
+    })
 }
 
 fn spectrum_or(p: &ParamSet, name: &str, kind: SpectrumKind, default: f64) -> Result<Spectrum> {

@@ -29,9 +29,8 @@ use std::borrow::Cow;
 use std::f32::consts::PI;
 use std::ops::Range;
 
-use film::{Film, FilmError};
+use film::Film;
 use glam::{Vec2, Vec3};
-use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{
@@ -43,7 +42,7 @@ use super::transport::{
     begin_bounce, scatter, Bounce, BounceSamples, PathRay, ShadowRay, ShadowTarget, SurfaceVertex, Tracer,
 };
 use super::volume::{shadow_transmittance, weigh_tracking, ShadowTransmittance, SpectralMis, TrackingSeed};
-use super::{Integrate, IntegratorParams, Needs, RenderJob};
+use super::{Integrate, IntegratorParams, Needs, RenderError, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
 use crate::camera::{Camera, CameraRay};
 use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
@@ -953,7 +952,7 @@ impl BdptIntegrator {
 const BDPT_CONNECT_SEED_SALT: u32 = 0x636f_6e6e;
 
 impl Integrate for BdptIntegrator {
-    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+    fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         params.warn_unrendered_media_glow("bdpt");
         Ok(BdptIntegrator { max_depth: params.max_depth()? })
     }
@@ -967,7 +966,7 @@ impl Integrate for BdptIntegrator {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         Ok(Box::new(BdptRender { integrator: self, scene, camera: CameraSampler::new(film)?, seed }))
     }
 }

@@ -11,9 +11,8 @@
 
 use std::ops::Range;
 
-use film::{Film, FilmError};
+use film::Film;
 use glam::Vec2;
-use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{render_splatting, CameraPaths, RenderStats, SampleRecords, LIGHT_PATH_SEED_SALT};
@@ -21,7 +20,7 @@ use super::light_walk::{walk_light_path, LightVertexAt, LightWalk};
 use super::transport::{adjoint_cos, next_medium, ShadowRay, ShadowTarget, Tracer};
 use super::volume::{shadow_transmittance, TrackingSeed};
 use super::volume_paths::VolumePaths;
-use super::{Integrate, IntegratorParams, Needs, RenderJob};
+use super::{Integrate, IntegratorParams, Needs, RenderError, RenderJob};
 use crate::bxdf::TransportMode;
 use crate::sampler::{hash_words, Sampler};
 use crate::scene::RenderScene;
@@ -76,7 +75,7 @@ impl LightPathIntegrator {
 }
 
 impl Integrate for LightPathIntegrator {
-    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+    fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         params.warn_unrendered_media_glow("lightpath");
         Ok(LightPathIntegrator { max_depth: params.max_depth()? })
     }
@@ -90,7 +89,7 @@ impl Integrate for LightPathIntegrator {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         // Emitters seen directly (through media, and media that glow): a volumetric path tracer that stops before
         // the first scattering event.
         let direct = VolumePaths { max_depth: 0, split_dispersion: true };

@@ -14,10 +14,11 @@
 
 use std::ops::Range;
 
-use film::{Film, FilmError};
+use film::Film;
 use scene::{Entity, Loc, SceneError};
 
 use crate::scene::RenderScene;
+use crate::RenderError;
 
 // The integrators, one file each (listed again in `integrators!` below).
 pub mod bdpt;
@@ -85,11 +86,14 @@ pub trait RenderJob: Send {
 
     /// Puts back a state saved by [`RenderJob::save_state`] of a job of the same integrator, scene and film, so that
     /// the next passes continue that render exactly. A state of another shape is an error, never a panic.
-    fn restore_state(&mut self, state: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, state: &[u8]) -> Result<(), RenderError> {
         if state.is_empty() {
             Ok(())
         } else {
-            Err(format!("this integrator keeps no state outside the film, but {} bytes were given", state.len()))
+            let n = state.len();
+            Err(RenderError::StateMismatch(format!(
+                "this integrator keeps no state outside the film, but {n} bytes were given"
+            )))
         }
     }
 }
@@ -125,16 +129,17 @@ impl IntegratorParams<'_> {
     }
 
     /// pbrt-v4's `maxdepth` (default 5; negative values are an error; capped at 1000).
-    pub fn max_depth(&self) -> Result<u32, SceneError> {
+    pub fn max_depth(&self) -> Result<u32, RenderError> {
         let md = self.entity.params.get_int("maxdepth", 5)?;
         if md < 0 {
-            return Err(SceneError::at(self.loc_of("maxdepth"), format!("'maxdepth' must be non-negative, got {md}")));
+            let message = format!("'maxdepth' must be non-negative, got {md}");
+            return Err(SceneError::at(self.loc_of("maxdepth"), message).into());
         }
         Ok(md.min(1_000) as u32)
     }
 
     /// A positive integer parameter (at most 2²⁰), or `default`.
-    pub fn count(&self, name: &str, default: i64) -> Result<u32, SceneError> {
+    pub fn count(&self, name: &str, default: i64) -> Result<u32, RenderError> {
         Ok(self.entity.params.get_count(name, default, &self.entity.loc)? as u32)
     }
 }
@@ -142,7 +147,7 @@ impl IntegratorParams<'_> {
 /// What every integrator implements.
 pub trait Integrate: Sync + std::fmt::Debug {
     /// Reads the integrator's parameters, naming the bad one with its file, line and column.
-    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError>
+    fn read(params: &mut IntegratorParams) -> Result<Self, RenderError>
     where
         Self: Sized;
 
@@ -163,7 +168,7 @@ pub trait Integrate: Sync + std::fmt::Debug {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError>;
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError>;
 }
 
 /// Declares, per integrator, the re-export of its type from its module, a variant of [`Integrator`], its pbrt-v4
@@ -197,7 +202,7 @@ macro_rules! integrators {
                 }
             }
 
-            fn read_named(params: &mut IntegratorParams) -> Option<Result<Self, SceneError>> {
+            fn read_named(params: &mut IntegratorParams) -> Option<Result<Self, RenderError>> {
                 match params.entity.name.as_str() {
                     $($name $(| $alias)* => Some(<$ty>::read(params).map(Integrator::$variant)),)*
                     _ => None,
@@ -222,13 +227,14 @@ integrators! {
 
 impl Integrator {
     /// Reads an `Integrator` directive. An unknown name is an error that lists the supported ones.
-    pub fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+    pub fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         Self::read_named(params).unwrap_or_else(|| {
             let e = params.entity;
             Err(SceneError::at(
                 e.loc.clone(),
                 format!("integrator '{}' is not supported; supported: {}", e.name, Self::NAMES.join(", ")),
-            ))
+            )
+            .into())
         })
     }
 
@@ -248,7 +254,7 @@ impl Integrator {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         self.get().begin(scene, film, seed)
     }
 
@@ -261,7 +267,7 @@ impl Integrator {
         passes: Range<u32>,
         seed: u32,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> Result<RenderStats, FilmError> {
+    ) -> Result<RenderStats, RenderError> {
         let mut job = self.begin(scene, film, seed)?;
         let stats = job.run(film, passes, progress);
         job.finish(film);

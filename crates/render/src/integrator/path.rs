@@ -2,9 +2,8 @@
 //! heuristic) between light and BSDF sampling, light selection by power, Russian roulette and `maxdepth`
 //! (Veach 1997 ch. 9; pbrt-v4 §13.4).
 
-use film::{Film, FilmError};
+use film::Film;
 use glam::Vec3;
-use scene::SceneError;
 use spectral::{SampledSpectrum, SampledWavelengths};
 
 use super::drive::{begin_camera_bounce, CameraBounce, CameraPaths, Depth, FirstHit, Radiance};
@@ -12,7 +11,7 @@ use super::manifold::{self, ChainTrack};
 use super::transport::{
     russian_roulette, sample_direct_light, scatter, BounceSamples, DirectLight, PathRay, SurfaceVertex, Tracer,
 };
-use super::{Integrate, IntegratorParams, RenderJob};
+use super::{Integrate, IntegratorParams, RenderError, RenderJob};
 use crate::bxdf::{BsdfSample, DispersiveSplit, TransportMode};
 use crate::camera::CameraRay;
 use crate::sampler::Sampler;
@@ -219,7 +218,7 @@ impl Radiance for PathIntegrator {
 }
 
 impl Integrate for PathIntegrator {
-    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+    fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         let max_depth = params.max_depth()?;
         let split_dispersion = params.entity.params.get_bool("splitdispersion", true)?;
         let manifold_nee = params.entity.params.get_bool("manifoldnee", false)?;
@@ -238,7 +237,7 @@ impl Integrate for PathIntegrator {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         Ok(Box::new(CameraPaths::new(*self, scene, film, seed)?))
     }
 }

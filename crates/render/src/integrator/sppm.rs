@@ -19,7 +19,7 @@
 use std::f64::consts::PI;
 use std::ops::Range;
 
-use film::{Film, FilmError, SampleConversion};
+use film::{Film, SampleConversion};
 use glam::Vec3;
 use rayon::prelude::*;
 use scene::SceneError;
@@ -30,7 +30,7 @@ use super::drive::{CameraSample, CameraSampler, SurfaceRecord, SurfaceRecords};
 use super::light_walk::{walk_light_path, LightVertexAt, LightWalk};
 use super::transport::{sample_direct_light, scatter, BounceSamples, DirectLight, PathRay, SurfaceVertex, Tracer};
 use super::volume::{sample_ld, weigh_tracking, ScatterVertex, SpectralMis};
-use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderJob};
+use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderError, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
 use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::{hash_words, Sampler};
@@ -112,7 +112,7 @@ pub struct SppmState {
 
 impl SppmState {
     /// A fresh state for `film` with the integrator's initial radius.
-    pub fn new(film: &Film, integrator: &SppmIntegrator) -> Result<Self, FilmError> {
+    pub fn new(film: &Film, integrator: &SppmIntegrator) -> Result<Self, RenderError> {
         // Only the film's pixel bounds are rendered (a crop), with full-image pixel coordinates.
         let b = film.bounds();
         let (w, h) = (b.width(), b.height());
@@ -180,7 +180,7 @@ impl SppmState {
     /// Puts back a state written by [`SppmState::to_bytes`] for the same pixels and buckets; anything else (other
     /// sizes, a wrong length, radii that are not positive, counts that are not finite) is an error and leaves
     /// the state as it was.
-    pub fn restore(&mut self, bytes: &[u8]) -> Result<(), String> {
+    pub fn restore(&mut self, bytes: &[u8]) -> Result<(), RenderError> {
         let npix = self.pixels.len();
         let nb = self.nbuckets;
         let want = npix
@@ -188,12 +188,12 @@ impl SppmState {
             .and_then(|n| n.checked_mul(8))
             .and_then(|n| n.checked_add(Self::HEADER_BYTES));
         if Some(bytes.len()) != want {
-            return Err(format!(
+            return Err(RenderError::StateMismatch(format!(
                 "the photon-mapping state has {} bytes; {} pixels with {nb} buckets need {}",
                 bytes.len(),
                 npix,
                 want.map_or("more than can be addressed".into(), |n| n.to_string())
-            ));
+            )));
         }
         let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap_or_default());
         let f64_at = |i: usize| f64::from_le_bytes(bytes[i..i + 8].try_into().unwrap_or_default());
@@ -202,11 +202,11 @@ impl SppmState {
         let dims = [u32_at(12), u32_at(16), u32_at(20), u32_at(24), u32_at(28)];
         let own = [self.origin.0, self.origin.1, self.width, self.height, nb as u32];
         if dims != own {
-            return Err(format!(
+            return Err(RenderError::StateMismatch(format!(
                 "the photon-mapping state is for pixels at ({}, {}) of {}×{} with {} buckets, not ({}, {}) of {}×{} \
                  with {}",
                 dims[0], dims[1], dims[2], dims[3], dims[4], own[0], own[1], own[2], own[3], own[4]
-            ));
+            )));
         }
         let mut at = Self::HEADER_BYTES;
         let mut pixels = Vec::with_capacity(npix);
@@ -215,7 +215,10 @@ impl SppmState {
             at += 8 * Self::PIXEL_VALUES;
             let valid = v.iter().all(|x| x.is_finite()) && v[0] > 0.0 && v[1] >= 0.0;
             if !valid {
-                return Err(format!("the photon-mapping state holds a pixel with radius {} and count {}", v[0], v[1]));
+                let (r, n) = (v[0], v[1]);
+                return Err(RenderError::StateMismatch(format!(
+                    "the photon-mapping state holds a pixel with radius {r} and count {n}"
+                )));
             }
             pixels.push(PixelState {
                 radius: v[0],
@@ -686,18 +689,18 @@ impl SppmIntegrator {
 }
 
 impl Integrate for SppmIntegrator {
-    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+    fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         params.warn_unrendered_media_glow("sppm");
         let p = &params.entity.params;
         let photons = p.get_int("photonsperiteration", -1)?;
         let radius = p.get_float("radius", 1.0)?;
         if !(radius.is_finite() && radius > 0.0) {
             let msg = format!("'radius' must be a positive number, got {radius}");
-            return Err(SceneError::at(params.loc_of("radius"), msg));
+            return Err(SceneError::at(params.loc_of("radius"), msg).into());
         }
         if photons == 0 || !(-1..=1 << 32).contains(&photons) {
             let msg = format!("'photonsperiteration' must be positive (or -1 for one per pixel), got {photons}");
-            return Err(SceneError::at(params.loc_of("photonsperiteration"), msg));
+            return Err(SceneError::at(params.loc_of("photonsperiteration"), msg).into());
         }
         Ok(SppmIntegrator {
             max_depth: params.max_depth()?,
@@ -720,7 +723,7 @@ impl Integrate for SppmIntegrator {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         Ok(Box::new(SppmRender { integrator: self, scene, state: SppmState::new(film, self)?, seed }))
     }
 }
@@ -746,7 +749,7 @@ impl RenderJob for SppmRender<'_> {
         self.state.to_bytes()
     }
 
-    fn restore_state(&mut self, state: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, state: &[u8]) -> Result<(), RenderError> {
         self.state.restore(state)
     }
 }

@@ -8,12 +8,11 @@
 //! Absorbing-only media attenuate in closed form (Beer–Lambert) instead of by tracking. The estimator is
 //! `volume_paths::VolumePaths`, which the light tracer shares.
 
-use film::{Film, FilmError};
-use scene::SceneError;
+use film::Film;
 
 use super::drive::CameraPaths;
 use super::volume_paths::VolumePaths;
-use super::{Integrate, IntegratorParams, RenderJob};
+use super::{Integrate, IntegratorParams, RenderError, RenderJob};
 use crate::scene::RenderScene;
 
 /// The `volpath` integrator.
@@ -27,7 +26,7 @@ pub struct VolPathIntegrator {
 }
 
 impl Integrate for VolPathIntegrator {
-    fn read(params: &mut IntegratorParams) -> Result<Self, SceneError> {
+    fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         Ok(VolPathIntegrator {
             max_depth: params.max_depth()?,
             split_dispersion: params.entity.params.get_bool("splitdispersion", true)?,
@@ -39,7 +38,7 @@ impl Integrate for VolPathIntegrator {
         scene: &'a RenderScene,
         film: &Film,
         seed: u32,
-    ) -> Result<Box<dyn RenderJob + 'a>, FilmError> {
+    ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         let paths = VolumePaths { max_depth: self.max_depth, split_dispersion: self.split_dispersion };
         Ok(Box::new(CameraPaths::new(paths, scene, film, seed)?))
     }

@@ -37,6 +37,8 @@ use glam::{Vec2, Vec3};
 use spectral::rgb_uplift::RgbUnboundedSpectrum;
 use spectral::{SampledSpectrum, N_WAVELENGTHS};
 
+use crate::error::invalid_data as bad;
+use crate::RenderError;
 use tensor::{DType, TensorFile};
 use warp::{Warp2D, WarpSample};
 
@@ -116,30 +118,30 @@ struct Coords {
 }
 
 impl MeasuredBrdf {
-    /// Reads and checks a tensor file. The error says what is wrong but not the path (the caller adds it).
-    pub fn read(path: &Path) -> Result<MeasuredBrdf, String> {
-        MeasuredBrdf::from_tensor(&TensorFile::read(path)?)
+    /// Reads and checks a tensor file; the error names the file.
+    pub fn read(path: &Path) -> Result<MeasuredBrdf, RenderError> {
+        MeasuredBrdf::from_tensor(&TensorFile::read(path)?).map_err(|e| e.in_file(path))
     }
 
     /// Builds the BRDF from a tensor file's fields, checking their types and shapes against each other as pbrt-v4
     /// and Mitsuba do (pbrt-v4 reads only `spectra`; Mitsuba also reads `rgb` files, which have no `wavelengths`).
-    pub fn from_tensor(t: &TensorFile) -> Result<MeasuredBrdf, String> {
-        let field = |name: &str| t.field(name).ok_or_else(|| format!("the field '{name}' is missing"));
-        let floats = |name: &str, rank: usize| -> Result<(Vec<f32>, Vec<usize>), String> {
+    pub fn from_tensor(t: &TensorFile) -> Result<MeasuredBrdf, RenderError> {
+        let field = |name: &str| t.field(name).ok_or_else(|| bad(format!("the field '{name}' is missing")));
+        let floats = |name: &str, rank: usize| -> Result<(Vec<f32>, Vec<usize>), RenderError> {
             let f = field(name)?;
             if f.shape.len() != rank {
-                return Err(format!("field '{name}' has rank {}, expected {rank}", f.shape.len()));
+                return Err(bad(format!("field '{name}' has rank {}, expected {rank}", f.shape.len())));
             }
             Ok((t.f32s(f)?, f.shape.clone()))
         };
         let description = field("description")?;
         if description.dtype != DType::UInt8 || description.shape.len() != 1 {
-            return Err("field 'description' must be a 1-D uint8 array".into());
+            return Err(bad("field 'description' must be a 1-D uint8 array"));
         }
         let description = String::from_utf8_lossy(t.bytes_of(description)).trim_end_matches('\0').to_owned();
         let jacobian = field("jacobian")?;
         if jacobian.dtype != DType::UInt8 || jacobian.shape != [1] {
-            return Err("field 'jacobian' must be a single uint8".into());
+            return Err(bad("field 'jacobian' must be a single uint8"));
         }
         let jacobian = t.bytes_of(jacobian)[0] != 0;
         let (theta_i, _) = floats("theta_i", 1)?;
@@ -151,12 +153,12 @@ impl MeasuredBrdf {
         let (refl_name, channels) = match t.field("wavelengths") {
             Some(_) => ("spectra", Channels::Spectral(floats("wavelengths", 1)?.0)),
             None if t.field("rgb").is_some() => ("rgb", Channels::Rgb),
-            None => return Err("the fields 'spectra' and 'wavelengths' (or 'rgb') are missing".into()),
+            None => return Err(bad("the fields 'spectra' and 'wavelengths' (or 'rgb') are missing")),
         };
         let (refl, refl_shape) = floats(refl_name, 5)?;
         let (n_phi, n_theta) = (phi_i.len(), theta_i.len());
         let shape_err = |name: &str, shape: &[usize], expected: String| {
-            Err(format!("field '{name}' has shape {shape:?}, expected {expected}"))
+            Err(bad(format!("field '{name}' has shape {shape:?}, expected {expected}")))
         };
         if vndf_shape[..2] != [n_phi, n_theta] {
             return shape_err("vndf", &vndf_shape, format!("[{n_phi}, {n_theta}, …] (phi_i × theta_i × …)"));
@@ -178,7 +180,9 @@ impl MeasuredBrdf {
             let span = phi_i[n_phi - 1] - phi_i[0];
             let reduction = (2.0 * PI / span).round();
             if reduction != 1.0 {
-                return Err(format!("'phi_i' covers 1/{reduction} of the azimuths; only full tables are supported"));
+                return Err(bad(format!(
+                    "'phi_i' covers 1/{reduction} of the azimuths; only full tables are supported"
+                )));
             }
         }
         let params: [&[f32]; 2] = [&phi_i, &theta_i];
@@ -207,7 +211,7 @@ impl MeasuredBrdf {
             albedo: OnceLock::new(),
         };
         if sigma.iter().any(|&v| v <= 0.0) || ndf.iter().any(|&v| v < 0.0) {
-            return Err("'sigma' must be positive and 'ndf' not negative".into());
+            return Err(bad("'sigma' must be positive and 'ndf' not negative"));
         }
         Ok(brdf)
     }

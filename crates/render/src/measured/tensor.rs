@@ -13,7 +13,11 @@
 //! bytes costs no more memory than the file.
 
 use std::collections::HashMap;
+use std::io::Read;
 use std::path::Path;
+
+use crate::error::invalid_data as bad;
+use crate::RenderError;
 
 /// The first 12 bytes of every tensor file.
 pub const MAGIC: [u8; 12] = *b"tensor_file\0";
@@ -135,30 +139,30 @@ struct Cursor<'a> {
 }
 
 impl<'a> Cursor<'a> {
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], String> {
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], RenderError> {
         match self.pos.checked_add(n) {
             Some(end) if end <= self.bytes.len() => {
                 let s = &self.bytes[self.pos..end];
                 self.pos = end;
                 Ok(s)
             }
-            _ => Err(format!(
+            _ => Err(bad(format!(
                 "truncated: {what} needs {n} bytes at offset {}, the file has {}",
                 self.pos,
                 self.bytes.len()
-            )),
+            ))),
         }
     }
-    fn u8(&mut self, what: &str) -> Result<u8, String> {
+    fn u8(&mut self, what: &str) -> Result<u8, RenderError> {
         Ok(self.take(1, what)?[0])
     }
-    fn u16(&mut self, what: &str) -> Result<u16, String> {
+    fn u16(&mut self, what: &str) -> Result<u16, RenderError> {
         Ok(u16::from_le_bytes(self.take(2, what)?.try_into().expect("2 bytes")))
     }
-    fn u32(&mut self, what: &str) -> Result<u32, String> {
+    fn u32(&mut self, what: &str) -> Result<u32, RenderError> {
         Ok(u32::from_le_bytes(self.take(4, what)?.try_into().expect("4 bytes")))
     }
-    fn u64(&mut self, what: &str) -> Result<u64, String> {
+    fn u64(&mut self, what: &str) -> Result<u64, RenderError> {
         Ok(u64::from_le_bytes(self.take(8, what)?.try_into().expect("8 bytes")))
     }
     fn remaining(&self) -> usize {
@@ -170,32 +174,38 @@ impl<'a> Cursor<'a> {
 const MIN_FIELD_HEADER: usize = 2 + 2 + 1 + 8;
 
 impl TensorFile {
-    /// Reads and checks the file at `path` (at most [`MAX_FILE_BYTES`]). The error says what is wrong but does not
-    /// repeat the path.
-    pub fn read(path: &Path) -> Result<TensorFile, String> {
-        let bytes = geometry::gzip::read_bounded(path, MAX_FILE_BYTES)?;
-        TensorFile::parse(bytes)
+    /// Reads and checks the file at `path` (at most [`MAX_FILE_BYTES`]); the error names the file.
+    pub fn read(path: &Path) -> Result<TensorFile, RenderError> {
+        let io = |source| RenderError::Io { path: path.to_path_buf(), source };
+        let mut bytes = Vec::new();
+        // One byte past the limit tells "exactly the limit" from "more than the limit".
+        std::fs::File::open(path).and_then(|f| f.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes)).map_err(io)?;
+        if bytes.len() as u64 > MAX_FILE_BYTES {
+            let message = format!("the file is larger than {MAX_FILE_BYTES} bytes, the limit; refusing it");
+            return Err(RenderError::InvalidData { path: Some(path.to_path_buf()), message });
+        }
+        TensorFile::parse(bytes).map_err(|e| e.in_file(path))
     }
 
     /// Checks a tensor file's bytes and indexes its fields.
-    pub fn parse(bytes: Vec<u8>) -> Result<TensorFile, String> {
+    pub fn parse(bytes: Vec<u8>) -> Result<TensorFile, RenderError> {
         let mut c = Cursor { bytes: &bytes, pos: 0 };
         if bytes.len() < 18 {
-            return Err(format!("not a tensor file: {} bytes, shorter than the 18-byte header", bytes.len()));
+            return Err(bad(format!("not a tensor file: {} bytes, shorter than the 18-byte header", bytes.len())));
         }
         if c.take(12, "the magic number")? != MAGIC {
-            return Err("not a tensor file: it does not start with \"tensor_file\"".into());
+            return Err(bad("not a tensor file: it does not start with \"tensor_file\""));
         }
         let version = c.take(2, "the version")?;
         if version != [1, 0] {
-            return Err(format!("tensor file version {}.{} is not supported (only 1.0)", version[0], version[1]));
+            return Err(bad(format!("tensor file version {}.{} is not supported (only 1.0)", version[0], version[1])));
         }
         let n_fields = c.u32("the number of fields")? as usize;
         if n_fields > c.remaining() / MIN_FIELD_HEADER {
-            return Err(format!(
+            return Err(bad(format!(
                 "the header claims {n_fields} fields, more than the {} bytes after it can describe",
                 c.remaining()
-            ));
+            )));
         }
         let mut fields = Vec::with_capacity(n_fields);
         let mut index = HashMap::with_capacity(n_fields);
@@ -203,34 +213,37 @@ impl TensorFile {
             let what = |s: &str| format!("field {i}'s {s}");
             let name_len = c.u16(&what("name length"))? as usize;
             let name = std::str::from_utf8(c.take(name_len, &what("name"))?)
-                .map_err(|_| format!("field {i}'s name is not UTF-8"))?
+                .map_err(|_| bad(format!("field {i}'s name is not UTF-8")))?
                 .to_owned();
             let ndim = c.u16(&what("rank"))? as usize;
             let code = c.u8(&what("type"))?;
-            let dtype = DType::from_code(code).ok_or_else(|| format!("field '{name}' has unknown type code {code}"))?;
+            let dtype =
+                DType::from_code(code).ok_or_else(|| bad(format!("field '{name}' has unknown type code {code}")))?;
             let offset = c.u64(&what("offset"))?;
             if ndim > c.remaining() / 8 {
-                return Err(format!("truncated: field '{name}' claims {ndim} dimensions, past the end of the file"));
+                return Err(bad(format!(
+                    "truncated: field '{name}' claims {ndim} dimensions, past the end of the file"
+                )));
             }
             let mut shape = Vec::with_capacity(ndim);
             let mut len = dtype.size() as u64;
             for _ in 0..ndim {
                 let extent = c.u64(&what("shape"))?;
-                len = len.checked_mul(extent).ok_or_else(|| format!("field '{name}': its shape overflows"))?;
+                len = len.checked_mul(extent).ok_or_else(|| bad(format!("field '{name}': its shape overflows")))?;
                 shape.push(extent);
             }
             let end = offset.checked_add(len);
             if end.is_none_or(|e| e > bytes.len() as u64) {
-                return Err(format!(
+                return Err(bad(format!(
                     "field '{name}' claims {len} bytes of {} at offset {offset}, past the end of the {}-byte file",
                     dtype.name(),
                     bytes.len()
-                ));
+                )));
             }
             // Inside the file, so every extent and the length fit in usize.
             let shape = shape.into_iter().map(|e| e as usize).collect();
             if index.insert(name.clone(), fields.len()).is_some() {
-                return Err(format!("field '{name}' appears twice"));
+                return Err(bad(format!("field '{name}' appears twice")));
             }
             fields.push(Field { name, dtype, shape, offset: offset as usize, len: len as usize });
         }
@@ -253,9 +266,10 @@ impl TensorFile {
     }
 
     /// A `float32` field's values (an error naming the field if it has another type).
-    pub fn f32s(&self, field: &Field) -> Result<Vec<f32>, String> {
+    pub fn f32s(&self, field: &Field) -> Result<Vec<f32>, RenderError> {
         if field.dtype != DType::Float32 {
-            return Err(format!("field '{}' is {}, expected float32", field.name, field.dtype.name()));
+            let message = format!("field '{}' is {}, expected float32", field.name, field.dtype.name());
+            return Err(bad(message));
         }
         Ok(self.bytes_of(field).chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().expect("4 bytes"))).collect())
     }

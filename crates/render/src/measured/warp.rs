@@ -11,6 +11,9 @@
 //! these between slices gives exactly the cumulative sums of the interpolated density, so [`Warp2D::sample`] and
 //! [`Warp2D::invert`] stay inverse to each other and their densities are [`Warp2D::eval`] at every parameter value.
 
+use crate::error::invalid_data as bad;
+use crate::RenderError;
+
 /// The most parameters a table may depend on.
 pub const MAX_PARAMS: usize = 3;
 
@@ -78,32 +81,32 @@ impl Warp2D {
         ny: usize,
         params: &[&[f32]],
         sampling: bool,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, RenderError> {
         if nx < 2 || ny < 2 {
-            return Err(format!("'{what}': a {nx}×{ny} table is too small (at least 2×2)"));
+            return Err(bad(format!("'{what}': a {nx}×{ny} table is too small (at least 2×2)")));
         }
         if params.len() > MAX_PARAMS {
-            return Err(format!("'{what}': {} parameters, at most {MAX_PARAMS}", params.len()));
+            return Err(bad(format!("'{what}': {} parameters, at most {MAX_PARAMS}", params.len())));
         }
         let mut slices = 1usize;
         let mut strides = vec![0; params.len()];
         for k in (0..params.len()).rev() {
             let values = params[k];
             if values.is_empty() {
-                return Err(format!("'{what}': parameter {k} has no values"));
+                return Err(bad(format!("'{what}': parameter {k} has no values")));
             }
             if values.iter().any(|v| !v.is_finite()) || values.windows(2).any(|w| w[1] <= w[0]) {
-                return Err(format!("'{what}': parameter {k}'s values must be finite and increasing"));
+                return Err(bad(format!("'{what}': parameter {k}'s values must be finite and increasing")));
             }
             strides[k] = if values.len() > 1 { slices } else { 0 };
-            slices = slices.checked_mul(values.len()).ok_or_else(|| format!("'{what}': too many slices"))?;
+            slices = slices.checked_mul(values.len()).ok_or_else(|| bad(format!("'{what}': too many slices")))?;
         }
-        let per_slice = nx.checked_mul(ny).ok_or_else(|| format!("'{what}': too many values"))?;
+        let per_slice = nx.checked_mul(ny).ok_or_else(|| bad(format!("'{what}': too many values")))?;
         if slices.checked_mul(per_slice) != Some(data.len()) {
-            return Err(format!("'{what}': {} values, expected {slices} slices of {nx}×{ny}", data.len()));
+            return Err(bad(format!("'{what}': {} values, expected {slices} slices of {nx}×{ny}", data.len())));
         }
         if let Some(i) = data.iter().position(|v| !v.is_finite()) {
-            return Err(format!("'{what}': value {i} is {}, not a finite number", data[i]));
+            return Err(bad(format!("'{what}': value {i} is {}, not a finite number", data[i])));
         }
         let mut w = Warp2D {
             nx,
@@ -119,7 +122,7 @@ impl Warp2D {
             return Ok(w);
         }
         if let Some(i) = data.iter().position(|&v| v < 0.0) {
-            return Err(format!("'{what}': value {i} is {}, a density must not be negative", data[i]));
+            return Err(bad(format!("'{what}': value {i} is {}, a density must not be negative", data[i])));
         }
         w.marginal_cdf = Vec::with_capacity(slices * ny);
         w.conditional_cdf = Vec::with_capacity(slices * per_slice);
@@ -357,12 +360,18 @@ mod tests {
 
     #[test]
     fn bad_tables_are_errors() {
-        assert!(Warp2D::new("t", &[1.0; 4], 1, 4, &[], true).unwrap_err().contains("too small"));
-        assert!(Warp2D::new("t", &[1.0; 5], 2, 2, &[], true).unwrap_err().contains("expected 1 slices"));
-        assert!(Warp2D::new("t", &[1.0, f32::NAN, 1.0, 1.0], 2, 2, &[], false).unwrap_err().contains("finite"));
-        assert!(Warp2D::new("t", &[1.0, -1.0, 1.0, 1.0], 2, 2, &[], true).unwrap_err().contains("negative"));
+        assert!(Warp2D::new("t", &[1.0; 4], 1, 4, &[], true).unwrap_err().to_string().contains("too small"));
+        assert!(Warp2D::new("t", &[1.0; 5], 2, 2, &[], true).unwrap_err().to_string().contains("expected 1 slices"));
+        assert!(Warp2D::new("t", &[1.0, f32::NAN, 1.0, 1.0], 2, 2, &[], false)
+            .unwrap_err()
+            .to_string()
+            .contains("finite"));
+        assert!(Warp2D::new("t", &[1.0, -1.0, 1.0, 1.0], 2, 2, &[], true)
+            .unwrap_err()
+            .to_string()
+            .contains("negative"));
         let p = [1.0f32, 1.0];
-        assert!(Warp2D::new("t", &[1.0; 8], 2, 2, &[&p], true).unwrap_err().contains("increasing"));
+        assert!(Warp2D::new("t", &[1.0; 8], 2, 2, &[&p], true).unwrap_err().to_string().contains("increasing"));
         // A slice of zeros samples uniformly.
         let w = Warp2D::new("t", &[0.0; 4], 2, 2, &[], true).unwrap();
         assert!((w.eval([0.3, 0.7], &[]) - 1.0).abs() < 1e-6);
