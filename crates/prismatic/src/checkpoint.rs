@@ -4,7 +4,7 @@
 //!
 //! A checkpoint holds what a render has accumulated after its last complete sample pass (or photon-mapping
 //! iteration): the film's accumulators ([`film::FilmState`]) and the integrator job's own state
-//! ([`render::integrator::RenderJob::save_state`]), with what is needed to check that a resumed render is the
+//! ([`render::RenderJob::save_state`]), with what is needed to check that a resumed render is the
 //! same render. It is written atomically (a synced temporary file renamed over the old one), so after a crash or a
 //! `kill -9` the file on disk is the last complete checkpoint. Every number is little-endian:
 //!

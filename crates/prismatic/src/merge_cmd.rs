@@ -173,7 +173,7 @@ pub fn run(args: &MergeArgs) -> Result<String> {
     }
     let mut film = film::Film::new(setup.spec.clone())?;
     let total = setup.total;
-    let sppm = first.attr("prismatic.unit") == render::integrator::PassUnit::Iterations.name();
+    let sppm = first.attr("prismatic.unit") == render::PassUnit::Iterations.name();
     for part in &parts {
         // Each shard complete: its passes are those `render --shard` gives it (for sppm: all of them).
         let (k, _) = part.shard;

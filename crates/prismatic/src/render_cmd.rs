@@ -10,8 +10,8 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use render::integrator::{Integrator, PassUnit};
 use render::{build_scene, BuildOptions};
+use render::{Integrator, PassUnit};
 
 use crate::checkpoint::{self, Checkpoint, Plan};
 use crate::exit;
@@ -430,7 +430,7 @@ pub fn run(args: &RenderArgs) -> Result<String> {
         job.restore_state(&ck.job).with_context(|| format!("checkpoint {at}"))?;
         done = ck.done;
     }
-    let save_checkpoint = |film: &film::Film, job: &dyn render::integrator::RenderJob, done: u32| -> Result<()> {
+    let save_checkpoint = |film: &film::Film, job: &dyn render::RenderJob, done: u32| -> Result<()> {
         let Some(path) = &checkpoint_path else { return Ok(()) };
         let ck = Checkpoint {
             scene_hash: setup.scene_hash,
@@ -597,7 +597,7 @@ pub fn run(args: &RenderArgs) -> Result<String> {
         setup.parsed.as_secs_f64(),
         (setup_time - setup.parsed).as_secs_f64(),
         built.triangles,
-        built.scene.lights.len(),
+        built.scene.light_count(),
         secs,
         samples as f64 / secs / 1e6,
         rays as f64 / secs / 1e6,

@@ -4,7 +4,7 @@
 //! Statistical tolerances come from the measured noise of each render (two seeds), never from earlier runs.
 
 use film::Film;
-use render::builder::BuiltScene;
+use render::BuiltScene;
 
 mod support;
 use support::{build, build_error};

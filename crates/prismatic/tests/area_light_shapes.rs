@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use film::Film;
-use render::builder::{build_scene, BuildOptions};
+use render::{build_scene, BuildOptions};
 
 /// Height of the light above the floor and half its side.
 const H: f64 = 1.0;

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use film::Film;
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::{build_scene, BuildOptions, BuiltScene};
 use spectral::WavelengthStrategy;
 
 mod support;
@@ -237,7 +237,7 @@ AttributeBegin
         prism.mesh(),
     );
     let built = build(&scene, "test.pbrt");
-    let camera = &built.scene.camera;
+    let camera = built.scene.camera();
     let cam_pos = camera.position();
     // Raster position of the beam's screen point at wavelength λ, and its Fresnel weight.
     let predict = |lambda: f64, dn: f64| {

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use film::Film;
-use render::builder::{build_scene, BuildOptions};
+use render::{build_scene, BuildOptions};
 use spectral::WavelengthStrategy;
 
 /// A fresh, empty temporary directory for one test.

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use film::{Film, PixelBounds};
-use render::builder::{BuildOptions, BuiltScene};
+use render::{BuildOptions, BuiltScene};
 
 mod support;
 use support::{try_build, try_build_with};

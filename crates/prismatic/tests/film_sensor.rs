@@ -3,7 +3,7 @@
 //! render a grey card grey, and unknown sensors or bad values are errors naming the parameter with file:line:column.
 
 use film::Film;
-use render::builder::BuiltScene;
+use render::BuiltScene;
 use spectral::WavelengthStrategy;
 
 mod support;

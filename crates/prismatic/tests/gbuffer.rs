@@ -13,7 +13,7 @@
 use std::path::Path;
 
 use film::{Film, GBufferPixel};
-use render::builder::BuiltScene;
+use render::BuiltScene;
 use spectral::SampledSpectrum;
 
 mod support;

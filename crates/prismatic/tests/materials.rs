@@ -8,7 +8,7 @@
 //! Statistical tolerances come from the measured noise of each render (two seeds), never from earlier runs.
 
 use film::Film;
-use render::builder::BuiltScene;
+use render::BuiltScene;
 use spectral::{Observer, Spectrum, WavelengthSampler, WavelengthStrategy};
 
 mod support;

@@ -3,13 +3,14 @@
 //! η, k and roughness does; file names resolve against the scene file's directory; bad parameters and bad files
 //! are errors naming the parameter, the file and the place in the scene.
 
-#[path = "../../render/tests/support/rgl.rs"]
+#[path = "../../render/src/tests/support/rgl.rs"]
 mod rgl;
 
 use std::path::{Path, PathBuf};
 
 use film::Film;
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::internals::Warp2D;
+use render::{build_scene, BuildOptions, BuiltScene};
 use rgl::{Facet, Ggx, Resolution};
 
 mod support;

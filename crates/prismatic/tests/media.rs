@@ -16,7 +16,7 @@
 use std::path::Path;
 
 use film::Film;
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::{build_scene, BuildOptions, BuiltScene};
 use spectral::rgb_uplift::RgbIlluminantSpectrum;
 use spectral::{Observer, Spectrum, WavelengthSampler, WavelengthStrategy};
 

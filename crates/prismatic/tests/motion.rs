@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use film::Film;
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::{build_scene, BuildOptions, BuiltScene};
 
 mod support;
 use support::build;

@@ -17,7 +17,7 @@
 use std::path::Path;
 
 use film::Film;
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::{build_scene, BuildOptions, BuiltScene};
 use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum};
 use spectral::{Observer, Spectrum, WavelengthSampler, WavelengthStrategy, Xyz};
 

@@ -9,7 +9,7 @@
 //!   bad values, named with file:line:column.
 
 use film::Film;
-use render::builder::BuiltScene;
+use render::BuiltScene;
 
 mod support;
 use support::{build, build_error};
@@ -108,32 +108,6 @@ fn a_scattering_only_subsurface_sphere_vanishes_in_a_white_furnace() {
     );
     let (y, se) = mean_y(&absorbing, 16);
     assert!(y < 0.7 && se < 0.02, "{y} ± {se}");
-}
-
-#[test]
-fn the_four_ways_of_giving_coefficients() {
-    let sigma = |material: &str| {
-        let built = build(&scene(material, "", 1.0), "sss.pbrt");
-        let m = built.scene.media.last().cloned().expect("the subsurface medium");
-        let render::medium::Medium::Homogeneous(h) = m else { panic!("homogeneous") };
-        (h.sigma_a.eval(550.0), h.sigma_s.eval(550.0))
-    };
-    // A measured medium: pbrt-v4's Skin1 (σ's 0.74, 0.88, 1.01; σa 0.032, 0.17, 0.48 mm⁻¹), times scale.
-    let (a, s) = sigma("Material \"subsurface\" \"string name\" \"Skin1\" \"float scale\" 10");
-    assert!(a > 0.32 && a < 4.8 && s > 7.4 && s < 10.1, "{a} {s}");
-    // Directly.
-    let (a, s) = sigma(
-        "Material \"subsurface\" \"spectrum sigma_a\" [ 360 0.25 830 0.25 ] \"spectrum sigma_s\" [ 360 3 830 3 ]",
-    );
-    assert!((a - 0.25).abs() < 1e-6 && (s - 3.0).abs() < 1e-6);
-    // Reflectance and mean free path: σt = 1/mfp, and the albedo reflects the reflectance (dipole model).
-    let (a, s) = sigma(
-        "Material \"subsurface\" \"spectrum reflectance\" [ 360 0.5 830 0.5 ] \"spectrum mfp\" [ 360 0.25 830 0.25 ]",
-    );
-    assert!(((a + s) - 4.0).abs() < 1e-6 && s / (a + s) > 0.9 && s / (a + s) < 1.0, "{a} {s}");
-    // pbrt-v4's defaults (σa 0.0011, 0.0024, 0.014; σs 2.55, 3.21, 3.77).
-    let (a, s) = sigma("Material \"subsurface\"");
-    assert!(a > 0.0011 && a < 0.014 && s > 2.55 && s < 3.77, "{a} {s}");
 }
 
 #[test]

@@ -10,7 +10,7 @@
 use std::path::PathBuf;
 
 use film::Film;
-use render::builder::BuiltScene;
+use render::BuiltScene;
 
 mod support;
 use support::{build, build_error};
@@ -260,43 +260,5 @@ fn filtered_image_textures_average_a_fine_checkerboard_at_grazing_angles() {
         let d = differences(&textured(filter));
         assert!(d.iter().all(|v| v.abs() < 1e-4), "{filter}: {d:?}");
     }
-    std::fs::remove_dir_all(&dir).ok();
-}
-
-/// Only hits on materials that read an image map compute footprints: a material with an image map (directly, or
-/// through a scale texture and a named texture), a mix that may pick one, or whose amount is one; not a plain
-/// diffuse, a checkerboard or a mix of plain materials.
-#[test]
-fn footprints_are_computed_for_materials_that_read_image_maps_only() {
-    let dir = temp_dir("reads-footprint");
-    let path = dir.join("img.pfm");
-    film::write_rgb(&path, 2, 2, &[[0.5; 3]; 4]).unwrap();
-    let text = format!(
-        "Camera \"perspective\"\nFilm \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 4\nWorldBegin\n\
-         Texture \"img\" \"spectrum\" \"imagemap\" \"string filename\" \"{img}\"\n\
-         Texture \"scaled\" \"spectrum\" \"scale\" \"texture tex\" \"img\" \"float scale\" 0.5\n\
-         Texture \"amount\" \"float\" \"imagemap\" \"string filename\" \"{img}\"\n\
-         Texture \"checks\" \"spectrum\" \"checkerboard\"\n\
-         MakeNamedMaterial \"imaged\" \"string type\" \"diffuse\" \"texture reflectance\" \"scaled\"\n\
-         MakeNamedMaterial \"plain\" \"string type\" \"diffuse\"\n\
-         MakeNamedMaterial \"checked\" \"string type\" \"diffuse\" \"texture reflectance\" \"checks\"\n\
-         MakeNamedMaterial \"mix-imaged\" \"string type\" \"mix\" \"string materials\" [ \"plain\" \"imaged\" ]\n\
-         MakeNamedMaterial \"mix-plain\" \"string type\" \"mix\" \"string materials\" [ \"plain\" \"checked\" ]\n\
-         MakeNamedMaterial \"mix-amount\" \"string type\" \"mix\" \"string materials\" [ \"plain\" \"checked\" ] \
-         \"texture amount\" \"amount\"\n\
-         MakeNamedMaterial \"mix-of-mix\" \"string type\" \"mix\" \"string materials\" [ \"mix-plain\" \"mix-imaged\" ]\n\
-         NamedMaterial \"plain\"\nShape \"sphere\"\n",
-        img = path.display()
-    );
-    let built = build(&text, "reads-footprint.pbrt");
-    let scene = &built.scene;
-    assert!(scene.footprints.is_some());
-    // Named materials follow the anonymous one (the default diffuse), in the order they were made.
-    let expected = [false, true, false, false, true, false, true, true];
-    assert_eq!(scene.material_reads_footprint, expected);
-    for (i, &e) in expected.iter().enumerate() {
-        assert_eq!(scene.reads_footprint(i as u32), e, "material {i}");
-    }
-    assert!(!scene.reads_footprint(render::scene::NO_MATERIAL));
     std::fs::remove_dir_all(&dir).ok();
 }

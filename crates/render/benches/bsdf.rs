@@ -1,13 +1,11 @@
 //! BSDF sampling and evaluation throughput (`cargo bench -p render --bench bsdf`).
 
-#[path = "../tests/support/rgl.rs"]
+#[path = "../src/tests/support/rgl.rs"]
 mod rgl;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::{Vec2, Vec3};
-use render::bxdf::{Bxdf, TransportMode};
-use render::layered::Layered;
-use render::microfacet::TrowbridgeReitz;
+use render::internals::{Bxdf, Layered, MeasuredBrdf, TensorFile, TransportMode, TrowbridgeReitz, Warp2D};
 use spectral::SampledSpectrum;
 use std::hint::black_box;
 use std::sync::Arc;
@@ -48,8 +46,8 @@ fn measured() -> Bxdf {
             k: vec![2.0, 2.3, 2.6, 3.0, 3.8, 5.0],
         },
     };
-    let t = render::measured::tensor::TensorFile::parse(model.file(rgl::Resolution::FINE)).unwrap();
-    let brdf = Arc::new(render::measured::MeasuredBrdf::from_tensor(&t).unwrap());
+    let t = TensorFile::parse(model.file(rgl::Resolution::FINE)).unwrap();
+    let brdf = Arc::new(MeasuredBrdf::from_tensor(&t).unwrap());
     Bxdf::Measured { brdf, lambda: [420.0, 500.0, 580.0, 660.0] }
 }
 

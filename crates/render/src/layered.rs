@@ -26,11 +26,6 @@ impl HenyeyGreenstein {
         Self { g: g.clamp(-0.999, 0.999) }
     }
 
-    /// The asymmetry parameter.
-    pub fn g(&self) -> f32 {
-        self.g
-    }
-
     /// Density for the cosine `mu` between the incoming and outgoing propagation directions.
     fn p_mu(&self, mu: f32) -> f32 {
         let g = self.g;

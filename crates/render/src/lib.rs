@@ -1,51 +1,107 @@
 //! Rendering for Prismatic: from a scene description to radiance in a film.
 //!
-//! Knows nothing of file formats: it consumes the plain scene description of the `scene` crate and writes into a
-//! `film::Film`. The road through it, top to bottom:
+//! Knows nothing of file formats: it takes the plain scene description of the `scene` crate (which the `pbrt`
+//! crate reads from pbrt-v4 files) and writes into a `film::Film`. What a caller does with it:
 //!
-//! - [`build_scene`] ([`builder`], one file per directive family) turns a description into a [`RenderScene`]
-//!   (geometry behind the [`Geometry`] trait, materials, lights with a power-based light sampler, media, camera)
-//!   and reads the [`Integrator`].
-//! - [`Integrator`] ([`integrator`], one file per algorithm: `path`, `lightpath`, `bdpt`, `sppm`) starts a
-//!   [`RenderJob`] that renders ranges of passes into the film and finishes into it.
-//! - Underneath: [`bxdf`], [`layered`], [`microfacet`] and [`measured`] (scattering models; RGL tensor files), [`material`], [`texture`] and
-//!   [`bump`] (what builds them at a hit), [`light`], [`camera`], [`sampler`] (the per-sample random numbers) and
-//!   [`sampling`] (warps and MIS heuristics).
-//! - Every fallible public function returns a [`RenderError`].
+//! - **Build a scene**: [`build_scene`] turns a description into a [`BuiltScene`]: the render-ready
+//!   [`RenderScene`], the film to render into, the samples per pixel, the [`Integrator`] the scene asks for, and
+//!   warnings (unused parameters, ignored features) with their file, line and column. [`BuildOptions`] overrides the
+//!   scene's resolution, samples, output and crop, as the command line does.
+//! - **Choose and configure an integrator**: [`Integrator`] is one of [`PathIntegrator`], [`VolPathIntegrator`],
+//!   [`LightPathIntegrator`], [`BdptIntegrator`] and [`SppmIntegrator`], whose public fields are their pbrt-v4
+//!   parameters; replace or edit the one the scene chose. [`Integrator::needs`] says what it requires of the scene
+//!   and what a pass is ([`PassUnit`]: a sample per pixel, or a photon-mapping iteration).
+//! - **Run passes into a film**: [`Integrator::begin`] starts a [`RenderJob`]; [`RenderJob::run`] renders any
+//!   range of passes (their indices seed the random numbers, so running `0..4` then `4..8` is exactly `0..8`, on
+//!   any number of threads), [`RenderJob::finish`] completes the film. [`RenderJob::save_state`] and
+//!   [`RenderJob::restore_state`] with the film's own state make checkpoints.
+//! - **Read statistics**: every run returns [`RenderStats`] (samples and rays), and `progress` hears the pixel
+//!   samples done as rows complete.
+//! - **Cancel**: a render stops between passes: run one pass (or a few) at a time and stop calling
+//!   [`RenderJob::run`] when asked to; the film then holds every finished pass, ready to [`RenderJob::finish`] and
+//!   write (the command line stops this way on a signal).
+//! - **Errors**: every fallible public function returns a [`RenderError`]; scene errors keep their
+//!   `file:line:column`.
 //!
-//! ```no_run
+//! ```
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! # let desc: scene::SceneDescription = unimplemented!();
+//! let text = r#"LookAt 0 0 -4  0 0 0  0 1 0
+//!     Camera "perspective" "float fov" 40
+//!     Film "rgb" "integer xresolution" 16 "integer yresolution" 12
+//!     WorldBegin
+//!     LightSource "infinite" "rgb L" [ 1 1 1 ]
+//!     Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ]
+//!     Shape "sphere" "float radius" 1"#;
+//! let desc = pbrt::parse_str(text, std::path::Path::new("example.pbrt"))?;
 //! let built = render::build_scene(&desc, &render::BuildOptions::default())?;
 //! let mut film = film::Film::new(built.film.clone())?;
-//! built.integrator.render(&built.scene, &mut film, 0..built.spp, 0, &|_| {})?;
-//! film::write_image(&film, &built.film.filename)?;
+//! let mut job = built.integrator.begin(&built.scene, &film, 0)?;
+//! let cancelled = || false; // e.g. a flag a signal handler or a user interface sets
+//! let mut stats = render::RenderStats::default();
+//! for pass in 0..4 {
+//!     if cancelled() {
+//!         break;
+//!     }
+//!     stats.samples += job.run(&mut film, pass..pass + 1, &|_| {}).samples;
+//! }
+//! job.finish(&mut film);
+//! assert_eq!(stats.samples, 4 * 16 * 12);
+//! // The sky seen directly (Y = 1, up to the noise of 16 wavelengths), and a diffuse sphere of albedo 0.5 under
+//! // it, which sees only the sky (Y = 0.5, up to the noise of 4 samples).
+//! assert!((film.pixel_xyz(0, 0).y - 1.0).abs() < 0.03);
+//! assert!((film.pixel_xyz(8, 6).y - 0.5).abs() < 0.1);
 //! # Ok(())
 //! # }
 //! ```
+//!
+//! Inside, one file or folder per layer, none of them public: `builder` (description → scene, one file per
+//! directive family), `scene` (the scene and its geometry), `integrator` (one file per algorithm and the files they
+//! share), the scattering models (`bxdf`, `layered`, `microfacet`, `measured`), what builds them at a hit
+//! (`material`, `texture`, `bump`, `footprint`), `light`, `medium`, `camera`, `sampler` and `sampling`.
+//! ARCHITECTURE.md draws them.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod builder;
-pub mod bump;
-pub mod bxdf;
-pub mod camera;
+mod builder;
+mod bump;
+mod bxdf;
+mod camera;
 mod error;
-pub mod footprint;
-pub mod integrator;
-pub mod layered;
-pub mod light;
-pub mod material;
-pub mod measured;
-pub mod medium;
-pub mod microfacet;
-pub mod sampler;
-pub mod sampling;
-pub mod scene;
-pub mod texture;
+mod footprint;
+mod integrator;
+mod layered;
+mod light;
+mod material;
+mod measured;
+mod medium;
+mod microfacet;
+mod sampler;
+mod sampling;
+mod scene;
+#[cfg(test)]
+mod tests;
+mod texture;
 
 pub use builder::{build_scene, BuildOptions, BuiltScene};
+pub use camera::Camera;
 pub use error::RenderError;
-pub use integrator::{Integrate, Integrator, Needs, PassUnit, RenderJob, RenderStats};
-pub use scene::{Geometry, RenderScene, SceneGeometry, SurfaceHit};
+pub use integrator::{
+    BdptIntegrator, Integrator, LightPathIntegrator, Needs, PassUnit, PathIntegrator, RenderJob, RenderStats,
+    SppmIntegrator, VolPathIntegrator,
+};
+pub use scene::RenderScene;
+
+/// The scattering models and the tables behind them, for the crate's own BSDF benchmark (`benches/bsdf.rs`, which
+/// turns the `internals` feature on through a dev-dependency on the crate itself) and for the command's tests that
+/// write RGL tensor files. Not part of the API: nothing here is kept stable.
+#[cfg(feature = "internals")]
+#[doc(hidden)]
+pub mod internals {
+    pub use crate::bxdf::{Bxdf, TransportMode};
+    pub use crate::layered::Layered;
+    pub use crate::measured::tensor::TensorFile;
+    pub use crate::measured::warp::Warp2D;
+    pub use crate::measured::MeasuredBrdf;
+    pub use crate::microfacet::TrowbridgeReitz;
+}

@@ -13,13 +13,12 @@ use crate::texture::{octahedral_wrap, FloatTexture, TextureEvalContext};
 use crate::RenderError;
 use std::sync::Arc;
 
-/// Where light arrives: a point and (for surfaces) its normal.
+/// Where light arrives. (pbrt-v4's context also carries the receiver's normals, for light sampling that weighs by
+/// the receiver's cosine; no light here does.)
 #[derive(Clone, Copy, Debug)]
 pub struct LightSampleContext {
     /// The receiving point.
     pub p: Vec3,
-    /// Its geometric normal (zero in a medium).
-    pub n: Vec3,
 }
 
 /// A sampled incident direction from a light.
@@ -773,7 +772,7 @@ mod tests {
     /// `pdf_li_infinite`, and ∫ pdf dω over a grid of directions.
     fn integrate_environment(light: &Light, n: usize) -> (f64, f64, f64) {
         let wl = SampledWavelengths::new([450.0, 500.0, 550.0, 600.0], [4.0; 4]);
-        let ctx = LightSampleContext { p: Vec3::ZERO, n: Vec3::ZERO };
+        let ctx = LightSampleContext { p: Vec3::ZERO };
         let (mut sum, mut worst) = (0.0f64, 0.0f64);
         for i in 0..n * n {
             let u = Vec2::new(((i % n) as f32 + 0.5) / n as f32, ((i / n) as f32 + 0.5) / n as f32);

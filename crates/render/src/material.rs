@@ -51,6 +51,7 @@ pub struct Roughness {
 
 impl Roughness {
     /// A smooth surface.
+    #[cfg(test)]
     pub fn smooth() -> Self {
         Self { u: FloatTexture::Constant(0.0), v: FloatTexture::Constant(0.0), remap: true }
     }

@@ -132,11 +132,6 @@ impl Sampler {
     pub fn next_2d(&mut self) -> [f32; 2] {
         [self.next_1d(), self.next_1d()]
     }
-
-    /// How many dimensions have been drawn so far.
-    pub fn dimension(&self) -> u32 {
-        self.dimension
-    }
 }
 
 #[cfg(test)]

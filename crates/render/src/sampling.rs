@@ -79,11 +79,14 @@ impl Frame {
     }
 
     /// World → local.
+    // Named as pbrt-v4's Frame::ToLocal and FromLocal, which the integrators' comments follow.
+    #[allow(clippy::wrong_self_convention)]
     pub fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.x), v.dot(self.y), v.dot(self.z))
     }
 
     /// Local → world.
+    #[allow(clippy::wrong_self_convention)]
     pub fn from_local(&self, v: Vec3) -> Vec3 {
         self.x * v.x + self.y * v.y + self.z * v.z
     }

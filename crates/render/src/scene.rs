@@ -270,45 +270,55 @@ impl Geometry for SceneGeometry {
 /// Everything the integrators need.
 pub struct RenderScene {
     /// Ray queries.
-    pub geometry: Box<dyn Geometry>,
+    pub(crate) geometry: Box<dyn Geometry>,
     /// Materials, indexed by [`SurfaceHit::material`].
-    pub materials: Vec<Material>,
+    pub(crate) materials: Vec<Material>,
     /// Each material's bump or normal map, indexed like `materials` (empty, or `None`, for none).
-    pub normal_perturbations: Vec<Option<NormalPerturbation>>,
+    pub(crate) normal_perturbations: Vec<Option<NormalPerturbation>>,
     /// Lights.
-    pub lights: Vec<Light>,
+    pub(crate) lights: Vec<Light>,
     /// Light selection by power (None when there are no lights).
-    pub light_distribution: Option<Distribution1D>,
+    pub(crate) light_distribution: Option<Distribution1D>,
     /// Indices of the infinite lights.
-    pub infinite_lights: Vec<u32>,
+    pub(crate) infinite_lights: Vec<u32>,
     /// Media.
-    pub media: Vec<Medium>,
+    pub(crate) media: Vec<Medium>,
     /// The medium the camera sits in.
-    pub camera_medium: Option<u32>,
+    pub(crate) camera_medium: Option<u32>,
     /// The medium each light emits into, indexed like `lights`; empty for scenes assembled without the builder,
     /// whose lights then sit in the camera's medium.
-    pub light_media: Vec<LightMedium>,
+    pub(crate) light_media: Vec<LightMedium>,
     /// Whether some medium of `media` scatters or glows (asked once per path).
     scattering_media: bool,
     /// The camera.
-    pub camera: Camera,
+    pub(crate) camera: Camera,
     /// A sphere (centre, radius > 0) enclosing the geometry: where lights at infinity emit light paths from.
-    pub bounding_sphere: (Vec3, f32),
+    pub(crate) bounding_sphere: (Vec3, f32),
     /// The shutter interval `[open, close]` when something moves (the camera or some geometry), `None` when
     /// nothing does: then no time is drawn and every ray is traced at time 0.
-    pub motion: Option<[f32; 2]>,
+    pub(crate) motion: Option<[f32; 2]>,
     /// Ray footprints for image maps, which read their MIP maps by them; `None` when no material reads an image
     /// map: then textures are evaluated at points and hits compute no footprint.
-    pub footprints: Option<crate::footprint::Footprints>,
+    pub(crate) footprints: Option<crate::footprint::Footprints>,
     /// Per material, whether its textures read the footprint (see [`RenderScene::reads_footprint`]); materials
     /// beyond the end of the list are taken to read it.
-    pub material_reads_footprint: Vec<bool>,
+    pub(crate) material_reads_footprint: Vec<bool>,
 }
 
 impl RenderScene {
+    /// The number of lights (an area light counts once per primitive of its shape).
+    pub fn light_count(&self) -> usize {
+        self.lights.len()
+    }
+
+    /// The camera (where it is at time 0; see [`Camera::at_time`] for a moving one).
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
     /// Builds the light sampler and the list of infinite lights from `lights` (selection ∝ power; a scene whose
     /// lights all report zero power falls back to uniform selection).
-    pub fn new(
+    pub(crate) fn new(
         geometry: Box<dyn Geometry>,
         materials: Vec<Material>,
         lights: Vec<Light>,
@@ -348,7 +358,7 @@ impl RenderScene {
     /// Whether a hit on material `material` needs its footprint: the scene has footprints and the material reads
     /// them (an image map among its textures; for a mix, in its amount or a material it may pick).
     #[inline]
-    pub fn reads_footprint(&self, material: u32) -> bool {
+    pub(crate) fn reads_footprint(&self, material: u32) -> bool {
         self.footprints.is_some()
             && material != NO_MATERIAL
             && self.material_reads_footprint.get(material as usize).copied().unwrap_or(true)
@@ -358,7 +368,7 @@ impl RenderScene {
     /// `CameraBase::SampleTime`), drawing one dimension of `sampler` — only when something moves, so that scenes
     /// without motion draw the random numbers they always did.
     #[inline]
-    pub fn sample_time(&self, sampler: &mut crate::sampler::Sampler) -> f32 {
+    pub(crate) fn sample_time(&self, sampler: &mut crate::sampler::Sampler) -> f32 {
         match self.motion {
             None => 0.0,
             Some([open, close]) => {
@@ -370,13 +380,13 @@ impl RenderScene {
 
     /// True if some medium scatters or glows (paths then pick their spectral-MIS hero slot at random from the
     /// start, since a shadow ray may track through a chromatic medium before the path enters one).
-    pub fn has_scattering_media(&self) -> bool {
+    pub(crate) fn has_scattering_media(&self) -> bool {
         self.scattering_media
     }
 
     /// The medium a light path leaving light `light` along `d` starts in (from a point whose geometric normal is
     /// `n`, for area lights).
-    pub fn light_medium(&self, light: u32, d: Vec3, n: Option<Vec3>) -> Option<u32> {
+    pub(crate) fn light_medium(&self, light: u32, d: Vec3, n: Option<Vec3>) -> Option<u32> {
         match self.light_media.get(light as usize) {
             None => self.camera_medium,
             Some(LightMedium::Fixed(m)) => *m,
@@ -385,12 +395,12 @@ impl RenderScene {
     }
 
     /// Probability that the light sampler picks light `i`.
-    pub fn light_probability(&self, i: u32) -> f32 {
+    pub(crate) fn light_probability(&self, i: u32) -> f32 {
         self.light_distribution.as_ref().map_or(0.0, |d| d.bin_probability(i as usize) as f32)
     }
 
     /// Picks a light with `u`: (index, probability).
-    pub fn sample_light(&self, u: f32) -> Option<(u32, f32)> {
+    pub(crate) fn sample_light(&self, u: f32) -> Option<(u32, f32)> {
         let d = self.light_distribution.as_ref()?;
         let (i, p, _) = d.sample_discrete(u as f64);
         (p > 0.0).then_some((i as u32, p as f32))

@@ -557,23 +557,6 @@ impl FloatTexture {
             FloatTexture::Image(img) => img.value(ctx),
         }
     }
-
-    /// The value if the texture is the same everywhere.
-    pub fn as_constant(&self) -> Option<f32> {
-        match self {
-            FloatTexture::Constant(v) => Some(*v),
-            FloatTexture::Scale { .. }
-            | FloatTexture::Mix { .. }
-            | FloatTexture::DirectionMix { .. }
-            | FloatTexture::Bilerp { .. }
-            | FloatTexture::Checkerboard { .. }
-            | FloatTexture::Dots { .. }
-            | FloatTexture::Fbm { .. }
-            | FloatTexture::Wrinkled { .. }
-            | FloatTexture::Windy { .. }
-            | FloatTexture::Image(_) => None,
-        }
-    }
 }
 
 /// True if `st` lies in a polka dot: cells of unit size centred on integer (s, t) hold a dot of radius 0.35 where

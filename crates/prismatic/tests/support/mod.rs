@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use film::Film;
-use render::builder::{build_scene, BuildOptions, BuiltScene};
+use render::{build_scene, BuildOptions, BuiltScene};
 
 /// Parses `text` as the pbrt-v4 file `path` (the name its errors give, and the folder that relative file names in
 /// it start from) and builds the render scene with `options`; the first error of either step, as its message.

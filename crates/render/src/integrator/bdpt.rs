@@ -796,7 +796,7 @@ impl BdptIntegrator {
             }
             let Some((li, p_sel)) = scene.sample_light(u[0]) else { return zero };
             let light_ref = &scene.lights[li as usize];
-            let ctx = crate::light::LightSampleContext { p: pt.p, n: pt.ng };
+            let ctx = crate::light::LightSampleContext { p: pt.p };
             let Some(ls) = light_ref.sample_li(&ctx, Vec2::new(u[1], u[2]), wl) else { return zero };
             if ls.pdf <= 0.0 || ls.l.is_black() {
                 return zero;

@@ -622,7 +622,7 @@ pub(crate) fn estimate(
             Some(n) => light.l_area(y, Vec2::ZERO, n, w_last, wl),
             None => {
                 // The point light's intensity towards the last vertex: its radiance there times the squared distance.
-                let ctx = LightSampleContext { p: sol.v[k - 1].hit.p, n: sol.v[k - 1].hit.n };
+                let ctx = LightSampleContext { p: sol.v[k - 1].hit.p };
                 match light.sample_li(&ctx, Vec2::ZERO, wl) {
                     Some(ls) => ls.l * (ls.dist * ls.dist),
                     None => return,

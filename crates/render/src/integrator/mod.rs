@@ -36,7 +36,6 @@ mod volume;
 mod volume_paths;
 
 pub use drive::RenderStats;
-pub use transport::RayCounts;
 
 /// What an integrator needs of the scene and how its passes count.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -99,7 +98,7 @@ pub trait RenderJob: Send {
 }
 
 /// The parameters of an `Integrator` directive, with pbrt-v4's shared ones read the same way for all.
-pub struct IntegratorParams<'a> {
+pub(crate) struct IntegratorParams<'a> {
     /// The directive.
     pub entity: &'a Entity,
     /// Whether some medium of the scene scatters or glows (`volpath` renders such media; `path`, like pbrt-v4's,
@@ -145,7 +144,7 @@ impl IntegratorParams<'_> {
 }
 
 /// What every integrator implements.
-pub trait Integrate: Sync + std::fmt::Debug {
+pub(crate) trait Integrate: Sync + std::fmt::Debug {
     /// Reads the integrator's parameters, naming the bad one with its file, line and column.
     fn read(params: &mut IntegratorParams) -> Result<Self, RenderError>
     where
@@ -196,7 +195,7 @@ macro_rules! integrators {
             }
 
             /// The integrator as its interface.
-            pub fn get(&self) -> &dyn Integrate {
+            pub(crate) fn get(&self) -> &dyn Integrate {
                 match self {
                     $(Integrator::$variant(i) => i,)*
                 }
@@ -227,7 +226,7 @@ integrators! {
 
 impl Integrator {
     /// Reads an `Integrator` directive. An unknown name is an error that lists the supported ones.
-    pub fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
+    pub(crate) fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         Self::read_named(params).unwrap_or_else(|| {
             let e = params.entity;
             Err(SceneError::at(
@@ -238,17 +237,19 @@ impl Integrator {
         })
     }
 
-    /// See [`Integrate::needs`].
+    /// What the integrator needs of the scene (a camera light paths can reach) and how its passes count.
     pub fn needs(&self) -> Needs {
         self.get().needs()
     }
 
-    /// See [`Integrate::passes`].
+    /// The number of passes the scene asks for when the integrator sets it itself (photon mapping's
+    /// `iterations`); `None` to use the sampler's `pixelsamples` ([`crate::BuiltScene::spp`] has either).
     pub fn passes(&self) -> Option<u32> {
         self.get().passes()
     }
 
-    /// See [`Integrate::begin`].
+    /// Starts a render of `scene` into films like `film` (its size, crop and wavelength strategy), with the render
+    /// seed `seed`: a [`RenderJob`] to run passes with. An error if the film's filter cannot be sampled.
     pub fn begin<'a>(
         &'a self,
         scene: &'a RenderScene,

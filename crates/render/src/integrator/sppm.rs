@@ -91,7 +91,7 @@ struct PixelState {
 }
 
 /// The progressive state of an SPPM render: iterations can be added until the image is written.
-pub struct SppmState {
+pub(crate) struct SppmState {
     /// Full-image coordinates of the first pixel rendered (the film's pixel bounds).
     origin: (u32, u32),
     width: u32,
@@ -140,11 +140,6 @@ impl SppmState {
             iterations: 0,
             photons: 0,
         })
-    }
-
-    /// Iterations done so far.
-    pub fn iterations(&self) -> u32 {
-        self.iterations
     }
 
     /// Values per pixel in [`SppmState::to_bytes`]: radius, n, τ (XYZ), direct light (XYZ), weight sum.
@@ -376,7 +371,7 @@ impl SppmIntegrator {
     /// camera paths' first surfaces go into `film`'s AOVs and geometry buffer, if it keeps them, as records of
     /// filter weight 1 per iteration (the pixel's colour is written by [`SppmState::write_to`]; the gbuffer's
     /// variance is left out: a pixel is a progressive estimate, not a mean of samples).
-    pub fn run(
+    pub(crate) fn run(
         &self,
         scene: &RenderScene,
         state: &mut SppmState,

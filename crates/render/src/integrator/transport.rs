@@ -104,7 +104,7 @@ pub(crate) fn sample_direct_light(
     let u = Vec2::new(u0, u1);
     let Some((li, p_sel)) = scene.sample_light(u_light) else { return SampledSpectrum::zero() };
     let light = &scene.lights[li as usize];
-    let ctx = LightSampleContext { p: hit.p, n: hit.n };
+    let ctx = LightSampleContext { p: hit.p };
     let Some(ls) = light.sample_li(&ctx, u, wl) else { return SampledSpectrum::zero() };
     if ls.pdf <= 0.0 || ls.l.is_black() {
         return SampledSpectrum::zero();

@@ -237,8 +237,8 @@ pub(crate) fn sample_ld(
     let Some((li, p_sel)) = scene.sample_light(u_light) else { return SampledSpectrum::zero() };
     let light = &scene.lights[li as usize];
     let ctx = match v {
-        ScatterVertex::Surface(SurfaceVertex { hit, .. }) => LightSampleContext { p: hit.p, n: hit.n },
-        ScatterVertex::Medium { p, .. } => LightSampleContext { p, n: Vec3::ZERO },
+        ScatterVertex::Surface(SurfaceVertex { hit, .. }) => LightSampleContext { p: hit.p },
+        ScatterVertex::Medium { p, .. } => LightSampleContext { p },
     };
     let Some(ls) = light.sample_li(&ctx, glam::Vec2::new(u0, u1), wl) else { return SampledSpectrum::zero() };
     if ls.pdf <= 0.0 || ls.l.is_black() {

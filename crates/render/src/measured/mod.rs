@@ -216,17 +216,14 @@ impl MeasuredBrdf {
         Ok(brdf)
     }
 
-    /// The file's description string.
-    pub fn description(&self) -> &str {
-        &self.description
-    }
-
     /// True if the material is isotropic (at most two tabulated incident azimuths).
+    #[cfg(test)]
     pub fn is_isotropic(&self) -> bool {
         self.isotropic
     }
 
     /// True if the reflectance is tabulated in RGB rather than per wavelength.
+    #[cfg(test)]
     pub fn is_rgb(&self) -> bool {
         matches!(self.channels, Channels::Rgb)
     }

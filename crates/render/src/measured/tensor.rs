@@ -117,13 +117,6 @@ pub struct Field {
     pub len: usize,
 }
 
-impl Field {
-    /// Number of values (the product of the shape; 1 for rank 0).
-    pub fn count(&self) -> usize {
-        self.len / self.dtype.size()
-    }
-}
-
 /// A tensor file: its bytes and the headers of its fields, in file order.
 #[derive(Clone, Debug)]
 pub struct TensorFile {
@@ -251,6 +244,7 @@ impl TensorFile {
     }
 
     /// The fields, in file order.
+    #[cfg(test)]
     pub fn fields(&self) -> &[Field] {
         &self.fields
     }
@@ -275,6 +269,7 @@ impl TensorFile {
     }
 
     /// The size of the file in bytes.
+    #[cfg(test)]
     pub fn size(&self) -> usize {
         self.bytes.len()
     }

@@ -163,11 +163,6 @@ impl Warp2D {
         !self.marginal_cdf.is_empty()
     }
 
-    /// Resolution (nx, ny) of each slice.
-    pub fn resolution(&self) -> (usize, usize) {
-        (self.nx, self.ny)
-    }
-
     /// The slice offsets and weights of the parameter cell holding `param`.
     fn corners(&self, param: &[f32]) -> Corners {
         let mut c = Corners { n: 1, offset: [0; 1 << MAX_PARAMS], weight: [0.0; 1 << MAX_PARAMS] };

@@ -115,6 +115,7 @@ impl MipMap {
     }
 
     /// Number of levels: 1 + log₂ of the longer side of level 0.
+    #[cfg(test)]
     pub fn levels(&self) -> usize {
         self.levels.len()
     }

@@ -9,28 +9,26 @@
 //! directional albedo, never more than 1, both as a Monte Carlo integral of one BxDF and as a sphere in a white
 //! furnace rendered by all five integrators; RGB files are uplifted per evaluation; malformed files are errors.
 
-mod support;
-
 use std::sync::Arc;
 
+use super::support::rgl::*;
+use crate::bxdf::{Bxdf, TransportMode};
+use crate::camera::{Camera, Projection, ScreenWindow};
+use crate::integrator::{
+    BdptIntegrator, Integrator, LightPathIntegrator, PathIntegrator, SppmIntegrator, VolPathIntegrator,
+};
+use crate::light::Light;
+use crate::material::Material;
+use crate::measured::tensor::{DType, TensorFile};
+use crate::measured::MeasuredBrdf;
+use crate::microfacet::TrowbridgeReitz;
+use crate::scene::{Geometry, RenderScene, SurfaceHit};
 use film::{Film, FilmSpec, Filter};
 use geometry::Transform;
 use glam::{DVec3, Vec2, Vec3};
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg32;
-use render::bxdf::{Bxdf, TransportMode};
-use render::camera::{Camera, Projection, ScreenWindow};
-use render::integrator::{
-    BdptIntegrator, Integrator, LightPathIntegrator, PathIntegrator, SppmIntegrator, VolPathIntegrator,
-};
-use render::light::Light;
-use render::material::Material;
-use render::measured::tensor::{DType, TensorFile};
-use render::measured::MeasuredBrdf;
-use render::microfacet::TrowbridgeReitz;
-use render::scene::{Geometry, RenderScene, SurfaceHit};
 use spectral::{SampledSpectrum, Spectrum, WavelengthStrategy};
-use support::rgl::*;
 
 /// The file's wavelengths, and a conductor's η and k at them (a made-up metal whose colour varies).
 const NODES: [f32; 6] = [380.0, 450.0, 520.0, 600.0, 700.0, 830.0];

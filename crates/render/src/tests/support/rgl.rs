@@ -13,7 +13,9 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use render::measured::warp::Warp2D;
+
+// The includer provides it: the crate's tests from `crate::measured`, the BSDF benchmark from `render::internals`.
+use super::Warp2D;
 
 /// One field to write.
 #[derive(Clone, Debug)]

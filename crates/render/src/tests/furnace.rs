@@ -5,17 +5,17 @@
 //! absorbs nor emits; every path eventually leaves). A sphere that reflects R and transmits T diffusely looks
 //! L·(R + T²/(1 − R)). Renders use a pinhole camera at a few hundred samples.
 
+use crate::camera::{Camera, Projection, ScreenWindow};
+use crate::integrator::{
+    BdptIntegrator, Integrator, LightPathIntegrator, PathIntegrator, SppmIntegrator, VolPathIntegrator,
+};
+use crate::light::Light;
+use crate::material::{DielectricIor, Material, Roughness};
+use crate::scene::{Geometry, RenderScene, SurfaceHit};
+use crate::texture::SpectrumTexture;
 use film::{Film, FilmSpec, Filter};
 use geometry::Transform;
 use glam::{DVec3, Vec2, Vec3};
-use render::camera::{Camera, Projection, ScreenWindow};
-use render::integrator::{
-    BdptIntegrator, Integrator, LightPathIntegrator, PathIntegrator, SppmIntegrator, VolPathIntegrator,
-};
-use render::light::Light;
-use render::material::{DielectricIor, Material, Roughness};
-use render::scene::{Geometry, RenderScene, SurfaceHit};
-use render::texture::SpectrumTexture;
 use spectral::{Spectrum, WavelengthStrategy};
 
 /// One sphere at the origin.

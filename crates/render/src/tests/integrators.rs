@@ -11,22 +11,22 @@
 use std::ops::Range;
 use std::sync::Arc;
 
+use crate::camera::{Camera, Projection, ScreenWindow};
+use crate::integrator::{
+    BdptIntegrator, Integrator, LightPathIntegrator, PathIntegrator, RenderJob, SppmIntegrator, VolPathIntegrator,
+};
+use crate::light::Light;
+use crate::material::{ConductorSpec, DielectricIor, Material, Roughness};
+use crate::medium::{HomogeneousMedium, Medium, PhaseFunction};
+use crate::sampling::Frame;
+use crate::scene::{LightMedium, MediumInterface, RenderScene, SceneGeometry, ShapeInfo, NO_MATERIAL};
+use crate::texture::{FloatTexture, SpectrumTexture};
 use film::{Film, FilmKind, FilmSpec, Filter};
 use geometry::{
     AnimatedTransform, GeometryScene, Instance, MeshData, MovingInstance, Object, Shape, Sphere, Transform,
     TriangleMesh,
 };
 use glam::{DVec3, Vec3};
-use render::camera::{Camera, Projection, ScreenWindow};
-use render::integrator::{
-    BdptIntegrator, Integrator, LightPathIntegrator, PathIntegrator, RenderJob, SppmIntegrator, VolPathIntegrator,
-};
-use render::light::Light;
-use render::material::{ConductorSpec, DielectricIor, Material, Roughness};
-use render::medium::{HomogeneousMedium, Medium, PhaseFunction};
-use render::sampling::Frame;
-use render::scene::{LightMedium, MediumInterface, RenderScene, SceneGeometry, ShapeInfo, NO_MATERIAL};
-use render::texture::{FloatTexture, SpectrumTexture};
 use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum};
 use spectral::{Spectrum, WavelengthStrategy};
 

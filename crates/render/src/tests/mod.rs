@@ -1,0 +1,8 @@
+//! The render crate's tests that need more than one module: what the builder makes of pbrt-v4 text, furnace tests with closed-form answers, integrators
+//! against each other and against closed forms, and pbrt-v4's measured BRDF against an analytic GGX.
+
+mod builder;
+mod furnace;
+mod integrators;
+mod measured;
+mod support;

@@ -1,2 +1,0 @@
-//! Helpers shared by the render crate's integration tests.
-pub mod rgl;
