@@ -89,11 +89,11 @@ pub fn tga(data: &[u8]) {
 /// estimate of AOVs (1024 samples of the same functions per wavelength, computed on first use) is left out: it
 /// would cost more than everything else together.
 pub fn bsdf(data: &[u8]) {
-    let tensor = match render::measured::tensor::TensorFile::parse(data.to_vec()) {
+    let tensor = match render::internals::TensorFile::parse(data.to_vec()) {
         Ok(t) => t,
         Err(e) => return report("tensor", Err::<(), _>(e)),
     };
-    let brdf = match render::measured::MeasuredBrdf::from_tensor(&tensor) {
+    let brdf = match render::internals::MeasuredBrdf::from_tensor(&tensor) {
         Ok(b) => b,
         Err(e) => return report("measured", Err::<(), _>(e)),
     };

@@ -1,7 +1,7 @@
 //! End-to-end tests of the light-tracing integrators (issue 4) through the pbrt parser: they put each wavelength
 //! of a beam refracted by a prism where Snell's law says, and light tracing refuses a camera light cannot reach.
 //! Their agreement with the path tracer, their determinism and their furnace tests run on scenes built in code, in
-//! `crates/render/tests/integrators.rs` and `furnace.rs`.
+//! `crates/render/src/tests/integrators.rs` and `furnace.rs`.
 
 use std::path::Path;
 

@@ -8,7 +8,7 @@
 //! - the layered materials (`coateddiffuse` with a scattering layer, `coatedconductor`) build and render, reflect
 //!   no more than arrives, and a white coated furnace reflects everything; a bad `g` is an error naming it.
 //!
-//! (Determinism over thread counts and passes is tested in `crates/render/tests/integrators.rs`, on scenes built in
+//! (Determinism over thread counts and passes is tested in `crates/render/src/tests/integrators.rs`, on scenes built in
 //! code.)
 //!
 //! Statistical tolerances come from the measured noise of each render (two independent seeds per strategy; see

@@ -93,8 +93,8 @@ pub use integrator::{
 pub use scene::RenderScene;
 
 /// The scattering models and the tables behind them, for the crate's own BSDF benchmark (`benches/bsdf.rs`, which
-/// turns the `internals` feature on through a dev-dependency on the crate itself) and for the command's tests that
-/// write RGL tensor files. Not part of the API: nothing here is kept stable.
+/// turns the `internals` feature on through a dev-dependency on the crate itself), the command's tests that write
+/// RGL tensor files, and the fuzz campaign's measured-BRDF target. Not part of the API: nothing here is kept stable.
 #[cfg(feature = "internals")]
 #[doc(hidden)]
 pub mod internals {

@@ -9,8 +9,10 @@ use std::path::{Path, PathBuf};
 
 // The measured-material tests' writer of RGL tensor files (an analytic GGX BRDF tabulated as pbrt-v4 reads it).
 #[allow(dead_code, clippy::all)]
-#[path = "../../../crates/render/tests/support/rgl.rs"]
+#[path = "../../../crates/render/src/tests/support/rgl.rs"]
 mod rgl;
+// What the writer builds its tables with (it takes it from the module that includes it).
+use render::internals::Warp2D;
 
 fn main() {
     let mut args = std::env::args().skip(1);
