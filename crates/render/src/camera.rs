@@ -228,7 +228,11 @@ impl Camera {
     /// Whether the camera has a finite-aperture importance function that light paths can connect to: perspective
     /// cameras (pinhole or thin lens). An orthographic camera's importance is a delta in direction.
     pub fn supports_light_tracing(&self) -> bool {
-        matches!(self.projection, Projection::Perspective { .. })
+        // A full match (not `matches!`): a new projection must say whether light paths can reach it.
+        match self.projection {
+            Projection::Perspective { .. } => true,
+            Projection::Orthographic => false,
+        }
     }
 
     /// True for a thin lens (finite aperture), false for a pinhole.

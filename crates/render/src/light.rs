@@ -183,7 +183,11 @@ fn hash_point(p: Vec3) -> f32 {
 impl Light {
     /// True for lights at infinity that a ray escaping the scene sees.
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::UniformInfinite { .. } | Light::ImageInfinite { .. })
+        // A full match (not `matches!`): a new light must say whether escaping rays see it.
+        match self {
+            Light::UniformInfinite { .. } | Light::ImageInfinite { .. } => true,
+            Light::Point { .. } | Light::Spot { .. } | Light::Distant { .. } | Light::DiffuseArea { .. } => false,
+        }
     }
 
     /// Samples incident light at `ctx` with `u`.
@@ -386,12 +390,27 @@ impl Light {
     /// True for lights whose position is a delta (point and spot lights) and for area lights on shapes of alpha 0,
     /// as pbrt-v4 marks them: no ray can hit them.
     pub fn is_delta_position(&self) -> bool {
-        matches!(self, Light::Point { .. } | Light::Spot { .. } | Light::DiffuseArea { invisible: true, .. })
+        // A full match (not `matches!`): bdpt's MIS weights depend on it.
+        match self {
+            Light::Point { .. } | Light::Spot { .. } | Light::DiffuseArea { invisible: true, .. } => true,
+            Light::DiffuseArea { invisible: false, .. }
+            | Light::Distant { .. }
+            | Light::UniformInfinite { .. }
+            | Light::ImageInfinite { .. } => false,
+        }
     }
 
     /// True for lights whose direction is a delta (distant lights).
     pub fn is_delta_direction(&self) -> bool {
-        matches!(self, Light::Distant { .. })
+        // A full match (not `matches!`): bdpt's MIS weights depend on it.
+        match self {
+            Light::Distant { .. } => true,
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::DiffuseArea { .. }
+            | Light::UniformInfinite { .. }
+            | Light::ImageInfinite { .. } => false,
+        }
     }
 
     /// Densities with which [`Light::sample_le`] emits a ray leaving the light in unit direction `w`: per unit area

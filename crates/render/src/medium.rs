@@ -321,7 +321,11 @@ impl Medium {
     /// scatter; [`Medium::is_absorbing_only`] media are closed-form everywhere).
     #[inline]
     pub fn has_closed_form_transmittance(&self) -> bool {
-        matches!(self, Medium::Homogeneous(_))
+        // A full match (not `matches!`): a new medium must say whether shadow rays cross it in closed form.
+        match self {
+            Medium::Homogeneous(_) => true,
+            Medium::Grid(_) => false,
+        }
     }
 
     /// exp(−σt(λ)·d) of a homogeneous medium (1 for other media).

@@ -315,7 +315,8 @@ pub enum Shape {
     Disk(Disk),
 }
 
-/// Calls a [`ShapeKind`] method on whatever kind `$shape` holds: the one place that lists the kinds.
+/// Calls a [`ShapeKind`] method on whatever kind `$shape` holds: the one place in this crate that lists the kinds
+/// (the render crate matches on `Shape` in `builder/shapes.rs` and `integrator/manifold.rs` too).
 macro_rules! dispatch {
     ($shape:expr, $kind:ident => $call:expr) => {
         match $shape {
