@@ -110,7 +110,7 @@ pub(crate) enum CameraBounce {
 /// The start of a bounce at the surface `hit` of a camera path, the same for every integrator that traces camera
 /// paths: [`begin_bounce`] (random numbers, material, boundaries), then the record of the first surface the path
 /// scatters at for the film's AOVs (into `first_hit`, at depth 0), then the depth limit. Always inlined, as
-/// [`begin_bounce`] is, so that the BxDF is not copied from one returned value into another.
+/// [`begin_bounce`] is (BENCHMARKS.md, "The integrators on shared ground").
 #[inline(always)]
 pub(crate) fn begin_camera_bounce(
     scene: &RenderScene,
