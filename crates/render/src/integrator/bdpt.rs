@@ -728,7 +728,7 @@ impl BdptIntegrator {
             // The previous vertex's reverse density: sampled from this one, towards it.
             let rev_area = path[n - 1].convert_density(rev, &path[n - 2], scene);
             path[n - 2].pdf_rev = rev_area;
-            ray.leave(&hit, s.wi, s.bs.transmission);
+            ray.leave(&hit, s.wi);
             if !beta.0.iter().all(|v| v.is_finite()) || beta.is_black() {
                 break;
             }

@@ -241,7 +241,7 @@ pub(crate) fn walk_light_path(
         let v = SurfaceVertex { hit: &hit, frame: &frame, bxdf: &bxdf, wo, medium: ray.medium };
         let Some(s) = scatter(&v, w_from, &u, mode, wl, &mut beta) else { break };
         mis.update(wl);
-        ray.leave(&hit, s.wi, s.bs.transmission);
+        ray.leave(&hit, s.wi);
         // Russian roulette after the first bounce.
         if !russian_roulette((beta / mis.average(r)).max_value() / beta_start, depth, &u, &mut beta) {
             break;

@@ -64,7 +64,7 @@ impl PathState {
             self.eta_scale *= bs.eta * bs.eta;
         }
         self.prev_p = hit.p;
-        self.ray.leave(hit, wi, bs.transmission);
+        self.ray.leave(hit, wi);
         // Russian roulette on the throughput with refraction's radiance scaling undone.
         if !russian_roulette((self.beta * self.eta_scale).max_value(), self.depth.events, u, &mut self.beta) {
             return false;

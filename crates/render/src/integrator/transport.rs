@@ -285,12 +285,11 @@ impl PathRay {
         self.crossings <= MAX_CROSSINGS
     }
 
-    /// Continues the path from `hit` in direction `wi`, entering the medium on the far side after a transmission.
+    /// Continues the path from `hit` in direction `wi`, reflected or transmitted, in the medium on the side `wi`
+    /// leaves into ([`next_medium`]).
     #[inline]
-    pub fn leave(&mut self, hit: &SurfaceHit, wi: Vec3, transmission: bool) {
-        if transmission {
-            self.medium = next_medium(hit, wi, self.medium);
-        }
+    pub fn leave(&mut self, hit: &SurfaceHit, wi: Vec3) {
+        self.medium = next_medium(hit, wi, self.medium);
         self.o = hit.spawn_origin(wi);
         self.d = wi;
         self.camera_origin = None;
@@ -454,7 +453,9 @@ fn resolve_surface(
     }
 }
 
-/// The medium a ray enters when it leaves `hit` in direction `d` (unchanged if the surface has no interface).
+/// The medium a ray enters when it leaves `hit` in direction `d`, whether reflected, transmitted, a shadow ray or a
+/// connection: the medium on the side `d` points into if the surface has an interface, the ray's own `current`
+/// otherwise (pbrt-v4's `SurfaceInteraction::GetMedium`). Every ray spawned at a surface takes its medium from here.
 #[inline]
 pub(crate) fn next_medium(hit: &SurfaceHit, d: Vec3, current: Option<u32>) -> Option<u32> {
     hit.media.map_or(current, |mi| mi.towards(d, hit.n))

@@ -60,7 +60,7 @@ impl VolPathState {
             self.eta_scale *= s.bs.eta * s.bs.eta;
         }
         self.prev_p = hit.p;
-        self.ray.leave(hit, s.wi, s.bs.transmission);
+        self.ray.leave(hit, s.wi);
         let ratio = (self.beta * self.eta_scale / self.mis.average(self.r_u)).max_value();
         if !russian_roulette(ratio, self.depth.events, u, &mut self.beta) {
             return false;

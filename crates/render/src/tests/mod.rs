@@ -5,4 +5,5 @@ mod builder;
 mod furnace;
 mod integrators;
 mod measured;
+mod media_rule;
 mod support;
