@@ -486,20 +486,12 @@ impl FloatTexture {
     /// Value at `ctx`.
     #[inline]
     pub fn eval(&self, ctx: &TextureEvalContext) -> f32 {
-        // Inline for constants (most roughness and bump parameters), which need no call into the recursive match.
-        match self {
-            FloatTexture::Constant(v) => *v,
-            FloatTexture::Scale { .. }
-            | FloatTexture::Mix { .. }
-            | FloatTexture::DirectionMix { .. }
-            | FloatTexture::Bilerp { .. }
-            | FloatTexture::Checkerboard { .. }
-            | FloatTexture::Dots { .. }
-            | FloatTexture::Fbm { .. }
-            | FloatTexture::Wrinkled { .. }
-            | FloatTexture::Windy { .. }
-            | FloatTexture::Image(_) => self.eval_varying(ctx),
+        // Inline for constants (most roughness and bump parameters), which need no call into the recursive match;
+        // every other kind is evaluated in `eval_varying`, whose match names them all.
+        if let FloatTexture::Constant(v) = self {
+            return *v;
         }
+        self.eval_varying(ctx)
     }
 
     /// [`FloatTexture::eval`] of any texture, out of line.

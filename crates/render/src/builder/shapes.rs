@@ -64,24 +64,20 @@ fn shape_alpha(textures: &Textures, p: &ParamSet, loc: &Loc) -> Result<ShapeAlph
     if !p.contains("alpha") {
         return Ok(ShapeAlpha::Opaque);
     }
-    Ok(match textures.float_param(p, "alpha", 1.0)? {
-        FloatTexture::Constant(a) if !(0.0..=1.0).contains(&a) => {
+    let alpha = textures.float_param(p, "alpha", 1.0)?;
+    // Only a constant is decided here; any other texture, whatever its kind, is tested at each hit.
+    if let FloatTexture::Constant(a) = alpha {
+        if !(0.0..=1.0).contains(&a) {
             return err(&p.loc_of("alpha", loc), format!("'alpha' must be in [0, 1], got {a}"));
         }
-        FloatTexture::Constant(a) if a >= 1.0 => ShapeAlpha::Opaque,
-        FloatTexture::Constant(a) if a <= 0.0 => ShapeAlpha::Invisible,
-        t @ (FloatTexture::Constant(_)
-        | FloatTexture::Scale { .. }
-        | FloatTexture::Mix { .. }
-        | FloatTexture::DirectionMix { .. }
-        | FloatTexture::Bilerp { .. }
-        | FloatTexture::Checkerboard { .. }
-        | FloatTexture::Dots { .. }
-        | FloatTexture::Fbm { .. }
-        | FloatTexture::Wrinkled { .. }
-        | FloatTexture::Windy { .. }
-        | FloatTexture::Image(_)) => ShapeAlpha::CutOut(t),
-    })
+        if a >= 1.0 {
+            return Ok(ShapeAlpha::Opaque);
+        }
+        if a <= 0.0 {
+            return Ok(ShapeAlpha::Invisible);
+        }
+    }
+    Ok(ShapeAlpha::CutOut(alpha))
 }
 
 /// How the area lights of a shape are made (`lights.rs`'s `area_lights`, handed over by `mod.rs`): from the

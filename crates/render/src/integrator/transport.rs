@@ -51,8 +51,8 @@ impl<'a> Tracer<'a> {
         self.scene.geometry.occluded(o, d, t_max, time)
     }
 
-    /// The closest surface a shadow ray from `o` along `d` meets before `t_max` at `time` (through media and
-    /// material-less boundaries), counted as a shadow ray.
+    /// The closest surface a shadow ray from `o` along `d` meets before `t_max` at `time`, counted as a shadow ray
+    /// (for shadow rays that cross media and material-less boundaries segment by segment).
     #[inline]
     pub fn shadow_hit(&mut self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> Option<SurfaceHit> {
         self.counts.shadow += 1;
