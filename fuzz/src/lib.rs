@@ -62,11 +62,12 @@ fn png_pixels(data: &[u8]) -> Option<u64> {
     (data.get(12..16) == Some(b"IHDR")).then(|| Some(be(16)? * be(20)?)).flatten()
 }
 
-/// The OpenEXR readers: RGB (textures, `compare`) and the spectral layout.
+/// The OpenEXR readers: RGB (textures, `compare`, `convert`), the spectral layout and the colour space.
 pub fn exr(data: &[u8]) {
     let file = Scratch::new("exr", data);
     report("exr rgb", film::read_exr_rgb(&file.0));
     report("exr spectral", film::read_exr_spectral(&file.0));
+    report("exr colour space", film::read_exr_color_space(&file.0).map(|cs| cs.name));
 }
 
 /// The PFM reader.

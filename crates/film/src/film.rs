@@ -20,7 +20,7 @@
 //! sampled ([`crate::FilterSampler`]) each camera sample lands in its own pixel, so the result does not depend on the
 //! thread count. Films rendered separately (other processes, other sample ranges) add up with [`Film::merge`].
 
-use crate::{FilmError, Filter};
+use crate::{FilmError, Filter, View};
 use rayon::prelude::*;
 use spectral::color::{mul_mat_vec, white_balance_matrix, Mat3};
 use spectral::sensor::CameraSensor;
@@ -247,8 +247,12 @@ pub struct FilmSpec {
     pub filename: PathBuf,
     /// RGB or spectral.
     pub kind: FilmKind,
-    /// The colour space of the RGB output (pbrt-v4 default sRGB).
+    /// The colour space of the RGB output (pbrt-v4 default sRGB): the EXR's `R`, `G`, `B` and `chromaticities`, and
+    /// the PNG's display space when it is one ([`crate::display_space_for`]).
     pub color_space: RgbColorSpace,
+    /// How the PNG shows colours outside the display's gamut or brighter than its white (default
+    /// [`View::Oklab`]); linear outputs ignore it.
+    pub view: View,
     /// The pixel reconstruction filter (pbrt-v4 default: gaussian, radius 1.5, σ 0.5).
     pub filter: Filter,
     /// Whether to accumulate the albedo and normal AOVs (written as EXR layers `albedo` and `N`). Off by default.
@@ -311,6 +315,7 @@ impl FilmSpec {
             filename: filename.into(),
             kind: FilmKind::Rgb,
             color_space: RgbColorSpace::srgb(),
+            view: View::default(),
             filter: Filter::default(),
             aovs: false,
             sensor: PixelSensor::default(),

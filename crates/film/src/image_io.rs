@@ -20,11 +20,13 @@
 //! The reader accepts any channel name the layout's grammar allows,
 //! `S0.<digits>[,<digits>][e±<digits>][SI prefix](m|Hz)`, converting to nm.
 
+use crate::view::{DisplayEncoding, View};
 use crate::{AovImages, Film, FilmState, ImageError, PixelBounds, Plane};
 use exr::prelude::{
     self as ex, AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes, Layer,
     LayerAttributes, Text, Vec2,
 };
+use spectral::RgbColorSpace;
 use std::collections::BTreeMap;
 use std::fs::{self, File};
 use std::io::{BufWriter, Read, Write};
@@ -240,7 +242,10 @@ pub fn write_image_with(film: &Film, path: &Path, extra_attributes: &[(String, S
     let bounds = film.bounds();
     let (w, h) = (bounds.width(), bounds.height());
     match format {
-        ImageFormat::Png => write_atomic(path, |out| encode_png(out, path, w, h, &film.to_rgb_image())),
+        ImageFormat::Png => {
+            let display = DisplayEncoding::new(&film.spec().color_space, film.spec().view);
+            write_atomic(path, |out| encode_png(out, path, w, h, &film.to_rgb_image(), &display))
+        }
         ImageFormat::Pfm => write_atomic(path, |out| encode_pfm(out, path, w, h, &film.to_rgb_image())),
         ImageFormat::Exr => {
             let exr = film_exr(film, extra_attributes);
@@ -443,13 +448,18 @@ impl ExrWindows {
     }
 }
 
-/// Writes a linear RGB image (row-major from the top) to `path`, the format following the extension: EXR with
-/// `R`, `G`, `B`; PNG sRGB-encoded and dithered; PFM.
+/// Writes a linear sRGB image (row-major from the top) to `path`, the format following the extension: EXR with
+/// `R`, `G`, `B`; PNG sRGB-encoded and dithered, each channel clipped to [0, 1] ([`View::Clip`], so values in range
+/// round-trip to within one 8-bit step; a render's display image goes through [`write_image`] or
+/// [`write_display_png`] and its view); PFM.
 pub fn write_rgb(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<(), ImageError> {
     let format = ImageFormat::from_path(path)?;
     check_size(width, height, pixels.len())?;
     match format {
-        ImageFormat::Png => write_atomic(path, |out| encode_png(out, path, width, height, pixels)),
+        ImageFormat::Png => {
+            let display = DisplayEncoding::new(&RgbColorSpace::srgb(), View::Clip);
+            write_atomic(path, |out| encode_png(out, path, width, height, pixels, &display))
+        }
         ImageFormat::Pfm => write_atomic(path, |out| encode_pfm(out, path, width, height, pixels)),
         ImageFormat::Exr => {
             let channels = ["R", "G", "B"]
@@ -534,21 +544,29 @@ fn encode_png(
     width: u32,
     height: u32,
     pixels: &[[f32; 3]],
+    display: &DisplayEncoding,
 ) -> Result<(), ImageError> {
     let png_err = |e: png::EncodingError| ImageError::Png { path: path.to_path_buf(), message: e.to_string() };
-    let mut data = Vec::with_capacity(pixels.len() * 3);
-    for (i, p) in pixels.iter().enumerate() {
-        let (x, y) = ((i % width as usize) as u32, (i / width as usize) as u32);
-        for (c, &v) in p.iter().enumerate() {
-            let encoded = spectral::color::srgb_encode(v as f64);
-            data.push(spectral::color::quantize_8bit_dithered(encoded, dither_u(x, y, c as u32)));
+    let data = display.encode_8bit(pixels, width);
+    let mut info = png::Info::with_size(width, height);
+    info.color_type = png::ColorType::Rgb;
+    info.bit_depth = png::BitDepth::Eight;
+    let cicp = display.cicp();
+    match cicp {
+        None => info.srgb = Some(png::SrgbRenderingIntent::Perceptual),
+        // Viewers that know cICP (browsers) read it first; the rest read the ICC profile.
+        Some(_) => {
+            let space = display.display_space();
+            let description = format!("Prismatic {} (sRGB transfer curve)", space.name);
+            info.icc_profile = Some(crate::icc::display_profile(space, &description).into());
         }
     }
-    let mut encoder = png::Encoder::new(out, width, height);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let encoder = png::Encoder::with_info(out, info).map_err(png_err)?;
     let mut writer = encoder.write_header().map_err(png_err)?;
+    if let Some(code_points) = cicp {
+        // cICP must precede IDAT (PNG third edition, 11.3.2.6): the header is written, the image data not yet.
+        writer.write_chunk(png::chunk::ChunkType(*b"cICP"), &code_points).map_err(png_err)?;
+    }
     writer.write_image_data(&data).map_err(png_err)?;
     writer.finish().map_err(png_err)
 }
@@ -701,6 +719,47 @@ pub fn read_exr_layout(path: &Path) -> Result<ExrLayout, ImageError> {
         display_size: (d.size.0, d.size.1),
         half: layer.channel_data.list.iter().all(|c| matches!(c.sample_data, FlatSamples::F16(_))),
     })
+}
+
+/// The colour space an EXR's `R`, `G`, `B` are in, from its `chromaticities` attribute: one of
+/// [`RgbColorSpace::NAMES`] (primaries and white within 1e-4), sRGB when the attribute is absent (OpenEXR's
+/// default is Rec. 709, sRGB's primaries), or an error naming the chromaticities when they are none of those.
+pub fn read_exr_color_space(path: &Path) -> Result<RgbColorSpace, ImageError> {
+    let bytes = open_read(path)?;
+    let meta = exr::meta::MetaData::read_from_buffered(bytes.as_slice(), false)
+        .map_err(|e| ImageError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
+    let Some(c) = meta.headers.first().and_then(|h| h.shared_attributes.chromaticities) else {
+        return Ok(RgbColorSpace::srgb());
+    };
+    let found = [c.red, c.green, c.blue, c.white].map(|v| [v.0 as f64, v.1 as f64]);
+    let close = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-4 && (a[1] - b[1]).abs() < 1e-4;
+    RgbColorSpace::NAMES
+        .iter()
+        .filter_map(|n| RgbColorSpace::by_name(n))
+        .find(|cs| (0..3).all(|i| close(cs.primaries[i], found[i])) && close(cs.white, found[3]))
+        .ok_or_else(|| ImageError::Exr {
+            path: path.to_path_buf(),
+            message: format!(
+                "chromaticities {found:?} (red, green, blue, white) are none of the colour spaces {}",
+                RgbColorSpace::NAMES.join(", ")
+            ),
+        })
+}
+
+/// Writes a display image (PNG) of linear RGB `pixels` (row-major from the top) through `display`: its view, its
+/// display space and the tags that name it.
+pub fn write_display_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+    display: &DisplayEncoding,
+) -> Result<(), ImageError> {
+    if ImageFormat::from_path(path)? != ImageFormat::Png {
+        return Err(ImageError::InvalidImage(format!("{}: a display image is a .png file", path.display())));
+    }
+    check_size(width, height, pixels.len())?;
+    write_atomic(path, |out| encode_png(out, path, width, height, pixels, display))
 }
 
 /// Reads the `R`, `G`, `B` channels of an EXR (a lone `Y` channel is read as grey): (width, height, linear pixels

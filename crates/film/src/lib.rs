@@ -7,9 +7,9 @@
 //!   draws the wavelengths paths carry ([`Film::sample_wavelengths`]) and takes their radiance at those
 //!   wavelengths: the conversion to XYZ, the bucket assignment and the sensor's response are its own
 //!   ([`SampleConversion`]), written once for camera samples, splats and photon-mapping estimates.
-//! - [`write_image`]: EXR (linear float RGB, AOV layers, and the spectral layout of Fichet et al. 2021), PNG (sRGB,
-//!   dithered 8-bit) or PFM by extension, always atomically; readers for each format, and for TGA textures
-//!   ([`tga`]).
+//! - [`write_image`]: EXR (linear float RGB, AOV layers, and the spectral layout of Fichet et al. 2021), PNG
+//!   (dithered 8-bit through a [`View`] into sRGB, Display P3 or Rec. 2020, tagged with `cICP` and an ICC profile)
+//!   or PFM by extension, always atomically; readers for each format, and for TGA textures ([`tga`]).
 //!
 //! ```
 //! use film::{Film, FilmKind, FilmSpec, FilterSampler};
@@ -37,8 +37,10 @@
 mod error;
 pub mod film;
 pub mod filter;
+mod icc;
 pub mod image_io;
 pub mod tga;
+pub mod view;
 
 pub use error::{FilmError, ImageError};
 pub use film::{
@@ -54,4 +56,6 @@ pub use image_io::{
 pub use image_io::{
     read_exr_channels, read_exr_text_attributes, read_rgb_encoded, write_image_with, ColorEncoding, NamedChannels,
 };
+pub use image_io::{read_exr_color_space, write_display_png};
 pub use image_io::{read_part, write_file_atomic, write_part};
+pub use view::{display_space_for, DisplayEncoding, DisplayTransform, View};

@@ -111,6 +111,10 @@ pub struct Plan {
     pub aovs: bool,
     /// `--shard K/N`.
     pub shard: Option<(u32, u32)>,
+    /// `--view`: how the PNG shows the film (an output option like `output`: a resume may change it).
+    pub view: Option<film::View>,
+    /// `--colorspace`: the output colour space (an output option: the film accumulates XYZ whatever it is).
+    pub colorspace: Option<String>,
 }
 
 fn join<T: ToString>(v: &[T]) -> String {
@@ -143,6 +147,12 @@ impl Plan {
         if let Some((k, n)) = self.shard {
             out.push(("shard".into(), format!("{k}/{n}")));
         }
+        if let Some(v) = self.view {
+            out.push(("view".into(), v.name().to_string()));
+        }
+        if let Some(c) = &self.colorspace {
+            out.push(("colorspace".into(), c.clone()));
+        }
         out
     }
 
@@ -172,6 +182,8 @@ impl Plan {
         let bounds = get("pixelbounds")?;
         let wavelengths = get("wavelengths")?;
         let shard = pairs.get("shard").map(|s| parse_shard(s)).transpose()?;
+        let view = pairs.get("view").map(|v| film::View::by_name(v).ok_or_else(|| bad("view", v))).transpose()?;
+        let colorspace = pairs.get("colorspace").cloned();
         Ok(Plan {
             scene: PathBuf::from(get("scene")?),
             output: pairs.get("output").map(PathBuf::from),
@@ -187,6 +199,8 @@ impl Plan {
             pixel_bounds: opt(bounds, nums::<u32, 4>).ok_or_else(|| bad("pixelbounds", bounds))?,
             aovs: get("aovs")?.parse().map_err(|_| anyhow!("recorded option aovs is malformed"))?,
             shard,
+            view,
+            colorspace,
         })
     }
 
@@ -479,10 +493,17 @@ mod tests {
             pixel_bounds: None,
             aovs: true,
             shard: Some((2, 5)),
+            view: Some(film::View::Clip),
+            colorspace: Some("dci-p3".into()),
         };
         assert_eq!(Plan::from_text(&plan.to_text()).unwrap(), plan);
         let other = Plan { seed: 8, spp: None, ..plan.clone() };
         assert_eq!(plan.differences(&other), ["spp: 64 vs none", "seed: 7 vs 8"]);
+        // The view and the colour space are output options: a resume may change them, and parts of either mix.
+        let display = Plan { view: None, colorspace: Some("srgb".into()), ..plan.clone() };
+        assert!(plan.differences(&display).is_empty());
+        assert_eq!(options_hash(&plan, ""), options_hash(&display, ""));
+        assert!(Plan::from_text(&plan.to_text().replace("view=clip", "view=agx")).is_err());
         assert_ne!(options_hash(&plan, ""), options_hash(&other, ""));
         assert_ne!(options_hash(&plan, "path"), options_hash(&plan, "bdpt"));
         assert!(Plan::from_text("scene=/x\nspp=ten\n").is_err());

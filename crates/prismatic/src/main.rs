@@ -7,6 +7,7 @@
 
 mod checkpoint;
 mod compare_cmd;
+mod convert_cmd;
 mod exit;
 mod ior_cmd;
 mod merge_cmd;
@@ -37,6 +38,8 @@ enum Command {
     Merge(merge_cmd::MergeArgs),
     /// Compare two renders: means and (relative) RMS difference, for noise and convergence measurements.
     Compare(compare_cmd::CompareArgs),
+    /// Write the display image (PNG) of a linear render (EXR, PFM) through a view and into a display colour space.
+    Convert(convert_cmd::ConvertArgs),
 }
 
 fn main() -> ExitCode {
@@ -47,6 +50,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render_cmd::run(&args),
         Command::Compare(args) => compare_cmd::run(&args),
         Command::Merge(args) => merge_cmd::run(&args),
+        Command::Convert(args) => convert_cmd::run(&args),
     };
     match result {
         Ok(text) => {

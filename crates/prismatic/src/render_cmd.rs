@@ -27,7 +27,7 @@ use spectral::WavelengthStrategy;
                         prismatic render scene.pbrt --spp 4096 --shard 2/8 -o part-2.exr\n  \
                         prismatic merge part-*.exr -o out.exr\n\n\
                         The output format follows the file extension: .exr (linear RGB; spectral films add S0.<λ>nm \
-                        channels), .png (sRGB, dithered 8-bit), .pfm.\n\n\
+                        channels), .png (dithered 8-bit through --view, tagged with --colorspace), .pfm.\n\n\
                         Ctrl-C (SIGINT) or SIGTERM stops at the end of the current sample pass (passes last at most \
                         about a second), writes the image of the samples done (the EXR header's samplesPerPixel \
                         says how many) and exits with status 130 (SIGINT) or 143 (SIGTERM); a second signal exits \
@@ -115,9 +115,37 @@ pub struct RenderArgs {
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
 
+    /// How the PNG shows colours outside the display's gamut or brighter than its white: oklab (hue-preserving
+    /// compression, the default) or clip (each channel on its own). Overrides the film's "view"; EXR and PFM
+    /// output is linear and never changes with it.
+    #[arg(long, value_name = "VIEW", value_parser = parse_view)]
+    pub view: Option<film::View>,
+
+    /// The output colour space: srgb, dci-p3 (Display P3), rec2020 or aces2065-1. The EXR's RGB and chromaticities
+    /// follow it; the PNG is encoded for it (aces2065-1: sRGB) and tagged (cICP chunk and ICC profile). Overrides
+    /// the film's "colorspace".
+    #[arg(long, value_name = "SPACE", value_parser = parse_colorspace)]
+    pub colorspace: Option<String>,
+
     /// No progress bar and no statistics.
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// `--view`: a name [`film::View::by_name`] knows.
+pub(crate) fn parse_view(s: &str) -> Result<film::View, String> {
+    film::View::by_name(s).ok_or_else(|| format!("unknown view '{s}'; valid views: {}", film::View::NAMES.join(", ")))
+}
+
+/// `--colorspace`: a name [`spectral::RgbColorSpace::by_name`] knows, as given.
+pub(crate) fn parse_colorspace(s: &str) -> Result<String, String> {
+    match spectral::RgbColorSpace::by_name(s) {
+        Some(cs) => Ok(cs.name.to_string()),
+        None => Err(format!(
+            "unknown colour space '{s}'; valid colour spaces: {}",
+            spectral::RgbColorSpace::NAMES.join(", ")
+        )),
+    }
 }
 
 fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
@@ -224,6 +252,8 @@ impl Setup {
             output: plan.output.clone(),
             crop_window: plan.crop_window,
             pixel_bounds: plan.pixel_bounds,
+            view: plan.view,
+            color_space: plan.colorspace.as_deref().and_then(spectral::RgbColorSpace::by_name),
         };
         let mut built = build_scene(&desc, &options)?;
         let scene_hash = checkpoint::scene_hash(&desc.input_files())?;
@@ -326,6 +356,8 @@ fn plan_from_args(args: &RenderArgs, scene: &Path) -> Result<Plan> {
         pixel_bounds: args.pixelbounds.as_ref().map(|b| [b[0], b[1], b[2], b[3]]),
         aovs: args.aovs,
         shard: args.shard.as_deref().map(checkpoint::parse_shard).transpose()?,
+        view: args.view,
+        colorspace: args.colorspace.clone(),
     })
 }
 
@@ -369,6 +401,13 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                 }
             }
             let mut plan = recorded;
+            // Output options: given with --resume, they replace the recorded ones.
+            if args.view.is_some() {
+                plan.view = args.view;
+            }
+            if args.colorspace.is_some() {
+                plan.colorspace = args.colorspace.clone();
+            }
             if let Some(o) = &args.output {
                 plan.output = Some(std::path::absolute(o).with_context(|| format!("cannot resolve {}", o.display()))?);
             }

@@ -172,13 +172,16 @@ fn png_and_pfm_follow_the_extension() {
     // PFM holds the same f32 RGB as the EXR (same seed).
     let (_, _, pfm) = film::read_pfm(&dir.join("b.PFM")).unwrap();
     assert_eq!(pfm, exr);
-    // PNG: 8-bit sRGB with dither, so within one code value of the linear image (clipped to [0, 1]).
+    // PNG: 8-bit sRGB with dither, so within one code value of the linear image through the default view.
     let (pw, ph, png) = film::read_png_linear(&dir.join("c.png")).unwrap();
     assert_eq!((pw, ph), (8, 8));
+    let srgb = spectral::RgbColorSpace::srgb();
+    let view = film::DisplayTransform::new(&srgb, &srgb, film::View::default());
     for (p, e) in png.iter().zip(&exr) {
+        let shown = view.apply(*e);
         for c in 0..3 {
-            let encode = |v: f32| spectral::color::srgb_encode(v.clamp(0.0, 1.0) as f64);
-            assert!((encode(p[c]) - encode(e[c])).abs() <= 1.0 / 255.0 + 1e-6, "{p:?} vs {e:?}");
+            let encode = |v: f64| spectral::color::srgb_encode(v);
+            assert!((encode(p[c] as f64) - encode(shown[c])).abs() <= 1.0 / 255.0 + 1e-6, "{p:?} vs {shown:?}");
         }
     }
     assert_eq!(listing(&dir), names(&["a.exr", "b.PFM", "c.png", "scene.pbrt"]));

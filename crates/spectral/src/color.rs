@@ -133,15 +133,23 @@ impl RgbColorSpace {
         Self::new("rec2020", [[0.708, 0.292], [0.170, 0.797], [0.131, 0.046]], D65_WHITE)
     }
 
+    /// Display P3: the DCI-P3 primaries with a D65 white (SMPTE EG 432-1), the wide gamut of current phones and
+    /// laptops; pbrt-v4 calls it `dci-p3` (its `RGBColorSpace::DCI_P3` has the D65 white).
+    pub fn dci_p3() -> Self {
+        Self::new("dci-p3", [[0.680, 0.320], [0.265, 0.690], [0.150, 0.060]], D65_WHITE)
+    }
+
     /// ACES2065-1 (AP0 primaries, ACES white ≈ D60), SMPTE ST 2065-1.
     pub fn aces2065_1() -> Self {
         Self::new("aces2065-1", [[0.7347, 0.2653], [0.0, 1.0], [0.0001, -0.0770]], [0.32168, 0.33767])
     }
 
-    /// Looks a space up by name: `srgb`, `rec2020`, `aces2065-1` (case-insensitive).
+    /// Looks a space up by name: `srgb`, `dci-p3` (also `display-p3`, `p3`), `rec2020`, `aces2065-1`
+    /// (case-insensitive).
     pub fn by_name(name: &str) -> Option<Self> {
         match name.to_ascii_lowercase().as_str() {
             "srgb" => Some(Self::srgb()),
+            "dci-p3" | "display-p3" | "p3" => Some(Self::dci_p3()),
             "rec2020" => Some(Self::rec2020()),
             "aces2065-1" | "aces" => Some(Self::aces2065_1()),
             _ => None,
@@ -149,7 +157,7 @@ impl RgbColorSpace {
     }
 
     /// Names accepted by [`RgbColorSpace::by_name`].
-    pub const NAMES: [&'static str; 3] = ["srgb", "rec2020", "aces2065-1"];
+    pub const NAMES: [&'static str; 4] = ["srgb", "dci-p3", "rec2020", "aces2065-1"];
 
     /// XYZ → linear RGB (colorimetric: no chromatic adaptation).
     pub fn to_rgb(&self, xyz: Xyz) -> [f64; 3] {

@@ -27,6 +27,7 @@ pub mod daylight;
 pub mod distribution;
 pub mod lab;
 pub mod named;
+pub mod oklab;
 pub mod rgb_uplift;
 pub mod sampled;
 pub mod sensor;

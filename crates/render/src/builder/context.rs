@@ -35,6 +35,10 @@ pub struct BuildOptions {
     pub crop_window: Option<[f64; 4]>,
     /// pbrt-v4's `--pixelbounds x0 x1 y0 y1` (pixels, half-open): overrides the film's.
     pub pixel_bounds: Option<[u32; 4]>,
+    /// The view transform of display output instead of the film's `"string view"`.
+    pub view: Option<film::View>,
+    /// The output colour space instead of the film's `"string colorspace"`.
+    pub color_space: Option<spectral::RgbColorSpace>,
 }
 
 /// What the builder's functions return.

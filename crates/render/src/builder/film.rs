@@ -1,12 +1,13 @@
 //! The film: pbrt-v4's `Film "rgb"|"spectral"` directive (resolution, `filename`, spectral buckets,
-//! `maxcomponentvalue`), its pixel sensor (`sensor`, `iso`, `whitebalance`, with the camera's shutter interval as
+//! `maxcomponentvalue`, and Prismatic's `colorspace` and `view`), its pixel sensor (`sensor`, `iso`, `whitebalance`, with the camera's shutter interval as
 //! the exposure time) and the `PixelFilter` directive.
 
 use std::path::PathBuf;
 
-use film::{CameraResponse, FilmKind, FilmSpec, Filter, GBuffer, GBufferCoordinates, PixelBounds, PixelSensor};
+use film::{CameraResponse, FilmKind, FilmSpec, Filter, GBuffer, GBufferCoordinates, PixelBounds, PixelSensor, View};
 use scene::{Entity, SceneDescription, SceneError};
 use spectral::sensor::CameraSensor;
+use spectral::RgbColorSpace;
 
 use super::context::{err, unsupported, BuildOptions, Result};
 
@@ -42,6 +43,26 @@ pub(super) fn make_film(
     (film.kind, film.filter) = (kind, filter);
     film.sensor = make_sensor(desc)?;
     film.max_component_value = fp.get_float("maxcomponentvalue", f64::INFINITY)?;
+    // Prismatic extensions: the output colour space and the display view (read even when overridden, so they are
+    // not reported as unused).
+    let space_name = fp.get_string("colorspace", "srgb")?;
+    film.color_space = match (&options.color_space, RgbColorSpace::by_name(&space_name)) {
+        (Some(cs), _) => cs.clone(),
+        (None, Some(cs)) => cs,
+        (None, None) => {
+            let names = RgbColorSpace::NAMES.map(|n| format!("\"{n}\"")).join(", ");
+            return err(&fp.loc_of("colorspace", floc), format!("'colorspace' \"{space_name}\" is not one of {names}"));
+        }
+    };
+    let view_name = fp.get_string("view", View::default().name())?;
+    film.view = match (options.view, View::by_name(&view_name)) {
+        (Some(v), _) => v,
+        (None, Some(v)) => v,
+        (None, None) => {
+            let names = View::NAMES.map(|n| format!("\"{n}\"")).join(", ");
+            return err(&fp.loc_of("view", floc), format!("'view' \"{view_name}\" is not one of {names}"));
+        }
+    };
     film.pixel_bounds = pixel_bounds(desc, options, (w, h), warnings)?;
     // pbrt-v4 writes half floats by default; Prismatic writes 32-bit floats unless asked (see the scene-format docs).
     film.write_fp16 = fp.get_bool("savefp16", false)?;
