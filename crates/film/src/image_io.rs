@@ -539,7 +539,7 @@ pub(crate) fn dither_u(x: u32, y: u32, channel: u32) -> f64 {
 }
 
 fn encode_png(
-    out: &mut BufWriter<File>,
+    out: &mut impl Write,
     path: &Path,
     width: u32,
     height: u32,
@@ -744,6 +744,20 @@ pub fn read_exr_color_space(path: &Path) -> Result<RgbColorSpace, ImageError> {
                 RgbColorSpace::NAMES.join(", ")
             ),
         })
+}
+
+/// The bytes of the PNG [`write_display_png`] writes, in memory (for a live view): `name` only labels errors.
+pub fn encode_display_png(
+    name: &str,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+    display: &DisplayEncoding,
+) -> Result<Vec<u8>, ImageError> {
+    check_size(width, height, pixels.len())?;
+    let mut bytes = Vec::new();
+    encode_png(&mut bytes, Path::new(name), width, height, pixels, display)?;
+    Ok(bytes)
 }
 
 /// Writes a display image (PNG) of linear RGB `pixels` (row-major from the top) through `display`: its view, its

@@ -49,6 +49,7 @@ pub use film::{
     VisibleSurface,
 };
 pub use filter::{Filter, FilterSample, FilterSampler};
+pub use image_io::{encode_display_png, read_exr_color_space, write_display_png};
 pub use image_io::{
     parse_spectral_channel_name, read_exr_aovs, read_exr_layout, read_exr_rgb, read_exr_spectral, read_pfm,
     read_png_linear, read_rgb, spectral_channel_name, write_image, write_rgb, ExrLayout, ImageFormat, SpectralImage,
@@ -56,6 +57,5 @@ pub use image_io::{
 pub use image_io::{
     read_exr_channels, read_exr_text_attributes, read_rgb_encoded, write_image_with, ColorEncoding, NamedChannels,
 };
-pub use image_io::{read_exr_color_space, write_display_png};
 pub use image_io::{read_part, write_file_atomic, write_part};
 pub use view::{display_space_for, DisplayEncoding, DisplayTransform, View};

@@ -11,6 +11,7 @@ mod convert_cmd;
 mod exit;
 mod ior_cmd;
 mod merge_cmd;
+mod preview;
 mod render_cmd;
 mod spectrum_cmd;
 

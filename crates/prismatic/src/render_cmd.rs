@@ -15,6 +15,7 @@ use render::{Integrator, PassUnit};
 
 use crate::checkpoint::{self, Checkpoint, Plan};
 use crate::exit;
+use crate::preview;
 use spectral::WavelengthStrategy;
 
 /// Arguments of `prismatic render`.
@@ -126,6 +127,20 @@ pub struct RenderArgs {
     /// the film's "colorspace".
     #[arg(long, value_name = "SPACE", value_parser = parse_colorspace)]
     pub colorspace: Option<String>,
+
+    /// Serve a live view on 127.0.0.1 (the address is printed): the image as it converges, through the view, with
+    /// samples, elapsed time and ETA, and buttons for the view and the exposure. Closing the page does not stop the
+    /// render.
+    #[arg(long)]
+    pub preview: bool,
+
+    /// The live view's port (0: any free port; implies --preview).
+    #[arg(long, value_name = "PORT")]
+    pub preview_port: Option<u16>,
+
+    /// Send the image as it converges to tev at HOST:PORT (pbrt-v4's --display-server; tev listens on 14158).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub display_server: Option<String>,
 
     /// No progress bar and no statistics.
     #[arg(long)]
@@ -454,6 +469,15 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     let mut job = built.integrator.begin(&built.scene, &film, plan.seed)?;
     let passes = setup.passes.clone();
     let mut done = passes.start;
+    let preview_port = args.preview_port.or(args.preview.then_some(0));
+    let mut live = match (preview_port, &args.display_server) {
+        (None, None) => None,
+        (port, server) => {
+            let name = out_path.file_name().map_or("prismatic".into(), |n| n.to_string_lossy().into_owned());
+            let space = setup.spec.color_space.clone();
+            Some(preview::LiveView::start(port, server.as_deref(), space, &name)?)
+        }
+    };
     if let (Some(ck), Some(path)) = (&resume, &args.resume) {
         let at = path.display();
         if ck.scene_hash != setup.scene_hash {
@@ -526,6 +550,13 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                     save_checkpoint(&film, job.as_ref(), done)?;
                     saved = (done, Instant::now());
                 }
+                if let Some(live) = live.as_mut().filter(|l| done < passes.end && l.due()) {
+                    let elapsed = render_start.elapsed().as_secs_f64();
+                    let rate = (done - first) as f64 / elapsed.max(1e-9);
+                    let eta = Some((passes.end - done) as f64 / rate.max(1e-12));
+                    let total = Some(passes.end);
+                    live.publish(&film, preview::Progress { done, total, unit, elapsed, eta, finished: false });
+                }
             }
             // The last state too (after a signal, or the end: resuming a finished render writes its image again).
             if saved.0 != done {
@@ -552,11 +583,18 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                 done += pass;
                 bar.set_message(format!("{done} {unit}"));
                 bar.tick();
-                // Grow the pass while it stays well inside the remaining time.
+                if let Some(live) = live.as_mut().filter(|l| l.due()) {
+                    let elapsed = render_start.elapsed().as_secs_f64();
+                    let eta = Some(budget.saturating_sub(render_start.elapsed()).as_secs_f64());
+                    live.publish(&film, preview::Progress { done, total: None, unit, elapsed, eta, finished: false });
+                }
+                // Grow the pass while it stays well inside the remaining time and under about a second (so that a
+                // signal is answered and the live view updated promptly); the passes do not change the image.
                 let left = budget.saturating_sub(render_start.elapsed());
-                if pass_start.elapsed() * 4 < left {
+                let took = pass_start.elapsed();
+                if took * 4 < left && took < Duration::from_millis(250) {
                     pass *= 2;
-                } else if pass_start.elapsed() > left && pass > 1 {
+                } else if (took > left || took > Duration::from_millis(1000)) && pass > 1 {
                     pass /= 2;
                 }
             }
@@ -584,6 +622,12 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     // Whatever the integrator keeps outside the film (photon mapping's progressive estimate) goes in once.
     job.finish(&mut film);
     let render_time = render_start.elapsed();
+    // The live view's last frame: the image about to be written.
+    if let Some(live) = live {
+        let elapsed = render_time.as_secs_f64();
+        let total = args.time.is_none().then_some(passes.end);
+        live.finish(&film, preview::Progress { done, total, unit, elapsed, eta: Some(0.0), finished: true });
+    }
     let spp_done = done - passes.start;
     let requested = if args.time.is_some() { done } else { passes.end - passes.start };
     let mut header = vec![
