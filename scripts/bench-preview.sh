@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The live view's overhead: each scene rendered alternately without and with --preview while a client polls the
 # page as the browser does (the status twice a second, the frame whenever it changed), RUNS times each; prints
-# each run's CPU time (user + system) and the median ratio with/without.
+# each run's CPU time (user + system), the median ratio with/without, and the live view's own account of its work
+# (frames, time copying the film, PNGs encoded and their time), which a noisy machine cannot hide.
 #
 #   scripts/bench-preview.sh                  # the default scenes, 3 runs each
 #   RUNS=5 scripts/bench-preview.sh prism     # scenes whose name contains "prism"
@@ -50,8 +51,8 @@ for entry in "${scenes[@]}"; do
     # shellcheck disable=SC2086
     /usr/bin/time -f '%U %S' -o "$out/plain" "$bin" render "$scene" $extra --quiet -o "$out/a.exr" 2>/dev/null
     # shellcheck disable=SC2086
-    /usr/bin/time -f '%U %S' -o "$out/live" "$bin" render "$scene" $extra --quiet --preview -o "$out/b.exr" \
-      2>"$out/err" &
+    /usr/bin/time -f '%U %S' -o "$out/live" "$bin" render "$scene" $extra --preview -o "$out/b.exr" \
+      >/dev/null 2>"$out/err" &
     pid=$!
     client "$out/err" &
     cpid=$!
@@ -61,7 +62,8 @@ for entry in "${scenes[@]}"; do
     live=$(tail -1 "$out/live" | awk '{ printf "%.2f", $1 + $2 }')
     ratio=$(awk -v a="$live" -v b="$plain" 'BEGIN { printf "%.4f", a / b }')
     ratios+=("$ratio")
-    printf '%-16s %4d %10s %10s %8s\n' "$name" "$run" "$plain" "$live" "$ratio"
+    printf '%-16s %4d %10s %10s %8s   %s\n' "$name" "$run" "$plain" "$live" "$ratio" \
+      "$(grep -o 'live view: .*' "$out/err" || echo 'live view: no account')"
   done
   median=$(printf '%s\n' "${ratios[@]}" | sort -n | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
   printf '%-16s median ratio %s\n' "$name" "$median"

@@ -561,7 +561,10 @@ fn encode_png(
             info.icc_profile = Some(crate::icc::display_profile(space, &description).into());
         }
     }
-    let encoder = png::Encoder::with_info(out, info).map_err(png_err)?;
+    let mut encoder = png::Encoder::with_info(out, info).map_err(png_err)?;
+    if display.fast_compression() {
+        encoder.set_compression(png::Compression::Fast);
+    }
     let mut writer = encoder.write_header().map_err(png_err)?;
     if let Some(code_points) = cicp {
         // cICP must precede IDAT (PNG third edition, 11.3.2.6): the header is written, the image data not yet.

@@ -20,7 +20,7 @@
 //! by less than ΔE2000 1 from a plain clip), and the linear EXR is never touched: the view is display-only.
 
 use spectral::color::{mul_mat, mul_mat_vec, white_balance_matrix, Mat3};
-use spectral::oklab::{oklab_to_xyz, xyz_to_oklab};
+use spectral::oklab::{lms_to_oklab, oklab_to_lms, xyz_to_oklab, LMS_TO_XYZ, XYZ_TO_LMS};
 use spectral::RgbColorSpace;
 
 /// How display-referred output shows colours outside the display's gamut or brighter than its white.
@@ -82,10 +82,12 @@ fn soft_knee(x: f64, knee: f64) -> f64 {
 #[derive(Clone, Debug)]
 pub struct DisplayTransform {
     view: View,
-    /// Source linear RGB → XYZ relative to the display's white (chromatically adapted when the whites differ).
-    source_to_xyz: Mat3,
-    /// XYZ → display linear RGB.
-    xyz_to_display: Mat3,
+    /// Source linear RGB → display linear RGB (through XYZ, chromatically adapted when the whites differ).
+    source_to_display: Mat3,
+    /// Source linear RGB → Oklab's linear cone responses.
+    source_to_lms: Mat3,
+    /// Oklab's linear cone responses → display linear RGB.
+    lms_to_display: Mat3,
     /// The Oklab lightness of the display gamut's most chromatic colour per hue bin.
     cusp_lightness: Vec<f64>,
 }
@@ -101,12 +103,14 @@ impl DisplayTransform {
             white_balance_matrix(source.white, display.white)
         };
         let source_to_xyz = mul_mat(&adapt, &source.rgb_to_xyz);
-        let xyz_to_display = display.xyz_to_rgb;
+        let source_to_display = mul_mat(&display.xyz_to_rgb, &source_to_xyz);
+        let source_to_lms = mul_mat(&XYZ_TO_LMS, &source_to_xyz);
+        let lms_to_display = mul_mat(&display.xyz_to_rgb, &LMS_TO_XYZ);
         let cusp_lightness = match view {
             View::Clip => Vec::new(),
             View::Oklab => cusp_table(display),
         };
-        Self { view, source_to_xyz, xyz_to_display, cusp_lightness }
+        Self { view, source_to_display, source_to_lms, lms_to_display, cusp_lightness }
     }
 
     /// The view this transform applies.
@@ -116,17 +120,17 @@ impl DisplayTransform {
 
     /// A source pixel's display-linear RGB, each component in [0, 1] (0 for NaN input).
     pub fn apply(&self, rgb: [f32; 3]) -> [f64; 3] {
-        let xyz = mul_mat_vec(&self.source_to_xyz, rgb.map(f64::from));
+        let rgb = rgb.map(f64::from);
         let out = match self.view {
-            View::Clip => mul_mat_vec(&self.xyz_to_display, xyz),
-            View::Oklab => self.oklab(xyz),
+            View::Clip => mul_mat_vec(&self.source_to_display, rgb),
+            View::Oklab => self.oklab(rgb),
         };
         out.map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) })
     }
 
-    /// The Oklab view of one colour (module documentation, steps 1–3).
-    fn oklab(&self, xyz: [f64; 3]) -> [f64; 3] {
-        let [l, a, b] = xyz_to_oklab(xyz);
+    /// The Oklab view of one colour given in source RGB (module documentation, steps 1–3).
+    fn oklab(&self, rgb: [f64; 3]) -> [f64; 3] {
+        let [l, a, b] = lms_to_oklab(mul_mat_vec(&self.source_to_lms, rgb));
         if !(l > 0.0 && a.is_finite() && b.is_finite()) {
             return [0.0; 3];
         }
@@ -139,12 +143,13 @@ impl DisplayTransform {
         // Points on the line from (l0, 0) through (lightness, c) at parameter t (t = 1 is the colour itself).
         let at = |t: f64| {
             let (lt, ct) = (l0 + t * (lightness - l0), t * c);
-            mul_mat_vec(&self.xyz_to_display, oklab_to_xyz([lt, ct * ua, ct * ub]))
+            mul_mat_vec(&self.lms_to_display, oklab_to_lms([lt, ct * ua, ct * ub]))
         };
         let inside = |rgb: [f64; 3]| rgb.iter().all(|v| (-1e-9..=1.0 + 1e-9).contains(v));
         let far = 1.0 / C_KNEE;
         if inside(at(far)) {
-            return at(1.0);
+            // Untouched (most pixels): the colour itself, without the trip back through Oklab.
+            return if lightness == l { mul_mat_vec(&self.source_to_display, rgb) } else { at(1.0) };
         }
         // The boundary lies between t = 0 (on the grey axis, inside) and t = 1/C_KNEE (outside).
         let (mut lo, mut hi) = (0.0, far);
@@ -191,6 +196,8 @@ pub fn display_space_for(color_space: &RgbColorSpace) -> RgbColorSpace {
 pub struct DisplayEncoding {
     transform: DisplayTransform,
     space: RgbColorSpace,
+    /// For a live view ([`DisplayEncoding::for_live_view`]): rows on the calling thread only, fast compression.
+    live: bool,
 }
 
 impl DisplayEncoding {
@@ -201,7 +208,19 @@ impl DisplayEncoding {
 
     /// The encoding of linear RGB in `source` through `view` into the display space `display` (D65 white).
     pub fn with_display(source: &RgbColorSpace, display: &RgbColorSpace, view: View) -> Self {
-        Self { transform: DisplayTransform::new(source, display, view), space: display.clone() }
+        Self { transform: DisplayTransform::new(source, display, view), space: display.clone(), live: false }
+    }
+
+    /// The same pixels for a live view: encoded on the calling thread only (the render keeps rayon's pool busy,
+    /// where parallel rows would wait for the render's work, and their time would measure that wait), and the PNG
+    /// compressed fast rather than small.
+    pub fn for_live_view(self) -> Self {
+        Self { live: true, ..self }
+    }
+
+    /// Whether the PNG is compressed fast rather than small (a live view's).
+    pub fn fast_compression(&self) -> bool {
+        self.live
     }
 
     /// The display space the image is encoded in.
@@ -220,7 +239,7 @@ impl DisplayEncoding {
         use rayon::prelude::*;
         let width = width.max(1) as usize;
         let mut data = vec![0u8; pixels.len() * 3];
-        data.par_chunks_mut(width * 3).zip(pixels.par_chunks(width)).enumerate().for_each(|(y, (out, row))| {
+        let encode_row = |(y, (out, row)): (usize, (&mut [u8], &[[f32; 3]]))| {
             for (x, (p, o)) in row.iter().zip(out.chunks_exact_mut(3)).enumerate() {
                 let linear = self.transform.apply(*p);
                 for c in 0..3 {
@@ -231,7 +250,12 @@ impl DisplayEncoding {
                     );
                 }
             }
-        });
+        };
+        if !self.live {
+            data.par_chunks_mut(width * 3).zip(pixels.par_chunks(width)).enumerate().for_each(encode_row);
+        } else {
+            data.chunks_mut(width * 3).zip(pixels.chunks(width)).enumerate().for_each(encode_row);
+        }
         data
     }
 
@@ -297,6 +321,7 @@ fn cusp_table(display: &RgbColorSpace) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use spectral::oklab::oklab_to_xyz;
 
     #[test]
     fn soft_knee_is_continuous_increasing_and_bounded() {

@@ -22,9 +22,11 @@ use spectral::RgbColorSpace;
 const PAGE: &str = include_str!("preview.html");
 /// The shortest time between two updates.
 pub const MIN_INTERVAL: Duration = Duration::from_millis(500);
-/// Updates are spaced by at least this many times what the last one cost (copy plus encode), which keeps the live
-/// view's share of the render near 1/COST_FACTOR.
-pub const COST_FACTOR: u32 = 100;
+/// Updates are spaced by at least this many times what the last one cost: the copy (render thread, wall time) plus
+/// the encoding (one viewer thread, its CPU time where the system says, else wall time). The encoding takes CPU
+/// from a render on N cores for about cost/N of wall time, so the live view slows a 2-core render by at most
+/// 1/(2·COST_FACTOR) ≈ 1.7% (less on more cores), plus the copy's own 1/COST_FACTOR of a short stall.
+pub const COST_FACTOR: u32 = 30;
 /// A request head larger than this is refused.
 const MAX_REQUEST: usize = 8192;
 /// Connections answered at once; more are closed at once (each holds a thread until it ends or times out).
@@ -69,8 +71,9 @@ struct Shared {
     color_space: RgbColorSpace,
     /// The last PNG encoded: (frame version, view, exposure) and its bytes, so a frame is encoded once per view.
     png: Mutex<Option<(String, Arc<Vec<u8>>)>>,
-    /// What the last PNG encoding cost.
+    /// What the last PNG encoding cost, and (count, total) of all of them.
     encode_cost: Mutex<Duration>,
+    encodes: Mutex<(u32, Duration)>,
 }
 
 /// The frames waiting for the tev sender: the latest only (a slow connection skips frames, never the render).
@@ -85,6 +88,7 @@ pub struct LiveView {
     tev: Option<(Arc<TevQueue>, JoinHandle<()>)>,
     last: Option<Instant>,
     copy_cost: Duration,
+    copy_total: Duration,
     version: u64,
 }
 
@@ -103,6 +107,7 @@ impl LiveView {
             color_space,
             png: Mutex::new(None),
             encode_cost: Mutex::new(Duration::ZERO),
+            encodes: Mutex::new((0, Duration::ZERO)),
         });
         if let Some(port) = port {
             let listener = TcpListener::bind(("127.0.0.1", port)).with_context(|| {
@@ -128,7 +133,7 @@ impl LiveView {
                 Some((queue, handle))
             }
         };
-        Ok(Self { shared, tev, last: None, copy_cost: Duration::ZERO, version: 0 })
+        Ok(Self { shared, tev, last: None, copy_cost: Duration::ZERO, copy_total: Duration::ZERO, version: 0 })
     }
 
     /// Whether an update is due: the first one, or [`MIN_INTERVAL`] and [`COST_FACTOR`] times the last update's
@@ -163,15 +168,24 @@ impl LiveView {
         }
         *lock(&self.shared.frame) = Some(frame);
         self.copy_cost = start.elapsed();
+        self.copy_total += self.copy_cost;
         self.last = Some(Instant::now());
     }
 
-    /// Publishes the last frame and waits until tev has it (each write is bounded by a timeout).
-    pub fn finish(mut self, film: &film::Film, progress: Progress) {
+    /// Publishes the last frame, waits until tev has it (each write is bounded by a timeout), and says what the
+    /// live view cost: frames, time copying the film (render thread) and encoding PNGs (viewer threads).
+    pub fn finish(mut self, film: &film::Film, progress: Progress) -> String {
         self.publish(film, Progress { finished: true, ..progress });
         if let Some((_, handle)) = self.tev.take() {
             let _ = handle.join();
         }
+        let (encodes, encoding) = *lock(&self.shared.encodes);
+        format!(
+            "live view: {} frames, {:.1} ms copying the film, {encodes} PNGs encoded in {:.1} ms of CPU",
+            self.version,
+            self.copy_total.as_secs_f64() * 1e3,
+            encoding.as_secs_f64() * 1e3
+        )
     }
 }
 
@@ -315,15 +329,30 @@ fn frame_png(shared: &Shared, query: &str) -> Result<Option<Arc<Vec<u8>>>, Strin
         }
     }
     let start = Instant::now();
+    let cpu_start = thread_cpu_time();
     let scale = 2f64.powf(exposure) as f32;
     let pixels: Vec<[f32; 3]> = frame.rgb.iter().map(|p| p.map(|c| c * scale)).collect();
-    let display = film::DisplayEncoding::new(&shared.color_space, view);
+    let display = film::DisplayEncoding::new(&shared.color_space, view).for_live_view();
     let png =
         film::encode_display_png("preview", frame.width, frame.height, &pixels, &display).map_err(|e| e.to_string())?;
     let png = Arc::new(png);
-    *lock(&shared.encode_cost) = start.elapsed();
+    let took = match (cpu_start, thread_cpu_time()) {
+        (Some(a), Some(b)) if b >= a => b - a,
+        _ => start.elapsed(),
+    };
+    *lock(&shared.encode_cost) = took;
+    let mut encodes = lock(&shared.encodes);
+    *encodes = (encodes.0 + 1, encodes.1 + took);
+    drop(encodes);
     *lock(&shared.png) = Some((key, Arc::clone(&png)));
     Ok(Some(png))
+}
+
+/// The CPU time the calling thread has used, where the system says (Linux's `/proc/thread-self/schedstat`, in
+/// nanoseconds): what encoding takes from the render, without the time it waits for a core the render holds.
+fn thread_cpu_time() -> Option<Duration> {
+    let stat = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    Some(Duration::from_nanos(stat.split_whitespace().next()?.parse().ok()?))
 }
 
 // ----------------------------------------------------------------------------------------------------------------

@@ -626,7 +626,10 @@ pub fn run(args: &RenderArgs) -> Result<String> {
     if let Some(live) = live {
         let elapsed = render_time.as_secs_f64();
         let total = args.time.is_none().then_some(passes.end);
-        live.finish(&film, preview::Progress { done, total, unit, elapsed, eta: Some(0.0), finished: true });
+        let cost = live.finish(&film, preview::Progress { done, total, unit, elapsed, eta: Some(0.0), finished: true });
+        if !args.quiet {
+            eprintln!("{cost}");
+        }
     }
     let spp_done = done - passes.start;
     let requested = if args.time.is_some() { done } else { passes.end - passes.start };

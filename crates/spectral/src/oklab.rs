@@ -43,17 +43,30 @@ const M2_INV: Mat3 = [
     [1.000_000_054_672, -0.089_484_182_095, -1.291_485_537_864],
 ];
 
+/// XYZ (D65, Y = 1) → Oklab's linear cone responses LMS (M1), for composing with a colour space's matrix.
+pub const XYZ_TO_LMS: Mat3 = M1;
+/// LMS → XYZ (M1⁻¹).
+pub const LMS_TO_XYZ: Mat3 = M1_INV;
+
+/// Oklab's linear cone responses LMS ([`XYZ_TO_LMS`]) → `[L, a, b]`: the cube root, then M2.
+pub fn lms_to_oklab(lms: [f64; 3]) -> [f64; 3] {
+    mul_mat_vec(&M2, lms.map(f64::cbrt))
+}
+
+/// `[L, a, b]` → linear cone responses LMS; the inverse of [`lms_to_oklab`].
+pub fn oklab_to_lms(lab: [f64; 3]) -> [f64; 3] {
+    mul_mat_vec(&M2_INV, lab).map(|v| v * v * v)
+}
+
 /// CIE XYZ (D65 white at Y = 1) → Oklab `[L, a, b]`. Negative cone responses keep their sign through the cube
 /// root, so the map is defined (and invertible) for any XYZ.
 pub fn xyz_to_oklab(xyz: [f64; 3]) -> [f64; 3] {
-    let lms = mul_mat_vec(&M1, xyz).map(f64::cbrt);
-    mul_mat_vec(&M2, lms)
+    lms_to_oklab(mul_mat_vec(&M1, xyz))
 }
 
 /// Oklab `[L, a, b]` → CIE XYZ (D65 white at Y = 1); the inverse of [`xyz_to_oklab`].
 pub fn oklab_to_xyz(lab: [f64; 3]) -> [f64; 3] {
-    let lms = mul_mat_vec(&M2_INV, lab).map(|v| v * v * v);
-    mul_mat_vec(&M1_INV, lms)
+    mul_mat_vec(&M1_INV, oklab_to_lms(lab))
 }
 
 /// Oklab `[L, a, b]` → `[L, C, h]`: chroma C = |(a, b)| and hue h = atan2(b, a) in degrees, in [0, 360).
