@@ -43,18 +43,8 @@ pub struct Frame {
     pub width: u32,
     /// Size in pixels.
     pub height: u32,
-    /// Passes done (samples per pixel, or iterations).
-    pub done: u32,
-    /// Passes in all, if fixed (not for `--time`).
-    pub total: Option<u32>,
-    /// What a pass is ("spp", "iterations").
-    pub unit: &'static str,
-    /// Seconds since the render started.
-    pub elapsed: f64,
-    /// Seconds left, when known.
-    pub eta: Option<f64>,
-    /// Whether this is the last frame.
-    pub finished: bool,
+    /// How far the render had come.
+    pub progress: Progress,
     /// Increases with every frame.
     pub version: u64,
 }
@@ -150,18 +140,7 @@ impl LiveView {
         let rgb = Arc::new(film.to_rgb_image());
         self.version += 1;
         let bounds = film.bounds();
-        let frame = Frame {
-            rgb,
-            width: bounds.width(),
-            height: bounds.height(),
-            done: progress.done,
-            total: progress.total,
-            unit: progress.unit,
-            elapsed: progress.elapsed,
-            eta: progress.eta,
-            finished: progress.finished,
-            version: self.version,
-        };
+        let frame = Frame { rgb, width: bounds.width(), height: bounds.height(), progress, version: self.version };
         if let Some((queue, _)) = &self.tev {
             *lock(&queue.latest) = Some(frame.clone());
             queue.ready.notify_one();
@@ -285,16 +264,17 @@ fn status_json(frame: Option<&Frame>) -> String {
     let Some(f) = frame else {
         return r#"{"version":0,"done":0,"total":0,"unit":"","elapsed":0,"eta":null,"finished":false}"#.into();
     };
+    let p = &f.progress;
     let number = |v: Option<f64>| v.filter(|v| v.is_finite()).map_or("null".to_string(), |v| format!("{v:.3}"));
     format!(
         r#"{{"version":{},"done":{},"total":{},"unit":"{}","elapsed":{},"eta":{},"finished":{},"width":{},"height":{}}}"#,
         f.version,
-        f.done,
-        f.total.unwrap_or(0),
-        f.unit,
-        number(Some(f.elapsed)),
-        number(f.eta),
-        f.finished,
+        p.done,
+        p.total.unwrap_or(0),
+        p.unit,
+        number(Some(p.elapsed)),
+        number(p.eta),
+        p.finished,
         f.width,
         f.height
     )
@@ -458,7 +438,7 @@ fn send_to_tev(address: &str, name: &str, queue: &TevQueue) {
                 warned = true;
             }
         }
-        if frame.finished {
+        if frame.progress.finished {
             return;
         }
     }
@@ -471,18 +451,8 @@ mod tests {
     #[test]
     fn status_is_json_with_nulls_for_the_unknown() {
         assert!(status_json(None).contains(r#""version":0"#));
-        let f = Frame {
-            rgb: Arc::new(vec![[0.0; 3]; 6]),
-            width: 3,
-            height: 2,
-            done: 4,
-            total: None,
-            unit: "spp",
-            elapsed: 1.5,
-            eta: None,
-            finished: false,
-            version: 2,
-        };
+        let progress = Progress { done: 4, total: None, unit: "spp", elapsed: 1.5, eta: None, finished: false };
+        let f = Frame { rgb: Arc::new(vec![[0.0; 3]; 6]), width: 3, height: 2, progress, version: 2 };
         let s = status_json(Some(&f));
         assert_eq!(
             s,

@@ -2,25 +2,14 @@
 //! `prismatic convert`, run as the binary.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use spectral::RgbColorSpace;
 
+mod support;
+use support::{ok, prismatic};
+
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("prismatic-display-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn prismatic(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_prismatic")).args(args).current_dir(dir).output().unwrap()
-}
-
-#[track_caller]
-fn ok(out: Output) -> Output {
-    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
-    out
+    support::temp_dir("display", name)
 }
 
 /// A camera looking into a uniform sky of an orange sRGB colour inside every gamut (and, with `film_extra`, more

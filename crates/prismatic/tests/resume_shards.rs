@@ -12,23 +12,12 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
+mod support;
+use support::{ok, prismatic};
+
 /// A fresh, empty temporary directory for one test.
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("prismatic-resume-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Runs `prismatic <args>` in `dir`.
-fn prismatic(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_prismatic")).args(args).current_dir(dir).output().unwrap()
-}
-
-#[track_caller]
-fn ok(out: Output) -> Output {
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    out
+    support::temp_dir("resume", name)
 }
 
 /// Asserts that the run failed with an error message (exit status 1: a refusal, not a scene or I/O error; no panic)

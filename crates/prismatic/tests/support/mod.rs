@@ -3,7 +3,8 @@
 // Each test file is a crate of its own that includes this module and uses only a part of it.
 #![allow(dead_code)]
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 use film::Film;
 use render::{build_scene, BuildOptions, BuiltScene};
@@ -52,4 +53,24 @@ pub fn image_xyz(a: &Film, b: &Film) -> ([f64; 3], [f64; 3]) {
         }
     }
     (m, d2.map(|d| d.sqrt() / (2.0 * n)))
+}
+
+/// A fresh, empty temporary directory for one test: `prismatic-<group>-<process>-<name>`.
+pub fn temp_dir(group: &str, name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("prismatic-{group}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs `prismatic <args>` in `dir`.
+pub fn prismatic(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_prismatic")).args(args).current_dir(dir).output().unwrap()
+}
+
+/// The output of a run that succeeded (else the test fails with its stderr).
+#[track_caller]
+pub fn ok(out: Output) -> Output {
+    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
+    out
 }
