@@ -113,11 +113,6 @@ impl DisplayTransform {
         Self { view, source_to_display, source_to_lms, lms_to_display, cusp_lightness }
     }
 
-    /// The view this transform applies.
-    pub fn view(&self) -> View {
-        self.view
-    }
-
     /// A source pixel's display-linear RGB, each component in [0, 1] (0 for NaN input).
     pub fn apply(&self, rgb: [f32; 3]) -> [f64; 3] {
         let rgb = rgb.map(f64::from);
@@ -226,11 +221,6 @@ impl DisplayEncoding {
     /// The display space the image is encoded in.
     pub fn display_space(&self) -> &RgbColorSpace {
         &self.space
-    }
-
-    /// The transform to display-linear RGB.
-    pub fn transform(&self) -> &DisplayTransform {
-        &self.transform
     }
 
     /// The 8-bit, dithered, transfer-encoded RGB bytes of `pixels` (row-major, `width` per row), three per pixel.

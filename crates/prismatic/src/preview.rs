@@ -61,9 +61,16 @@ struct Shared {
     color_space: RgbColorSpace,
     /// The last PNG encoded: (frame version, view, exposure) and its bytes, so a frame is encoded once per view.
     png: Mutex<Option<(String, Arc<Vec<u8>>)>>,
-    /// What the last PNG encoding cost, and (count, total) of all of them.
-    encode_cost: Mutex<Duration>,
-    encodes: Mutex<(u32, Duration)>,
+    /// What PNG encoding has cost.
+    encoding: Mutex<EncodingCost>,
+}
+
+/// What PNG encoding has cost: the last encoding (for spacing updates) and all of them (for the account).
+#[derive(Clone, Copy, Debug, Default)]
+struct EncodingCost {
+    last: Duration,
+    count: u32,
+    total: Duration,
 }
 
 /// The frames waiting for the tev sender: the latest only (a slow connection skips frames, never the render).
@@ -96,8 +103,7 @@ impl LiveView {
             frame: Mutex::new(None),
             color_space,
             png: Mutex::new(None),
-            encode_cost: Mutex::new(Duration::ZERO),
-            encodes: Mutex::new((0, Duration::ZERO)),
+            encoding: Mutex::new(EncodingCost::default()),
         });
         if let Some(port) = port {
             let listener = TcpListener::bind(("127.0.0.1", port)).with_context(|| {
@@ -130,7 +136,7 @@ impl LiveView {
     /// cost since the last.
     pub fn due(&self) -> bool {
         let Some(last) = self.last else { return true };
-        let cost = self.copy_cost + *lock(&self.shared.encode_cost);
+        let cost = self.copy_cost + lock(&self.shared.encoding).last;
         last.elapsed() >= MIN_INTERVAL.max(cost * COST_FACTOR)
     }
 
@@ -158,12 +164,13 @@ impl LiveView {
         if let Some((_, handle)) = self.tev.take() {
             let _ = handle.join();
         }
-        let (encodes, encoding) = *lock(&self.shared.encodes);
+        let encoding = *lock(&self.shared.encoding);
         format!(
-            "live view: {} frames, {:.1} ms copying the film, {encodes} PNGs encoded in {:.1} ms of CPU",
+            "live view: {} frames, {:.1} ms copying the film, {} PNGs encoded in {:.1} ms of CPU",
             self.version,
             self.copy_total.as_secs_f64() * 1e3,
-            encoding.as_secs_f64() * 1e3
+            encoding.count,
+            encoding.total.as_secs_f64() * 1e3
         )
     }
 }
@@ -310,20 +317,27 @@ fn frame_png(shared: &Shared, query: &str) -> Result<Option<Arc<Vec<u8>>>, Strin
     }
     let start = Instant::now();
     let cpu_start = thread_cpu_time();
-    let scale = 2f64.powf(exposure) as f32;
-    let pixels: Vec<[f32; 3]> = frame.rgb.iter().map(|p| p.map(|c| c * scale)).collect();
+    // A copy only when the exposure changes the pixels.
+    let scaled: Vec<[f32; 3]>;
+    let pixels: &[[f32; 3]] = if exposure == 0.0 {
+        &frame.rgb
+    } else {
+        let scale = 2f64.powf(exposure) as f32;
+        scaled = frame.rgb.iter().map(|p| p.map(|c| c * scale)).collect();
+        &scaled
+    };
     let display = film::DisplayEncoding::new(&shared.color_space, view).for_live_view();
     let png =
-        film::encode_display_png("preview", frame.width, frame.height, &pixels, &display).map_err(|e| e.to_string())?;
+        film::encode_display_png("preview", frame.width, frame.height, pixels, &display).map_err(|e| e.to_string())?;
     let png = Arc::new(png);
     let took = match (cpu_start, thread_cpu_time()) {
         (Some(a), Some(b)) if b >= a => b - a,
         _ => start.elapsed(),
     };
-    *lock(&shared.encode_cost) = took;
-    let mut encodes = lock(&shared.encodes);
-    *encodes = (encodes.0 + 1, encodes.1 + took);
-    drop(encodes);
+    {
+        let mut cost = lock(&shared.encoding);
+        *cost = EncodingCost { last: took, count: cost.count + 1, total: cost.total + took };
+    }
     *lock(&shared.png) = Some((key, Arc::clone(&png)));
     Ok(Some(png))
 }
@@ -416,11 +430,10 @@ fn send_to_tev(address: &str, name: &str, queue: &TevQueue) {
                     .to_socket_addrs()?
                     .next()
                     .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::NotFound, "no address"))?;
-                let stream = TcpStream::connect_timeout(&addr, Duration::from_secs(2))?;
+                let mut stream = TcpStream::connect_timeout(&addr, Duration::from_secs(2))?;
                 stream.set_write_timeout(Some(Duration::from_secs(10)))?;
-                let mut s = stream;
-                s.write_all(&tev_create_image(name, frame.width, frame.height))?;
-                connection = Some(s);
+                stream.write_all(&tev_create_image(name, frame.width, frame.height))?;
+                connection = Some(stream);
             }
             let stream = connection.as_mut().expect("connected above");
             for ty in (0..frame.height).step_by(TEV_TILE as usize) {
