@@ -956,15 +956,15 @@ impl ColorEncoding {
     }
 }
 
-/// Reads an RGB image for a texture, with `encoding` turning the samples of integer formats (PNG, 8 or 16 bit)
-/// into linear values as pbrt-v4 does (TGA: 8-bit); float formats (EXR, PFM) are linear and ignore it. With
-/// [`ColorEncoding::Srgb`] this returns what [`read_rgb`] does.
+/// Reads an RGB image for a texture, with `encoding` turning the samples of PNGs (8 or 16 bit) into linear values
+/// as pbrt-v4 does; float formats (EXR, PFM) are linear and ignore it, and so does TGA, which is always sRGB-decoded
+/// (below). With [`ColorEncoding::Srgb`] this returns what [`read_rgb`] does.
 pub fn read_rgb_encoded(path: &Path, encoding: ColorEncoding) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("tga")) {
-        // TGA holds 8-bit samples only: the encoding decodes all of them.
-        let image = crate::tga::read_tga(path)?;
-        let lut: Vec<f32> = (0..256).map(|v| encoding.to_linear(v as f64 / 255.0) as f32).collect();
-        return Ok((image.width, image.height, crate::tga::samples_to_rgb(&image, &lut)));
+        // pbrt-v4 reads TGA through stb_image and tags the 8-bit result sRGB whatever encoding the texture asked
+        // for (pbrt-v4 src/pbrt/util/image.cpp, Image::Read); measured: its "linear" default for non-PNG textures
+        // does not reach TGA, so the staircase scenes' wood is as dark in pbrt-v4 as sRGB decoding makes it.
+        return crate::tga::read_tga_linear(path);
     }
     match ImageFormat::from_path(path)? {
         ImageFormat::Png => {

@@ -1,7 +1,7 @@
 //! `prismatic compare`: how far apart two renders of the same scene are (for noise and convergence measurements).
 
 use std::fmt::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -22,6 +22,22 @@ pub struct CompareArgs {
     /// Only the pixels x0 ≤ x < x1, y0 ≤ y < y1.
     #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_region)]
     pub region: Option<[u32; 4]>,
+    /// Also compare the means of N×N blocks, each against both images' noise (see --a2, --b2).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub blocks: Option<u32>,
+    /// A second render of A's scene with another seed: A becomes the average of both, and their difference
+    /// measures A's noise per pixel for --blocks. Without it A counts as noiseless.
+    #[arg(long, value_name = "FILE", requires = "blocks")]
+    pub a2: Option<PathBuf>,
+    /// A second render of B's scene with another seed, as --a2 for B.
+    #[arg(long, value_name = "FILE", requires = "blocks")]
+    pub b2: Option<PathBuf>,
+    /// A block is off when its mean differs from B's by more than this fraction …
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.1, requires = "blocks")]
+    pub block_tolerance: f64,
+    /// … and by more than this many standard deviations of the difference.
+    #[arg(long, value_name = "SIGMAS", default_value_t = 5.0, requires = "blocks")]
+    pub block_sigmas: f64,
 }
 
 fn parse_region(s: &str) -> Result<[u32; 4], String> {
@@ -121,14 +137,131 @@ pub fn compare(w: u32, h: u32, a: &[[f32; 3]], b: &[[f32; 3]], region: Option<[u
     })
 }
 
+/// A render averaged over one or two seeds, with the variance of each pixel's average where two were given.
+struct Estimate {
+    mean: Vec<[f32; 3]>,
+    /// Per pixel and channel, (x₁ − x₂)²/4: an unbiased estimate of the variance of (x₁ + x₂)/2 for independent
+    /// renders. `None` for a single render.
+    variance: Option<Vec<[f32; 3]>>,
+}
+
+/// The per-channel means over a region and the test of every `n`×`n` block of two estimates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BlockComparison {
+    /// Mean of R, G and B of a and of b over the region.
+    pub channel_mean: [[f64; 3]; 2],
+    /// Blocks compared (partial blocks at the right and bottom edges count).
+    pub blocks: usize,
+    /// Blocks whose mean (of R, G and B) differs from b's by more than the tolerance and the sigmas.
+    pub off: usize,
+    /// Among the off blocks (or, if none is, all blocks) the one farthest in sigmas: its top-left pixel, relative
+    /// difference (a − b)/b and distance in standard deviations (infinite where neither image has noise).
+    pub worst: Option<([u32; 2], f64, f64)>,
+}
+
+/// When a block of two renders counts as off.
+#[derive(Clone, Copy, Debug)]
+struct BlockTest {
+    /// Blocks are `size`×`size` pixels.
+    size: u32,
+    /// Off only when the means differ by more than this fraction of b's …
+    tolerance: f64,
+    /// … and by more than this many standard deviations of the difference.
+    sigmas: f64,
+}
+
+/// Tests every block of `region`: it is off when |ā − b̄| > tolerance·b̄ and > sigmas·σ, with σ² the sum of both
+/// estimates' block variances (each pixel's variance summed over the block's pixels and channels, divided by their
+/// count squared, as for a mean of independent values).
+fn compare_blocks(
+    (w, h): (u32, u32),
+    a: &Estimate,
+    b: &Estimate,
+    region: Option<[u32; 4]>,
+    test: BlockTest,
+) -> Result<BlockComparison> {
+    let BlockTest { size: n, tolerance, sigmas } = test;
+    let [x0, y0, x1, y1] = region.unwrap_or([0, 0, w, h]);
+    if x1 > w || y1 > h {
+        bail!("--region {x0},{y0},{x1},{y1} is outside the {w}x{h} image");
+    }
+    let mut channel_sum = [[0.0f64; 3]; 2];
+    let (mut blocks, mut off, mut worst_off, mut worst_any) = (0, 0, None, None::<([u32; 2], f64, f64)>);
+    let farther = |w: &Option<([u32; 2], f64, f64)>, z: f64| w.is_none_or(|(_, _, wz)| z > wz);
+    for by in (y0..y1).step_by(n as usize) {
+        for bx in (x0..x1).step_by(n as usize) {
+            let (mut sum, mut var, mut count) = ([0.0f64; 2], 0.0f64, 0usize);
+            for y in by..(by + n).min(y1) {
+                for x in bx..(bx + n).min(x1) {
+                    let i = (y * w + x) as usize;
+                    for (k, e) in [a, b].into_iter().enumerate() {
+                        for c in 0..3 {
+                            let v = e.mean[i][c] as f64;
+                            channel_sum[k][c] += v;
+                            sum[k] += v;
+                            var += e.variance.as_ref().map_or(0.0, |s| s[i][c] as f64);
+                        }
+                    }
+                    count += 3;
+                }
+            }
+            let (ma, mb) = (sum[0] / count as f64, sum[1] / count as f64);
+            let sigma = var.sqrt() / count as f64;
+            let difference = (ma - mb).abs();
+            let z = if sigma > 0.0 {
+                difference / sigma
+            } else if difference > 0.0 {
+                f64::INFINITY
+            } else {
+                0.0
+            };
+            let relative = if mb != 0.0 { (ma - mb) / mb } else { f64::INFINITY.copysign(ma - mb) };
+            let entry = ([bx, by], relative, z);
+            blocks += 1;
+            if difference > tolerance * mb.abs() && z > sigmas {
+                off += 1;
+                if farther(&worst_off, z) {
+                    worst_off = Some(entry);
+                }
+            }
+            if farther(&worst_any, z) {
+                worst_any = Some(entry);
+            }
+        }
+    }
+    let pixels = ((x1 - x0) * (y1 - y0)) as f64;
+    Ok(BlockComparison {
+        channel_mean: channel_sum.map(|s| s.map(|v| v / pixels)),
+        blocks,
+        off,
+        worst: worst_off.or(worst_any),
+    })
+}
+
+/// Reads a render and, if given, a second one of another seed into an [`Estimate`].
+fn read_estimate(first: &Path, second: Option<&Path>) -> Result<(u32, u32, Estimate)> {
+    let read = |p: &Path| film::read_rgb(p).with_context(|| format!("cannot read {}", p.display()));
+    let (w, h, x1) = read(first)?;
+    let Some(second) = second else {
+        return Ok((w, h, Estimate { mean: x1, variance: None }));
+    };
+    let (w2, h2, x2) = read(second)?;
+    if (w2, h2) != (w, h) {
+        bail!("{} is {w2}x{h2}, {} is {w}x{h}", second.display(), first.display());
+    }
+    let mean = x1.iter().zip(&x2).map(|(p, q)| [0, 1, 2].map(|c| 0.5 * (p[c] + q[c]))).collect();
+    let variance = x1.iter().zip(&x2).map(|(p, q)| [0, 1, 2].map(|c| 0.25 * (p[c] - q[c]).powi(2))).collect();
+    Ok((w, h, Estimate { mean, variance: Some(variance) }))
+}
+
 /// Runs the subcommand and returns what to print.
 pub fn run(args: &CompareArgs) -> Result<String> {
-    let (wa, ha, a) = film::read_rgb(&args.a).with_context(|| format!("cannot read {}", args.a.display()))?;
-    let (wb, hb, b) = film::read_rgb(&args.b).with_context(|| format!("cannot read {}", args.b.display()))?;
+    let (wa, ha, ea) = read_estimate(&args.a, args.a2.as_deref())?;
+    let (wb, hb, eb) = read_estimate(&args.b, args.b2.as_deref())?;
     if (wa, ha) != (wb, hb) {
         bail!("the images differ in size: {wa}x{ha} and {wb}x{hb}");
     }
-    let c = compare(wa, ha, &a, &b, args.region)?;
+    let c = compare(wa, ha, &ea.mean, &eb.mean, args.region)?;
     let mut out = String::new();
     let _ = writeln!(out, "pixels {}", c.pixels);
     let _ = writeln!(out, "mean {:.6e} {:.6e}", c.mean[0], c.mean[1]);
@@ -138,6 +271,26 @@ pub fn run(args: &CompareArgs) -> Result<String> {
     let _ = writeln!(out, "pixel_relative_mse {:.6e}", c.pixel_relative_mse);
     let _ = writeln!(out, "identical_values {} of {}", c.identical_values, 3 * c.pixels);
     let _ = writeln!(out, "max_difference_over_pixel_max {:.6e}", c.max_difference_over_pixel_max);
+    if let Some(n) = args.blocks {
+        if !(args.block_tolerance >= 0.0 && args.block_sigmas >= 0.0) {
+            bail!("--block-tolerance and --block-sigmas must not be negative");
+        }
+        let test = BlockTest { size: n, tolerance: args.block_tolerance, sigmas: args.block_sigmas };
+        let bc = compare_blocks((wa, ha), &ea, &eb, args.region, test)?;
+        let [ma, mb] = bc.channel_mean;
+        let _ = writeln!(out, "channel_mean_a {:.6e} {:.6e} {:.6e}", ma[0], ma[1], ma[2]);
+        let _ = writeln!(out, "channel_mean_b {:.6e} {:.6e} {:.6e}", mb[0], mb[1], mb[2]);
+        let rel = [0, 1, 2].map(|c| if mb[c] != 0.0 { ma[c] / mb[c] - 1.0 } else { f64::NAN });
+        let _ = writeln!(out, "channel_relative_difference {:+.4} {:+.4} {:+.4}", rel[0], rel[1], rel[2]);
+        let _ = writeln!(
+            out,
+            "blocks_off {} of {} ({n}x{n}, beyond {} and {} sigma)",
+            bc.off, bc.blocks, args.block_tolerance, args.block_sigmas
+        );
+        if let Some(([x, y], relative, z)) = bc.worst {
+            let _ = writeln!(out, "worst_block {x},{y} {relative:+.4} {z:.1}");
+        }
+    }
     Ok(out)
 }
 
@@ -170,5 +323,37 @@ mod tests {
         assert!(compare(2, 1, &a, &b, Some([0, 0, 3, 1])).is_err());
         assert!(parse_region("1,2,3").is_err() && parse_region("5,0,5,1").is_err());
         assert_eq!(parse_region("0, 1, 2, 3"), Ok([0, 1, 2, 3]));
+    }
+
+    #[test]
+    fn a_block_is_off_only_beyond_both_the_tolerance_and_the_noise() {
+        // 8×4 pixels of value 1 in b; in a, the left 4×4 block is 1.2 (20% off) and the right one 1.05 (5% off).
+        let b = vec![[1.0f32; 3]; 32];
+        let a: Vec<[f32; 3]> = (0..32).map(|i| if i % 8 < 4 { [1.2; 3] } else { [1.05; 3] }).collect();
+        let estimate = |mean: &Vec<[f32; 3]>, var: Option<f32>| Estimate {
+            mean: mean.clone(),
+            variance: var.map(|v| vec![[v; 3]; mean.len()]),
+        };
+        // Per-value variance v over 48 values of a block: σ of a block mean is √(48 v)/48 = √(v/48), both images'.
+        let blocks = |size| BlockTest { size, tolerance: 0.1, sigmas: 5.0 };
+        let test = |va, vb| compare_blocks((8, 4), &estimate(&a, va), &estimate(&b, vb), None, blocks(4)).unwrap();
+        // Noiseless: only the 20% block is beyond 10%; it is infinitely many σ away.
+        let c = test(None, None);
+        assert_eq!((c.blocks, c.off), (2, 1));
+        let ([x, y], rel, z) = c.worst.unwrap();
+        assert_eq!([x, y], [0, 0]);
+        assert!((rel - 0.2).abs() < 1e-6 && z.is_infinite());
+        assert!((c.channel_mean[0][0] - 1.125).abs() < 1e-6 && c.channel_mean[1] == [1.0; 3]);
+        // σ = √(2·0.048/48) ≈ 0.045 in total: 0.2 is 4.5σ, not beyond 5σ; with a quarter the variance it is 8.9σ.
+        let c = test(Some(0.048), Some(0.048));
+        assert_eq!(c.off, 0);
+        assert!((c.worst.unwrap().2 - 0.2 / (0.096f64 / 48.0).sqrt()).abs() < 1e-3);
+        assert_eq!(test(Some(0.012), Some(0.012)).off, 1);
+        // A region holding the right block only: 5% is within the tolerance however small the noise.
+        let right = compare_blocks((8, 4), &estimate(&a, None), &estimate(&b, None), Some([4, 0, 8, 4]), blocks(4));
+        assert_eq!(right.unwrap().off, 0);
+        // Partial blocks at the edges count: 3×3 blocks tile 8×4 as 3 columns by 2 rows.
+        let c = compare_blocks((8, 4), &estimate(&a, None), &estimate(&b, None), None, blocks(3)).unwrap();
+        assert_eq!(c.blocks, 6);
     }
 }

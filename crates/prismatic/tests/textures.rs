@@ -147,6 +147,23 @@ fn image_encoding_decides_what_an_8_bit_value_means() {
         // A grey diffuse plane under a uniform sky of luminance 1 has luminance ρ.
         assert!((y - albedo).abs() < 0.02 * albedo, "{encoding}: Y {y}, expected {albedo}");
     }
+    // A TGA of the same bytes is sRGB-decoded whatever the encoding says, as pbrt-v4 reads it (through stb_image,
+    // tagged sRGB): measured there on staircase's WoodFloor.tga under a white sky, where "linear" would be 1.5–3.4
+    // times too bright. An uncompressed 24-bit TGA: 18-byte header (image type 2, 4×4, 24 bits), then BGR bytes.
+    let tga = dir.join("grey.tga");
+    let mut bytes = vec![0u8, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 4, 0, 4, 0, 24, 0];
+    bytes.extend([128u8; 48]);
+    std::fs::write(&tga, bytes).unwrap();
+    for encoding in ["", r#""string encoding" "linear""#, r#""string encoding" "gamma 3""#] {
+        let defs = format!(r#"Texture "img" "spectrum" "imagemap" "string filename" "{}" {encoding}"#, tga.display());
+        let built = build(
+            &plane_scene("path", SKY, &defs, r#"Material "diffuse" "texture reflectance" "img""#, 8, 64),
+            "encoding.pbrt",
+        );
+        let y = mean(&pixel_y(&render(&built, 2)));
+        let albedo = spectral::color::srgb_decode(v);
+        assert!((y - albedo).abs() < 0.02 * albedo, "TGA {encoding}: Y {y}, expected {albedo}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 
