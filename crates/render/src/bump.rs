@@ -9,8 +9,8 @@ use glam::{Vec2, Vec3};
 use crate::scene::SurfaceHit;
 use crate::texture::{FloatTexture, RgbImage, TextureEvalContext};
 
-/// The step in u and v of bump mapping's finite differences. pbrt-v4 takes half the ray differentials' footprint
-/// and falls back to this when a ray has none; Prismatic always takes this (its footprints serve image filters).
+/// The step in u and v of bump mapping's finite differences where the hit has no footprint (pbrt-v4's fallback for
+/// rays without differentials).
 pub const BUMP_DELTA: f32 = 0.0005;
 
 /// The shading geometry at a surface point that bump and normal mapping start from and change.
@@ -50,18 +50,24 @@ impl ShadingGeometry {
 }
 
 /// Bump mapping (Blinn 1978; pbrt-v4's `BumpMap`): the surface displaced along the shading normal by
-/// `displacement`, differentiated by forward differences of step [`BUMP_DELTA`] in u and v:
-/// ∂p′/∂u ≈ ∂p/∂u + (d(u + Δ) − d(u))/Δ · ns, likewise for v. pbrt-v4 also adds d·∂n/∂u, which Prismatic's hits do
-/// not carry; it only matters where the displacement is large against the radius of curvature. Returns the new
-/// shading partials.
-pub fn bump(displacement: &FloatTexture, g: &ShadingGeometry) -> (Vec3, Vec3) {
-    let ctx = TextureEvalContext::new(g.p, g.n, g.uv);
-    let d = displacement.eval(&ctx);
-    let du = BUMP_DELTA;
-    let shifted_u = TextureEvalContext::new(g.p + du * g.dpdu, g.n, g.uv + Vec2::new(du, 0.0));
+/// `displacement`, differentiated by forward differences: ∂p′/∂u ≈ ∂p/∂u + (d(u + Δu) − d(u))/Δu · ns, likewise for
+/// v, with Δu = ½(|∂u/∂x| + |∂u/∂y|) half the footprint of `ctx` in u (so an image's bumps are seen at the scale its
+/// MIP filter reads them; [`BUMP_DELTA`] where there is no footprint) and the displacement evaluated with the
+/// footprint of `ctx` at the shifted points. pbrt-v4 also adds d·∂n/∂u, which Prismatic's hits do not carry; it
+/// only matters where the displacement is large against the radius of curvature. Returns the new shading partials.
+pub fn bump(displacement: &FloatTexture, g: &ShadingGeometry, ctx: &TextureEvalContext) -> (Vec3, Vec3) {
+    let [dudx, dudy, dvdx, dvdy] = ctx.duv;
+    let step = |a: f32, b: f32| match 0.5 * (a.abs() + b.abs()) {
+        s if s > 0.0 && s.is_finite() => s,
+        _ => BUMP_DELTA,
+    };
+    let here = TextureEvalContext { p: g.p, n: g.n, uv: g.uv, ..*ctx };
+    let d = displacement.eval(&here);
+    let du = step(dudx, dudy);
+    let shifted_u = TextureEvalContext { p: g.p + du * g.dpdu, uv: g.uv + Vec2::new(du, 0.0), ..here };
     let d_u = displacement.eval(&shifted_u);
-    let dv = BUMP_DELTA;
-    let shifted_v = TextureEvalContext::new(g.p + dv * g.dpdv, g.n, g.uv + Vec2::new(0.0, dv));
+    let dv = step(dvdx, dvdy);
+    let shifted_v = TextureEvalContext { p: g.p + dv * g.dpdv, uv: g.uv + Vec2::new(0.0, dv), ..here };
     let d_v = displacement.eval(&shifted_v);
     (g.dpdu + ((d_u - d) / du) * g.ns, g.dpdv + ((d_v - d) / dv) * g.ns)
 }
@@ -94,19 +100,19 @@ pub enum NormalPerturbation {
 }
 
 impl NormalPerturbation {
-    /// The shading geometry after the perturbation.
-    pub fn perturb(&self, g: &ShadingGeometry) -> ShadingGeometry {
+    /// The shading geometry after the perturbation; `ctx` carries the hit's footprint for bump mapping.
+    pub fn perturb(&self, g: &ShadingGeometry, ctx: &TextureEvalContext) -> ShadingGeometry {
         let (dpdu, dpdv) = match self {
-            NormalPerturbation::Bump(d) => bump(d, g),
+            NormalPerturbation::Bump(d) => bump(d, g, ctx),
             NormalPerturbation::NormalMap(img) => normal_map(img, g),
         };
         g.with_partials(dpdu, dpdv)
     }
 
     /// Tilts the shading frame of `hit` (its shading normal, the tangent its BSDF frame starts from, and its shading
-    /// partials); the geometric normal stays.
-    pub fn apply(&self, hit: &mut SurfaceHit) {
-        let g = self.perturb(&ShadingGeometry::of(hit));
+    /// partials); the geometric normal stays. `ctx` is the hit's texture context (with its footprint, if any).
+    pub fn apply(&self, hit: &mut SurfaceHit, ctx: &TextureEvalContext) {
+        let g = self.perturb(&ShadingGeometry::of(hit), ctx);
         hit.ns = g.ns;
         hit.dpdu = g.dpdu;
         hit.shading_dpdu = g.dpdu;
@@ -131,6 +137,11 @@ mod tests {
         }
     }
 
+    /// The texture context at `g` without a footprint.
+    fn point(g: &ShadingGeometry) -> TextureEvalContext {
+        TextureEvalContext::new(g.p, g.n, g.uv)
+    }
+
     /// d(u, v) = a·u + b·v, as a bilerp texture over (u, v).
     fn ramp(a: f32, b: f32) -> FloatTexture {
         FloatTexture::Bilerp { map: Box::new(TextureMapping2D::Uv(UvMapping::default())), v: [0.0, b, a, a + b] }
@@ -140,7 +151,7 @@ mod tests {
     fn bump_of_a_constant_is_no_bump() {
         for g in [plane(1.0, 1.0), plane(3.0, 0.5)] {
             for c in [0.0, 0.7, -2.0] {
-                let out = NormalPerturbation::Bump(FloatTexture::Constant(c)).perturb(&g);
+                let out = NormalPerturbation::Bump(FloatTexture::Constant(c)).perturb(&g, &point(&g));
                 assert!((out.ns - g.ns).length() < 1e-6, "{c}: {:?}", out.ns);
                 assert_eq!((out.dpdu, out.dpdv), (g.dpdu, g.dpdv), "the partials are unchanged exactly");
             }
@@ -149,7 +160,7 @@ mod tests {
         let ns = Vec3::new(0.0, 0.6, 0.8);
         let dpdu = Vec3::X;
         let g = ShadingGeometry { ns, dpdu, dpdv: ns.cross(dpdu), ..plane(1.0, 1.0) };
-        let out = NormalPerturbation::Bump(FloatTexture::Constant(0.3)).perturb(&g);
+        let out = NormalPerturbation::Bump(FloatTexture::Constant(0.3)).perturb(&g, &point(&g));
         assert!((out.ns - ns).length() < 1e-6);
     }
 
@@ -159,7 +170,7 @@ mod tests {
         // bumped normal (−k/su, 0, 1)/√(1 + (k/su)²), tilted by atan(k/su) towards −x.
         for (k, su) in [(0.5f32, 1.0f32), (2.0, 4.0), (-1.5, 0.5)] {
             let g = plane(su, 1.0);
-            let out = NormalPerturbation::Bump(ramp(k, 0.0)).perturb(&g);
+            let out = NormalPerturbation::Bump(ramp(k, 0.0)).perturb(&g, &point(&g));
             let slope = k / su;
             let expect = Vec3::new(-slope, 0.0, 1.0).normalize();
             assert!((out.ns - expect).length() < 2e-4, "k {k} su {su}: {:?} vs {expect:?}", out.ns);
@@ -167,12 +178,29 @@ mod tests {
             assert!((angle - slope.abs().atan()).abs() < 2e-4, "{angle} vs {}", slope.abs().atan());
         }
         // A ramp in v tilts towards −y; both at once give (−a, −b, 1).
-        let out = NormalPerturbation::Bump(ramp(0.3, -0.8)).perturb(&plane(1.0, 1.0));
+        let out = NormalPerturbation::Bump(ramp(0.3, -0.8)).perturb(&plane(1.0, 1.0), &point(&plane(1.0, 1.0)));
         assert!((out.ns - Vec3::new(-0.3, 0.8, 1.0).normalize()).length() < 2e-4, "{:?}", out.ns);
         // The geometric normal's side wins: a surface whose geometric normal is −z keeps its bumped normal there.
         let g = ShadingGeometry { n: -Vec3::Z, ns: -Vec3::Z, ..plane(1.0, 1.0) };
-        let out = NormalPerturbation::Bump(ramp(0.5, 0.0)).perturb(&g);
+        let out = NormalPerturbation::Bump(ramp(0.5, 0.0)).perturb(&g, &point(&g));
         assert!(out.ns.z < 0.0 && (out.ns.z.abs() - 1.0 / 1.25f32.sqrt()).abs() < 2e-4, "{:?}", out.ns);
+    }
+
+    #[test]
+    fn bump_steps_by_half_the_footprint_as_pbrt_v4_does() {
+        // d = u² (a ramp times itself): the forward difference over Δ is 2u + Δ, so the tilt tells the step. pbrt-v4
+        // steps Δu = ½(|∂u/∂x| + |∂u/∂y|), Δv likewise, and 0.0005 where the ray has no differentials.
+        let square = FloatTexture::Scale { tex: Box::new(ramp(1.0, 0.0)), scale: Box::new(ramp(1.0, 0.0)) };
+        let g = plane(1.0, 1.0);
+        let u = g.uv.x;
+        for (duv, step) in [([0.2f32, -0.1, 0.0, 0.0], 0.15f32), ([0.0; 4], BUMP_DELTA), ([0.02, 0.0, 0.5, 0.5], 0.01)]
+        {
+            let ctx = TextureEvalContext { duv, ..point(&g) };
+            let out = NormalPerturbation::Bump(square.clone()).perturb(&g, &ctx);
+            let slope = 2.0 * u + step;
+            let expect = Vec3::new(-slope, 0.0, 1.0).normalize();
+            assert!((out.ns - expect).length() < 2e-4, "step {step}: {:?} vs {expect:?}", out.ns);
+        }
     }
 
     #[test]
@@ -181,7 +209,7 @@ mod tests {
         let v = 128.0 / 255.0;
         let img = RgbImage { width: 1, height: 1, pixels: vec![[v, v, 1.0]] };
         for g in [plane(1.0, 1.0), plane(2.0, 5.0)] {
-            let out = NormalPerturbation::NormalMap(Arc::new(img.clone())).perturb(&g);
+            let out = NormalPerturbation::NormalMap(Arc::new(img.clone())).perturb(&g, &point(&g));
             assert!((out.ns - g.ns).length() < 2.0 / 255.0, "{:?}", out.ns);
             assert!((out.dpdu.length() - g.dpdu.length()).abs() < 1e-5, "lengths kept");
             assert!((out.dpdv.length() - g.dpdv.length()).abs() < 1e-5);
@@ -190,10 +218,10 @@ mod tests {
         // An exactly flat map, (0.5, 0.5, 1), is no change at all; a tilted one turns the normal in the (∂p/∂u, ns ×
         // ∂p/∂u) frame: (1, 0.5, 1) is local (1, 0, 1)/√2, towards +u.
         let flat = RgbImage { width: 1, height: 1, pixels: vec![[0.5, 0.5, 1.0]] };
-        let out = NormalPerturbation::NormalMap(Arc::new(flat)).perturb(&plane(2.0, 1.0));
+        let out = NormalPerturbation::NormalMap(Arc::new(flat)).perturb(&plane(2.0, 1.0), &point(&plane(2.0, 1.0)));
         assert!((out.ns - Vec3::Z).length() < 1e-6);
         let tilted = RgbImage { width: 1, height: 1, pixels: vec![[1.0, 0.5, 1.0]] };
-        let out = NormalPerturbation::NormalMap(Arc::new(tilted)).perturb(&plane(2.0, 1.0));
+        let out = NormalPerturbation::NormalMap(Arc::new(tilted)).perturb(&plane(2.0, 1.0), &point(&plane(2.0, 1.0)));
         assert!((out.ns - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-6, "{:?}", out.ns);
     }
 }

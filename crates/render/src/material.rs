@@ -218,7 +218,24 @@ impl Material {
 
     /// The BxDF at a shading point. Dispersive dielectrics first reduce the path to one wavelength with `u`
     /// (seed 001: a refractive surface forces a choice); `None` for interfaces.
-    pub fn bxdf(&self, ctx: &TextureEvalContext, wl: &mut SampledWavelengths, u: f32) -> Option<Bxdf> {
+    pub fn bxdf(
+        &self,
+        ctx: &TextureEvalContext,
+        wl: &mut SampledWavelengths,
+        u: f32,
+        regularize: bool,
+    ) -> Option<Bxdf> {
+        // pbrt-v4 regularizes dielectrics, conductors and both layers of coated materials; diffuse, thin,
+        // measured materials stay as they are. A regularized smooth dispersive dielectric is a rough one, which
+        // picks its wavelength up front as every rough dispersive dielectric does.
+        let distribution = |r: &Roughness| {
+            let d = r.distribution(ctx);
+            if regularize {
+                d.regularized()
+            } else {
+                d
+            }
+        };
         match self {
             Material::Diffuse { reflectance } => Some(Bxdf::Diffuse { r: clamp01(reflectance.eval(ctx, wl)) }),
             Material::DiffuseTransmission { reflectance, transmittance, scale } => Some(Bxdf::DiffuseTransmission {
@@ -227,10 +244,10 @@ impl Material {
             }),
             Material::Conductor { spec, roughness } => {
                 let (eta, k) = spec.eta_k(ctx, wl);
-                Some(Bxdf::Conductor { eta, k, distrib: roughness.distribution(ctx) })
+                Some(Bxdf::Conductor { eta, k, distrib: distribution(roughness) })
             }
             Material::Dielectric { ior, roughness } => {
-                let distrib = roughness.distribution(ctx);
+                let distrib = distribution(roughness);
                 if ior.is_dispersive() && distrib.effectively_smooth() && !wl.is_single() {
                     // Keep all wavelengths until the sampled event is a refraction (see DispersiveDielectric).
                     let mut eta = SampledSpectrum::zero();
@@ -256,7 +273,7 @@ impl Material {
                 let layered = Layered::coated_diffuse(
                     clamp01(reflectance.eval(ctx, wl)),
                     eta,
-                    roughness.distribution(ctx),
+                    distribution(roughness),
                     medium.thickness,
                     medium.max_depth,
                     medium.n_samples,
@@ -275,10 +292,10 @@ impl Material {
                 // The base sits inside the coat: its index relative to the coat is (η + ik)/η_coat (pbrt-v4 §9.4).
                 let layered = Layered::coated_conductor(
                     eta,
-                    interface_roughness.distribution(ctx),
+                    distribution(interface_roughness),
                     ce * (1.0 / eta),
                     ck * (1.0 / eta),
-                    conductor_roughness.distribution(ctx),
+                    distribution(conductor_roughness),
                     medium.thickness,
                     medium.max_depth,
                     medium.n_samples,
@@ -319,7 +336,7 @@ mod tests {
         let m = Material::DiffuseTransmission { reflectance: constant(0.5), transmittance: constant(0.25), scale: 3.0 };
         let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
         let ctx = TextureEvalContext::new(Vec3::ZERO, Vec3::Z, Vec2::ZERO);
-        let Some(Bxdf::DiffuseTransmission { r, t }) = m.bxdf(&ctx, &mut wl, 0.5) else { panic!() };
+        let Some(Bxdf::DiffuseTransmission { r, t }) = m.bxdf(&ctx, &mut wl, 0.5, false) else { panic!() };
         assert_eq!(r.0, [1.0; 4]);
         assert_eq!(t.0, [0.75; 4]);
     }
@@ -330,13 +347,13 @@ mod tests {
         let m = Material::Dielectric { ior: DielectricIor::Model(sf11.clone()), roughness: Roughness::smooth() };
         let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
         let ctx = TextureEvalContext::new(Vec3::ZERO, Vec3::Z, Vec2::ZERO);
-        let Some(Bxdf::DispersiveDielectric { eta, active }) = m.bxdf(&ctx, &mut wl, 0.6) else { panic!() };
+        let Some(Bxdf::DispersiveDielectric { eta, active }) = m.bxdf(&ctx, &mut wl, 0.6, false) else { panic!() };
         assert_eq!(active, [true; 4], "a smooth dispersive interface keeps all wavelengths until it refracts");
         assert!((eta[2] as f64 - sf11.n(650.0)).abs() < 1e-6);
         // A rough dispersive interface reduces the path to one wavelength first (its microfacet sampling is shared).
         let rough = Roughness { u: FloatTexture::Constant(0.1), v: FloatTexture::Constant(0.1), remap: false };
         let m = Material::Dielectric { ior: DielectricIor::Model(sf11.clone()), roughness: rough };
-        let Some(Bxdf::Dielectric { eta, .. }) = m.bxdf(&ctx, &mut wl, 0.6) else { panic!() };
+        let Some(Bxdf::Dielectric { eta, .. }) = m.bxdf(&ctx, &mut wl, 0.6, false) else { panic!() };
         assert!(wl.is_single());
         assert!((eta as f64 - sf11.n(650.0)).abs() < 1e-6, "kept slot 2 (650 nm)");
         // A constant index keeps all four wavelengths.
@@ -345,7 +362,38 @@ mod tests {
             roughness: Roughness::smooth(),
         };
         let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
-        m.bxdf(&ctx, &mut wl, 0.6);
+        m.bxdf(&ctx, &mut wl, 0.6, false);
         assert_eq!(wl.active_count(), 4);
+    }
+
+    #[test]
+    fn regularizing_widens_smooth_glass_and_metal_as_pbrt_v4_does() {
+        let ctx = TextureEvalContext::new(Vec3::ZERO, Vec3::Z, Vec2::ZERO);
+        let wl = || SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
+        let constant = |v: f64| SpectrumTexture::Constant(Spectrum::Constant(v));
+        let metal = Material::Conductor {
+            spec: ConductorSpec::EtaK { eta: constant(0.2), k: constant(3.0) },
+            roughness: Roughness::smooth(),
+        };
+        // α = 0 becomes clamp(0, 0.1, 0.3) = 0.1: no longer a delta lobe.
+        let Some(Bxdf::Conductor { distrib, .. }) = metal.bxdf(&ctx, &mut wl(), 0.5, true) else { panic!() };
+        assert_eq!(distrib, TrowbridgeReitz::new(0.1, 0.1));
+        let Some(smooth) = metal.bxdf(&ctx, &mut wl(), 0.5, false) else { panic!() };
+        assert!(smooth.is_specular());
+        // A smooth dispersive dielectric becomes a rough one, which keeps one wavelength up front.
+        let sf11 = optics::catalogue::lookup("N-SF11").unwrap().ior;
+        let glass = Material::Dielectric { ior: DielectricIor::Model(sf11), roughness: Roughness::smooth() };
+        let mut w = wl();
+        let Some(Bxdf::Dielectric { distrib, .. }) = glass.bxdf(&ctx, &mut w, 0.6, true) else { panic!() };
+        assert!(w.is_single() && distrib == TrowbridgeReitz::new(0.1, 0.1));
+        // Diffuse surfaces are what they were.
+        let matte = Material::Diffuse { reflectance: constant(0.5) };
+        let Some(Bxdf::Diffuse { r }) = matte.bxdf(&ctx, &mut wl(), 0.5, true) else { panic!() };
+        assert_eq!(r.0, [0.5; 4]);
+        // pbrt-v4's map of α: below 0.3, clamp(2α, 0.1, 0.3); from 0.3 on, unchanged; each axis on its own.
+        for (alpha, widened) in [(0.0, 0.1), (0.04, 0.1), (0.1, 0.2), (0.2, 0.3), (0.29, 0.3), (0.3, 0.3), (0.7, 0.7)] {
+            let d = TrowbridgeReitz::new(alpha, 0.5).regularized();
+            assert_eq!(d, TrowbridgeReitz::new(widened, 0.5), "α {alpha}");
+        }
     }
 }

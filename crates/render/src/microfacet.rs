@@ -51,6 +51,14 @@ impl TrowbridgeReitz {
         d
     }
 
+    /// The distribution with near-specular roughness widened (pbrt-v4's `TrowbridgeReitzDistribution::Regularize`
+    /// for `"bool regularize"`): each α below 0.3 becomes clamp(2α, 0.1, 0.3), so that paths after a diffuse
+    /// bounce can find small lights through glass and mirrors, at the price of bias (Kaplanyan & Dachsbacher 2013).
+    pub fn regularized(self) -> Self {
+        let widen = |a: f32| if a < 0.3 { (2.0 * a).clamp(0.1, 0.3) } else { a };
+        Self { alpha_x: widen(self.alpha_x), alpha_y: widen(self.alpha_y) }
+    }
+
     /// pbrt's perceptual roughness remapping: α = √roughness.
     pub fn roughness_to_alpha(roughness: f32) -> f32 {
         roughness.max(0.0).sqrt()

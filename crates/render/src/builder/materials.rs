@@ -46,11 +46,14 @@ pub(super) fn build(desc: &SceneDescription, textures: &Textures, subsurface: Ma
         } else {
             (material(textures, e, &names, &measured)?, None)
         };
-        reads_footprint.push(textures.take_image_use());
         interiors.push(interior);
         // A mix has none of its own (the material it picks brings its own), nor has an interface.
         let own = !matches!(m, Material::Mix { .. } | Material::Interface);
-        perturbations.push(if own { normal_perturbation(textures, e)? } else { None });
+        let perturbation = if own { normal_perturbation(textures, e)? } else { None };
+        // Bump mapping steps by half the footprint (pbrt-v4's `BumpMap`), whatever its displacement texture is.
+        let bumps = matches!(perturbation, Some(NormalPerturbation::Bump(_)));
+        reads_footprint.push(textures.take_image_use() || bumps);
+        perturbations.push(perturbation);
         materials.push(m);
     }
     // A mix needs the footprint if a material it may pick does (mixes nest: one pass per level).

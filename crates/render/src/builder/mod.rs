@@ -121,8 +121,8 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     scene.motion = motion;
     scene.light_media = light_media;
     scene.normal_perturbations = materials.perturbations;
-    // Footprints only where some material reads an image map (an image used only as an alpha or bump map needs
-    // none).
+    // Footprints only where some material reads an image map or bump-maps (an image used only as an alpha map
+    // needs none).
     if materials.reads_footprint.iter().any(|&r| r) {
         scene.footprints = Some(crate::footprint::Footprints::new(&scene.camera, spp));
         scene.material_reads_footprint = materials.reads_footprint;

@@ -55,6 +55,9 @@ use crate::scene::{MediumInterface, RenderScene};
 pub struct BdptIntegrator {
     /// Maximum number of scattering events of a full path (default 5).
     pub max_depth: u32,
+    /// pbrt-v4's `"bool regularize"` (default false): both subpaths widen near-specular BSDFs after their first
+    /// non-specular scattering, as `path`'s.
+    pub regularize: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -580,7 +583,8 @@ impl BdptIntegrator {
         let mut ray = match mode {
             TransportMode::Radiance => PathRay::camera(o, d, medium, time),
             TransportMode::Importance => PathRay::new(o, d, medium, time),
-        };
+        }
+        .regularizing(self.regularize);
         loop {
             let d = ray.d;
             let hit = ray.intersect(cx.tracer);
@@ -652,7 +656,7 @@ impl BdptIntegrator {
                     break;
                 }
                 if let Some((p, wi)) = scattered {
-                    ray = PathRay::new(p, wi, Some(m), time);
+                    ray.scatter_in_medium(p, wi);
                     continue;
                 }
                 // No collision before the surface: probability T_maj at the hero.
@@ -728,7 +732,7 @@ impl BdptIntegrator {
             // The previous vertex's reverse density: sampled from this one, towards it.
             let rev_area = path[n - 1].convert_density(rev, &path[n - 2], scene);
             path[n - 2].pdf_rev = rev_area;
-            ray.leave(&hit, s.wi);
+            ray.leave(&hit, s.wi, s.bs.specular);
             if !beta.0.iter().all(|v| v.is_finite()) || beta.is_black() {
                 break;
             }
@@ -954,7 +958,7 @@ const BDPT_CONNECT_SEED_SALT: u32 = 0x636f_6e6e;
 impl Integrate for BdptIntegrator {
     fn read(params: &mut IntegratorParams) -> Result<Self, RenderError> {
         params.warn_unrendered_media_glow("bdpt");
-        Ok(BdptIntegrator { max_depth: params.max_depth()? })
+        Ok(BdptIntegrator { max_depth: params.max_depth()?, regularize: params.regularize()? })
     }
 
     fn needs(&self) -> Needs {

@@ -196,7 +196,7 @@ pub(crate) fn walk_light_path(
                     break;
                 }
                 if let Some((p, wi)) = scattered {
-                    ray = PathRay::new(p, wi, Some(m), time);
+                    ray.scatter_in_medium(p, wi);
                     continue;
                 }
                 // No collision before the surface: probability T_maj at the hero.
@@ -241,7 +241,7 @@ pub(crate) fn walk_light_path(
         let v = SurfaceVertex { hit: &hit, frame: &frame, bxdf: &bxdf, wo, medium: ray.medium };
         let Some(s) = scatter(&v, w_from, &u, mode, wl, &mut beta) else { break };
         mis.update(wl);
-        ray.leave(&hit, s.wi);
+        ray.leave(&hit, s.wi, s.bs.specular);
         // Russian roulette after the first bounce.
         if !russian_roulette((beta / mis.average(r)).max_value() / beta_start, depth, &u, &mut beta) {
             break;

@@ -137,6 +137,16 @@ impl IntegratorParams<'_> {
         Ok(md.min(1_000) as u32)
     }
 
+    /// pbrt-v4's `"bool regularize"` of `path`, `volpath` and `bdpt` (default false).
+    pub fn regularize(&self) -> Result<bool, RenderError> {
+        Ok(self.entity.params.get_bool("regularize", false)?)
+    }
+
+    /// An error about this integrator's parameters, at its directive.
+    pub fn error(&self, message: &str) -> RenderError {
+        SceneError::at(self.entity.loc.clone(), message.to_owned()).into()
+    }
+
     /// A positive integer parameter (at most 2²⁰), or `default`.
     pub fn count(&self, name: &str, default: i64) -> Result<u32, RenderError> {
         Ok(self.entity.params.get_count(name, default, &self.entity.loc)? as u32)

@@ -32,6 +32,10 @@ pub struct PathIntegrator {
     /// (Prismatic's `"bool manifoldnee"`, default false; see the `integrator::manifold` module). Unbiased: the BSDF-sampled
     /// paths it accounts for are left out of the path tracer's sum.
     pub manifold_nee: bool,
+    /// pbrt-v4's `"bool regularize"` (default false): after the first non-specular scattering, near-specular
+    /// BSDFs are widened ([`crate::microfacet::TrowbridgeReitz::regularized`]), trading bias for less noise from
+    /// caustics.
+    pub regularize: bool,
 }
 
 /// A camera path between two bounces: what a split at a dispersive refraction copies into each branch.
@@ -64,7 +68,7 @@ impl PathState {
             self.eta_scale *= bs.eta * bs.eta;
         }
         self.prev_p = hit.p;
-        self.ray.leave(hit, wi);
+        self.ray.leave(hit, wi, bs.specular);
         // Russian roulette on the throughput with refraction's radiance scaling undone.
         if !russian_roulette((self.beta * self.eta_scale).max_value(), self.depth.events, u, &mut self.beta) {
             return false;
@@ -204,7 +208,7 @@ impl Radiance for PathIntegrator {
     ) -> SampledSpectrum {
         let o = ray.origin;
         let mut st = PathState {
-            ray: PathRay::camera(o, ray.direction, tracer.scene.camera_medium, ray.time),
+            ray: PathRay::camera(o, ray.direction, tracer.scene.camera_medium, ray.time).regularizing(self.regularize),
             beta: SampledSpectrum::splat(1.0),
             specular_bounce: false,
             eta_scale: 1.0,
@@ -222,6 +226,13 @@ impl Integrate for PathIntegrator {
         let max_depth = params.max_depth()?;
         let split_dispersion = params.entity.params.get_bool("splitdispersion", true)?;
         let manifold_nee = params.entity.params.get_bool("manifoldnee", false)?;
+        let regularize = params.regularize()?;
+        if manifold_nee && regularize {
+            return Err(params.error(
+                "'manifoldnee' and 'regularize' cannot be combined: manifold next-event \
+                                     estimation finds paths through smooth glass that regularization makes rough",
+            ));
+        }
         if params.media_scatter {
             params.warnings.push(format!(
                 "{}: warning: integrator \"path\" ignores media that scatter or glow (as pbrt-v4's does); \
@@ -229,7 +240,7 @@ impl Integrate for PathIntegrator {
                 params.entity.loc
             ));
         }
-        Ok(PathIntegrator { max_depth, split_dispersion, manifold_nee })
+        Ok(PathIntegrator { max_depth, split_dispersion, manifold_nee, regularize })
     }
 
     fn begin<'a>(

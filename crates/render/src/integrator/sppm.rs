@@ -629,7 +629,7 @@ impl SppmIntegrator {
             let mode = TransportMode::Radiance;
             let Some(s) = scatter(&v, -d, &u, mode, wl, &mut beta) else { return (None, ld) };
             mis.update(wl);
-            ray.leave(&hit, s.wi);
+            ray.leave(&hit, s.wi, s.bs.specular);
         }
     }
 

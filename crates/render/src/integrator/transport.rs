@@ -233,13 +233,37 @@ pub(crate) struct PathRay {
     /// For a camera ray (also after crossing material-less boundaries), the lens point it left from: its hits take
     /// their texture footprints from the camera ray's differentials.
     camera_origin: Option<Vec3>,
+    /// Whether the path regularizes the BSDFs it meets after its first non-specular scattering (pbrt-v4's
+    /// `"bool regularize"` of `path`, `volpath` and `bdpt`).
+    regularize: bool,
+    /// Whether the path has scattered non-specularly (at a surface or in a medium) before this ray.
+    after_non_specular: bool,
 }
 
 impl PathRay {
     /// A ray from `o` along `d` in `medium`, at `time`.
     #[inline]
     pub fn new(o: Vec3, d: Vec3, medium: Option<u32>, time: f32) -> Self {
-        Self { o, d, medium, time, crossings: 0, camera_origin: None }
+        Self { o, d, medium, time, crossings: 0, camera_origin: None, regularize: false, after_non_specular: false }
+    }
+
+    /// The ray of a path that regularizes near-specular BSDFs once it has scattered non-specularly (`on`).
+    #[inline]
+    pub fn regularizing(self, on: bool) -> Self {
+        Self { regularize: on, ..self }
+    }
+
+    /// Whether the BSDF at this ray's next hit is regularized.
+    #[inline]
+    fn regularizes(&self) -> bool {
+        self.regularize && self.after_non_specular
+    }
+
+    /// Continues the path from a scattering in a medium at `p` in direction `wi` (same medium and time).
+    #[inline]
+    pub fn scatter_in_medium(&mut self, p: Vec3, wi: Vec3) {
+        *self =
+            Self { after_non_specular: true, ..Self::new(p, wi, self.medium, self.time) }.regularizing(self.regularize);
     }
 
     /// The camera ray from lens point `o` along `d` in `medium`, at `time`.
@@ -285,10 +309,11 @@ impl PathRay {
         self.crossings <= MAX_CROSSINGS
     }
 
-    /// Continues the path from `hit` in direction `wi`, reflected or transmitted, in the medium on the side `wi`
-    /// leaves into ([`next_medium`]).
+    /// Continues the path from `hit` in direction `wi`, reflected or transmitted (by a `specular` lobe or not), in
+    /// the medium on the side `wi` leaves into ([`next_medium`]).
     #[inline]
-    pub fn leave(&mut self, hit: &SurfaceHit, wi: Vec3) {
+    pub fn leave(&mut self, hit: &SurfaceHit, wi: Vec3, specular: bool) {
+        self.after_non_specular |= !specular;
         self.medium = next_medium(hit, wi, self.medium);
         self.o = hit.spawn_origin(wi);
         self.d = wi;
@@ -323,7 +348,7 @@ pub(crate) fn begin_bounce(
     sampler: &mut Sampler,
 ) -> Bounce {
     let u = BounceSamples::draw(sampler);
-    match resolve_surface(scene, hit, ray.camera_ray(), wl, u.mix, u.wavelength) {
+    match resolve_surface(scene, hit, ray.camera_ray(), wl, u.mix, u.wavelength, ray.regularizes()) {
         Surface::PassThrough => {
             if ray.cross(hit) {
                 Bounce::PassedThrough
@@ -414,8 +439,9 @@ enum Surface {
 
 /// Resolves the material at `hit` (a mix picks one of its materials with `u_mix`, repeatedly), applies the chosen
 /// material's bump or normal map to `hit`'s shading frame (pbrt-v4 does it for the material a mix chose), and builds
-/// its BxDF at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front). Textures see
-/// the hit's footprint if the material reads it (`camera_ray`: the camera ray that found the hit, if it was one).
+/// its BxDF at the path's wavelengths (`u_bxdf` for materials that reduce the wavelengths up front), regularized if
+/// `regularize`. Textures see the hit's footprint if the material reads it (`camera_ray`: the camera ray that found
+/// the hit, if it was one).
 #[inline]
 fn resolve_surface(
     scene: &RenderScene,
@@ -424,6 +450,7 @@ fn resolve_surface(
     wl: &mut SampledWavelengths,
     mut u_mix: f32,
     u_bxdf: f32,
+    regularize: bool,
 ) -> Surface {
     // Bump and normal maps below change the shading frame only, not the point, normal and (u, v) textures see.
     let ctx = match &scene.footprints {
@@ -445,9 +472,9 @@ fn resolve_surface(
         return Surface::PassThrough;
     }
     if let Some(Some(perturbation)) = scene.normal_perturbations.get(material_index as usize) {
-        perturbation.apply(hit);
+        perturbation.apply(hit, &ctx);
     }
-    match scene.materials[material_index as usize].bxdf(&ctx, wl, u_bxdf) {
+    match scene.materials[material_index as usize].bxdf(&ctx, wl, u_bxdf, regularize) {
         Some(b) => Surface::Scatter(b),
         None => Surface::Absorb,
     }

@@ -23,6 +23,8 @@ pub struct VolPathIntegrator {
     /// Whether a refraction through a smooth dispersive surface splits the path into one branch per carried
     /// wavelength (Prismatic's `"bool splitdispersion"`, default true, as `path`'s).
     pub split_dispersion: bool,
+    /// pbrt-v4's `"bool regularize"` (default false), as `path`'s.
+    pub regularize: bool,
 }
 
 impl Integrate for VolPathIntegrator {
@@ -30,6 +32,7 @@ impl Integrate for VolPathIntegrator {
         Ok(VolPathIntegrator {
             max_depth: params.max_depth()?,
             split_dispersion: params.entity.params.get_bool("splitdispersion", true)?,
+            regularize: params.regularize()?,
         })
     }
 
@@ -39,7 +42,11 @@ impl Integrate for VolPathIntegrator {
         film: &Film,
         seed: u32,
     ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
-        let paths = VolumePaths { max_depth: self.max_depth, split_dispersion: self.split_dispersion };
+        let paths = VolumePaths {
+            max_depth: self.max_depth,
+            split_dispersion: self.split_dispersion,
+            regularize: self.regularize,
+        };
         Ok(Box::new(CameraPaths::new(paths, scene, film, seed)?))
     }
 }

@@ -29,6 +29,8 @@ pub(crate) struct VolumePaths {
     /// Whether a refraction through a smooth dispersive surface splits the path into one branch per carried
     /// wavelength.
     pub split_dispersion: bool,
+    /// Whether near-specular BSDFs are widened after the first non-specular scattering (`"bool regularize"`).
+    pub regularize: bool,
 }
 
 /// A volumetric path between two events: what a split at a dispersive refraction copies into each branch.
@@ -60,7 +62,7 @@ impl VolPathState {
             self.eta_scale *= s.bs.eta * s.bs.eta;
         }
         self.prev_p = hit.p;
-        self.ray.leave(hit, s.wi);
+        self.ray.leave(hit, s.wi, s.bs.specular);
         let ratio = (self.beta * self.eta_scale / self.mis.average(self.r_u)).max_value();
         if !russian_roulette(ratio, self.depth.events, u, &mut self.beta) {
             return false;
@@ -163,7 +165,7 @@ impl VolumePaths {
                     if let Some((p, wi)) = scattered {
                         st.specular_bounce = false;
                         st.prev_p = p;
-                        st.ray = PathRay::new(p, wi, st.ray.medium, st.ray.time);
+                        st.ray.scatter_in_medium(p, wi);
                         continue;
                     }
                     // No collision before the surface: probability T_maj at the hero.
@@ -278,7 +280,7 @@ impl Radiance for VolumePaths {
             mis.choose(sampler.next_1d());
         }
         let mut st = VolPathState {
-            ray: PathRay::camera(o, ray.direction, scene.camera_medium, ray.time),
+            ray: PathRay::camera(o, ray.direction, scene.camera_medium, ray.time).regularizing(self.regularize),
             beta: SampledSpectrum::splat(1.0),
             r_u: SampledSpectrum::splat(1.0),
             r_l: SampledSpectrum::splat(1.0),

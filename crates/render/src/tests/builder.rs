@@ -53,10 +53,10 @@ fn the_four_ways_of_giving_coefficients() {
 }
 
 /// Only hits on materials that read an image map compute footprints: a material with an image map (directly, or
-/// through a scale texture and a named texture), a mix that may pick one, or whose amount is one; not a plain
-/// diffuse, a checkerboard or a mix of plain materials.
+/// through a scale texture and a named texture), a mix that may pick one, or whose amount is one, and a bump-mapped
+/// material; not a plain diffuse, a checkerboard or a mix of plain materials.
 #[test]
-fn footprints_are_computed_for_materials_that_read_image_maps_only() {
+fn footprints_are_computed_for_materials_that_read_image_maps_or_bump_only() {
     let dir = std::env::temp_dir().join(format!("render-builder-{}-reads-footprint", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("img.pfm");
@@ -75,6 +75,8 @@ fn footprints_are_computed_for_materials_that_read_image_maps_only() {
          MakeNamedMaterial \"mix-amount\" \"string type\" \"mix\" \"string materials\" [ \"plain\" \"checked\" ] \
          \"texture amount\" \"amount\"\n\
          MakeNamedMaterial \"mix-of-mix\" \"string type\" \"mix\" \"string materials\" [ \"mix-plain\" \"mix-imaged\" ]\n\
+         Texture \"ripples\" \"float\" \"wrinkled\"\n\
+         MakeNamedMaterial \"bumped\" \"string type\" \"diffuse\" \"texture displacement\" \"ripples\"\n\
          NamedMaterial \"plain\"\nShape \"sphere\"\n",
         img = path.display()
     );
@@ -82,7 +84,8 @@ fn footprints_are_computed_for_materials_that_read_image_maps_only() {
     let scene = &built.scene;
     assert!(scene.footprints.is_some());
     // Named materials follow the anonymous one (the default diffuse), in the order they were made.
-    let expected = [false, true, false, false, true, false, true, true];
+    // A bump map steps by half the footprint whatever its texture (pbrt-v4's `BumpMap`), so it reads it too.
+    let expected = [false, true, false, false, true, false, true, true, true];
     assert_eq!(scene.material_reads_footprint, expected);
     for (i, &e) in expected.iter().enumerate() {
         assert_eq!(scene.reads_footprint(i as u32), e, "material {i}");

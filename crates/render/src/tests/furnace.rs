@@ -91,7 +91,7 @@ fn scene(material: Material) -> RenderScene {
 fn mean_y(scene: &RenderScene, strategy: WavelengthStrategy, spp: u32, max_depth: u32) -> (f64, f64) {
     mean_y_with(
         scene,
-        &Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: false }),
+        &Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: false, regularize: false }),
         strategy,
         spp,
     )
@@ -156,7 +156,7 @@ fn light_and_bidirectional_tracing_in_a_furnace_reflect_albedo_times_l() {
         let s = scene(Material::Diffuse { reflectance: SpectrumTexture::Constant(Spectrum::Constant(rho)) });
         for (integrator, passes) in [
             (Integrator::LightPath(LightPathIntegrator { max_depth: 5 }), 4096),
-            (Integrator::Bdpt(BdptIntegrator { max_depth: 5 }), 64),
+            (Integrator::Bdpt(BdptIntegrator { max_depth: 5, regularize: false }), 64),
         ] {
             furnace_check(&s, &integrator, passes, rho, 0.0);
         }
@@ -200,10 +200,19 @@ fn diffuse_transmission_sphere_in_a_furnace_looks_r_plus_t_squared_over_one_minu
     // 16384 photons per iteration bring it within the 2% allowed for photon mapping above.
     let sppm = SppmIntegrator { max_depth, photons_per_iteration: Some(16384), initial_radius: 0.05, iterations: 64 };
     for (integrator, passes, bias) in [
-        (Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: false }), 256, 0.0),
-        (Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true }), 256, 0.0),
+        (
+            Integrator::Path(PathIntegrator {
+                max_depth,
+                split_dispersion: true,
+                manifold_nee: false,
+                regularize: false,
+            }),
+            256,
+            0.0,
+        ),
+        (Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true, regularize: false }), 256, 0.0),
         (Integrator::LightPath(LightPathIntegrator { max_depth }), 4096, 0.0),
-        (Integrator::Bdpt(BdptIntegrator { max_depth }), 256, 0.0),
+        (Integrator::Bdpt(BdptIntegrator { max_depth, regularize: false }), 256, 0.0),
         (Integrator::Sppm(sppm), 256, 0.02),
     ] {
         furnace_check(&s, &integrator, passes, expected, bias);

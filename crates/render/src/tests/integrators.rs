@@ -215,11 +215,11 @@ fn room(extras: Extras) -> RenderScene {
 }
 
 fn path(max_depth: u32) -> Integrator {
-    Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: false })
+    Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: false, regularize: false })
 }
 
 fn volpath(max_depth: u32) -> Integrator {
-    Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true })
+    Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true, regularize: false })
 }
 
 fn lightpath(max_depth: u32) -> Integrator {
@@ -227,7 +227,7 @@ fn lightpath(max_depth: u32) -> Integrator {
 }
 
 fn bdpt(max_depth: u32) -> Integrator {
-    Integrator::Bdpt(BdptIntegrator { max_depth })
+    Integrator::Bdpt(BdptIntegrator { max_depth, regularize: false })
 }
 
 /// Photon mapping with one photon per pixel per iteration and an initial gather radius of 0.15 (a few per cent of
@@ -402,14 +402,19 @@ fn volpath_agrees_with_path_without_media() {
 #[test]
 fn path_splitting_at_dispersive_refraction_agrees_with_keeping_one_wavelength() {
     let scene = room(Extras { glass: true, ..Extras::default() });
-    let keep_one = Integrator::Path(PathIntegrator { max_depth: 4, split_dispersion: false, manifold_nee: false });
+    let keep_one = Integrator::Path(PathIntegrator {
+        max_depth: 4,
+        split_dispersion: false,
+        manifold_nee: false,
+        regularize: false,
+    });
     agrees_with_in(&[0, 1, 2], &scene, &keep_one, &path(4), 512, 128, 0.0, 0.03);
     agrees_with_in(&[0, 1, 2], &scene, &keep_one, &volpath(4), 512, 128, 0.0, 0.03);
 }
 
 /// The path tracer with manifold next-event estimation.
 fn path_mnee(max_depth: u32) -> Integrator {
-    Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: true })
+    Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: true, regularize: false })
 }
 
 /// Manifold NEE through the dispersive glass sphere estimates the path tracer's image of a small lamp focused on

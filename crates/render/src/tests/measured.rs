@@ -483,10 +483,19 @@ fn a_white_measured_sphere_in_a_furnace_shows_the_model_albedo_in_every_integrat
     let max_depth = 5;
     let sppm = SppmIntegrator { max_depth, photons_per_iteration: Some(8192), initial_radius: 0.05, iterations: 256 };
     for (integrator, passes, bias) in [
-        (Integrator::Path(PathIntegrator { max_depth, split_dispersion: true, manifold_nee: false }), 64, 0.0),
-        (Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true }), 64, 0.0),
+        (
+            Integrator::Path(PathIntegrator {
+                max_depth,
+                split_dispersion: true,
+                manifold_nee: false,
+                regularize: false,
+            }),
+            64,
+            0.0,
+        ),
+        (Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true, regularize: false }), 64, 0.0),
         (Integrator::LightPath(LightPathIntegrator { max_depth }), 8192, 0.0),
-        (Integrator::Bdpt(BdptIntegrator { max_depth }), 64, 0.0),
+        (Integrator::Bdpt(BdptIntegrator { max_depth, regularize: false }), 64, 0.0),
         (Integrator::Sppm(sppm), 256, 0.02),
     ] {
         let mut spec = FilmSpec::new(8, 8, "measured-furnace.exr");

@@ -6,4 +6,5 @@ mod furnace;
 mod integrators;
 mod measured;
 mod media_rule;
+mod regularize;
 mod support;
