@@ -4,6 +4,7 @@
 mod builder;
 mod furnace;
 mod integrators;
+mod layered_geometry;
 mod measured;
 mod media_rule;
 mod regularize;
