@@ -38,6 +38,9 @@ pub struct CompareArgs {
     /// … and by more than this many standard deviations of the difference.
     #[arg(long, value_name = "SIGMAS", default_value_t = 5.0, requires = "blocks")]
     pub block_sigmas: f64,
+    /// Also print every off block (top-left pixel, relative difference, σ), one per line.
+    #[arg(long, requires = "blocks")]
+    pub list_blocks: bool,
 }
 
 fn parse_region(s: &str) -> Result<[u32; 4], String> {
@@ -157,6 +160,8 @@ pub struct BlockComparison {
     /// Among the off blocks (or, if none is, all blocks) the one farthest in sigmas: its top-left pixel, relative
     /// difference (a − b)/b and distance in standard deviations (infinite where neither image has noise).
     pub worst: Option<([u32; 2], f64, f64)>,
+    /// Every off block as the worst one is given, in raster order.
+    pub off_blocks: Vec<([u32; 2], f64, f64)>,
 }
 
 /// When a block of two renders counts as off.
@@ -187,6 +192,7 @@ fn compare_blocks(
     }
     let mut channel_sum = [[0.0f64; 3]; 2];
     let (mut blocks, mut off, mut worst_off, mut worst_any) = (0, 0, None, None::<([u32; 2], f64, f64)>);
+    let mut off_blocks = Vec::new();
     let farther = |w: &Option<([u32; 2], f64, f64)>, z: f64| w.is_none_or(|(_, _, wz)| z > wz);
     for by in (y0..y1).step_by(n as usize) {
         for bx in (x0..x1).step_by(n as usize) {
@@ -220,6 +226,7 @@ fn compare_blocks(
             blocks += 1;
             if difference > tolerance * mb.abs() && z > sigmas {
                 off += 1;
+                off_blocks.push(entry);
                 if farther(&worst_off, z) {
                     worst_off = Some(entry);
                 }
@@ -235,6 +242,7 @@ fn compare_blocks(
         blocks,
         off,
         worst: worst_off.or(worst_any),
+        off_blocks,
     })
 }
 
@@ -290,6 +298,11 @@ pub fn run(args: &CompareArgs) -> Result<String> {
         if let Some(([x, y], relative, z)) = bc.worst {
             let _ = writeln!(out, "worst_block {x},{y} {relative:+.4} {z:.1}");
         }
+        if args.list_blocks {
+            for ([x, y], relative, z) in &bc.off_blocks {
+                let _ = writeln!(out, "off_block {x},{y} {relative:+.4} {z:.1}");
+            }
+        }
     }
     Ok(out)
 }
@@ -340,6 +353,8 @@ mod tests {
         // Noiseless: only the 20% block is beyond 10%; it is infinitely many σ away.
         let c = test(None, None);
         assert_eq!((c.blocks, c.off), (2, 1));
+        assert_eq!(c.off_blocks.len(), 1);
+        assert_eq!(c.off_blocks[0].0, [0, 0]);
         let ([x, y], rel, z) = c.worst.unwrap();
         assert_eq!([x, y], [0, 0]);
         assert!((rel - 0.2).abs() < 1e-6 && z.is_infinite());
