@@ -2,6 +2,7 @@
 //! against each other and against closed forms, and pbrt-v4's measured BRDF against an analytic GGX.
 
 mod builder;
+mod clamp;
 mod furnace;
 mod integrators;
 mod layered_geometry;
