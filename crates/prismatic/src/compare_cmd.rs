@@ -153,6 +153,9 @@ struct Estimate {
 pub struct BlockComparison {
     /// Mean of R, G and B of a and of b over the region.
     pub channel_mean: [[f64; 3]; 2],
+    /// Standard deviation of the difference of those means (both estimates' variances over the region's pixels;
+    /// 0 for renders given without a second seed).
+    pub channel_sigma: [f64; 3],
     /// Blocks compared (partial blocks at the right and bottom edges count).
     pub blocks: usize,
     /// Blocks whose mean (of R, G and B) differs from b's by more than the tolerance and the sigmas.
@@ -191,6 +194,7 @@ fn compare_blocks(
         bail!("--region {x0},{y0},{x1},{y1} is outside the {w}x{h} image");
     }
     let mut channel_sum = [[0.0f64; 3]; 2];
+    let mut channel_var = [0.0f64; 3];
     let (mut blocks, mut off, mut worst_off, mut worst_any) = (0, 0, None, None::<([u32; 2], f64, f64)>);
     let mut off_blocks = Vec::new();
     let farther = |w: &Option<([u32; 2], f64, f64)>, z: f64| w.is_none_or(|(_, _, wz)| z > wz);
@@ -205,7 +209,9 @@ fn compare_blocks(
                             let v = e.mean[i][c] as f64;
                             channel_sum[k][c] += v;
                             sum[k] += v;
-                            var += e.variance.as_ref().map_or(0.0, |s| s[i][c] as f64);
+                            let pixel_var = e.variance.as_ref().map_or(0.0, |s| s[i][c] as f64);
+                            var += pixel_var;
+                            channel_var[c] += pixel_var;
                         }
                     }
                     count += 3;
@@ -239,6 +245,7 @@ fn compare_blocks(
     let pixels = ((x1 - x0) * (y1 - y0)) as f64;
     Ok(BlockComparison {
         channel_mean: channel_sum.map(|s| s.map(|v| v / pixels)),
+        channel_sigma: channel_var.map(|v| v.sqrt() / pixels),
         blocks,
         off,
         worst: worst_off.or(worst_any),
@@ -290,6 +297,19 @@ pub fn run(args: &CompareArgs) -> Result<String> {
         let _ = writeln!(out, "channel_mean_b {:.6e} {:.6e} {:.6e}", mb[0], mb[1], mb[2]);
         let rel = [0, 1, 2].map(|c| if mb[c] != 0.0 { ma[c] / mb[c] - 1.0 } else { f64::NAN });
         let _ = writeln!(out, "channel_relative_difference {:+.4} {:+.4} {:+.4}", rel[0], rel[1], rel[2]);
+        // The same differences in standard deviations: a mean dominated by a few bright pixels (a small light seen
+        // directly at a few samples per pixel) can differ by per cents from noise alone.
+        let z = [0, 1, 2].map(|c| {
+            let d = (ma[c] - mb[c]).abs();
+            if bc.channel_sigma[c] > 0.0 {
+                d / bc.channel_sigma[c]
+            } else if d > 0.0 {
+                f64::INFINITY
+            } else {
+                0.0
+            }
+        });
+        let _ = writeln!(out, "channel_difference_sigmas {:.1} {:.1} {:.1}", z[0], z[1], z[2]);
         let _ = writeln!(
             out,
             "blocks_off {} of {} ({n}x{n}, beyond {} and {} sigma)",
@@ -359,9 +379,12 @@ mod tests {
         assert_eq!([x, y], [0, 0]);
         assert!((rel - 0.2).abs() < 1e-6 && z.is_infinite());
         assert!((c.channel_mean[0][0] - 1.125).abs() < 1e-6 && c.channel_mean[1] == [1.0; 3]);
+        assert_eq!(c.channel_sigma, [0.0; 3]);
         // σ = √(2·0.048/48) ≈ 0.045 in total: 0.2 is 4.5σ, not beyond 5σ; with a quarter the variance it is 8.9σ.
         let c = test(Some(0.048), Some(0.048));
         assert_eq!(c.off, 0);
+        // Each channel's mean over 32 pixels, both with variance 0.048 per pixel: σ = √(2·32·0.048)/32.
+        assert!(c.channel_sigma.iter().all(|s| (s - (2.0f64 * 32.0 * 0.048).sqrt() / 32.0).abs() < 1e-6));
         assert!((c.worst.unwrap().2 - 0.2 / (0.096f64 / 48.0).sqrt()).abs() < 1e-3);
         assert_eq!(test(Some(0.012), Some(0.012)).off, 1);
         // A region holding the right block only: 5% is within the tolerance however small the noise.
