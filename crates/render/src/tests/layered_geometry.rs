@@ -29,16 +29,8 @@ fn scene(floor: &str, spp: u32) -> BuiltScene {
 
 /// Mean Y over the bottom half of the image (the floor; the light is in the top half).
 fn floor_y(built: &BuiltScene) -> f64 {
-    let mut film = film::Film::new(built.film.clone()).unwrap();
-    built.integrator.render(&built.scene, &mut film, 0..built.spp, 5, &|_| {}).unwrap();
-    let (w, h) = (film.width(), film.height());
-    let mut sum = 0.0;
-    for y in h / 2..h {
-        for x in 0..w {
-            sum += film.pixel_xyz(x, y).y;
-        }
-    }
-    sum / (w * (h - h / 2)) as f64
+    let h = built.film.height;
+    super::support::mean_y(built, 5, h / 2..h)
 }
 
 #[test]

@@ -42,16 +42,7 @@ fn quad_scene(integrator: &str, camera: &str, interface: &str, normal: &str) -> 
 
 /// Mean Y over the image at 64 spp.
 fn mean_y(built: &BuiltScene) -> f64 {
-    let mut film = film::Film::new(built.film.clone()).unwrap();
-    built.integrator.render(&built.scene, &mut film, 0..built.spp, 7, &|_| {}).unwrap();
-    let (w, h) = (film.width(), film.height());
-    let mut sum = 0.0;
-    for y in 0..h {
-        for x in 0..w {
-            sum += film.pixel_xyz(x, y).y;
-        }
-    }
-    sum / (w * h) as f64
+    super::support::mean_y(built, 7, 0..built.film.height)
 }
 
 /// Camera paths (`path` attenuates through media that only absorb, `volpath` renders all media): the mean is 0.5/e

@@ -37,16 +37,7 @@ fn caustic_scene(integrator: &str, spp: u32) -> BuiltScene {
 
 /// Mean Y over the image.
 fn mean_y(built: &BuiltScene) -> f64 {
-    let mut film = film::Film::new(built.film.clone()).unwrap();
-    built.integrator.render(&built.scene, &mut film, 0..built.spp, 11, &|_| {}).unwrap();
-    let (w, h) = (film.width(), film.height());
-    let mut sum = 0.0;
-    for y in 0..h {
-        for x in 0..w {
-            sum += film.pixel_xyz(x, y).y;
-        }
-    }
-    sum / (w * h) as f64
+    super::support::mean_y(built, 11, 0..built.film.height)
 }
 
 /// pbrt-v4 (built from its repository as `../shared/pbrt-v4.md` says) renders this scene, written to a file with
