@@ -58,8 +58,10 @@ fn parse_region(s: &str) -> Result<[u32; 4], String> {
 /// Statistics of two images over a region, on the luminance-like mean of the RGB channels.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Comparison {
-    /// Pixels compared.
+    /// Pixels compared: those of the region finite in both images.
     pub pixels: usize,
+    /// Pixels of the region left out because a channel of a or of b is not finite (infinite or NaN).
+    pub non_finite: usize,
     /// Mean of image a and of image b (average of R, G, B).
     pub mean: [f64; 2],
     /// Root mean square of the per-channel differences.
@@ -98,24 +100,32 @@ impl Comparison {
     }
 }
 
-/// Compares two RGB images of size `w`×`h` over `region` (the whole image if `None`).
+/// A pixel all of whose channels are finite numbers.
+fn finite(p: &[f32; 3]) -> bool {
+    p.iter().all(|v| v.is_finite())
+}
+
+/// Compares two RGB images of size `w`×`h` over `region` (the whole image if `None`). Pixels with a channel that
+/// is not finite in either image are left out and counted: one infinite pixel would make every statistic infinite,
+/// and a reference renderer may write some (pbrt-v4's half-float EXRs turn values beyond 65504 into infinities).
 pub fn compare(w: u32, h: u32, a: &[[f32; 3]], b: &[[f32; 3]], region: Option<[u32; 4]>) -> Result<Comparison> {
     let [x0, y0, x1, y1] = region.unwrap_or([0, 0, w, h]);
     if x1 > w || y1 > h {
         bail!("--region {x0},{y0},{x1},{y1} is outside the {w}x{h} image");
     }
     let (mut sa, mut sb, mut d2, mut rel, mut n) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
-    let (mut identical_values, mut max_scaled) = (0usize, 0.0f64);
+    let (mut identical_values, mut max_scaled, mut non_finite) = (0usize, 0.0f64, 0usize);
     for y in y0..y1 {
         for x in x0..x1 {
             let i = (y * w + x) as usize;
+            if !(finite(&a[i]) && finite(&b[i])) {
+                non_finite += 1;
+                continue;
+            }
             let scale = b[i].iter().fold(0.0f64, |m, v| m.max((*v as f64).abs()));
             let mut largest_difference = 0.0f64;
             for c in 0..3 {
                 let (va, vb) = (a[i][c] as f64, b[i][c] as f64);
-                if !(va.is_finite() && vb.is_finite()) {
-                    bail!("pixel ({x}, {y}) is not finite");
-                }
                 sa += va;
                 sb += vb;
                 d2 += (va - vb) * (va - vb);
@@ -129,9 +139,13 @@ pub fn compare(w: u32, h: u32, a: &[[f32; 3]], b: &[[f32; 3]], region: Option<[u
             n += 1;
         }
     }
+    if n == 0 {
+        bail!("no pixel of the region is finite in both images");
+    }
     let k = (3 * n) as f64;
     Ok(Comparison {
         pixels: n,
+        non_finite,
         mean: [sa / k, sb / k],
         rmse: (d2 / k).sqrt(),
         pixel_relative_mse: rel / k,
@@ -148,6 +162,13 @@ struct Estimate {
     variance: Option<Vec<[f32; 3]>>,
 }
 
+impl Estimate {
+    /// Whether pixel `i`'s mean and variance are finite numbers.
+    fn finite_at(&self, i: usize) -> bool {
+        finite(&self.mean[i]) && self.variance.as_ref().is_none_or(|v| finite(&v[i]))
+    }
+}
+
 /// The per-channel means over a region and the test of every `n`×`n` block of two estimates.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BlockComparison {
@@ -156,7 +177,8 @@ pub struct BlockComparison {
     /// Standard deviation of the difference of those means (both estimates' variances over the region's pixels;
     /// 0 for renders given without a second seed).
     pub channel_sigma: [f64; 3],
-    /// Blocks compared (partial blocks at the right and bottom edges count).
+    /// Blocks compared (partial blocks at the right and bottom edges count; a block none of whose pixels is finite
+    /// in both estimates does not).
     pub blocks: usize,
     /// Blocks whose mean (of R, G and B) differs from b's by more than the tolerance and the sigmas.
     pub off: usize,
@@ -178,7 +200,7 @@ struct BlockTest {
     sigmas: f64,
 }
 
-/// Tests every block of `region`: it is off when |ā − b̄| > tolerance·b̄ and > sigmas·σ, with σ² the sum of both
+/// Tests every block of `region`, leaving out pixels that are not finite in a or b: it is off when |ā − b̄| > tolerance·b̄ and > sigmas·σ, with σ² the sum of both
 /// estimates' block variances (each pixel's variance summed over the block's pixels and channels, divided by their
 /// count squared, as for a mean of independent values).
 fn compare_blocks(
@@ -197,6 +219,7 @@ fn compare_blocks(
     let mut channel_var = [0.0f64; 3];
     let (mut blocks, mut off, mut worst_off, mut worst_any) = (0, 0, None, None::<([u32; 2], f64, f64)>);
     let mut off_blocks = Vec::new();
+    let mut compared_pixels = 0usize;
     let farther = |w: &Option<([u32; 2], f64, f64)>, z: f64| w.is_none_or(|(_, _, wz)| z > wz);
     for by in (y0..y1).step_by(n as usize) {
         for bx in (x0..x1).step_by(n as usize) {
@@ -204,6 +227,9 @@ fn compare_blocks(
             for y in by..(by + n).min(y1) {
                 for x in bx..(bx + n).min(x1) {
                     let i = (y * w + x) as usize;
+                    if !(a.finite_at(i) && b.finite_at(i)) {
+                        continue;
+                    }
                     for (k, e) in [a, b].into_iter().enumerate() {
                         for c in 0..3 {
                             let v = e.mean[i][c] as f64;
@@ -217,6 +243,10 @@ fn compare_blocks(
                     count += 3;
                 }
             }
+            if count == 0 {
+                continue;
+            }
+            compared_pixels += count / 3;
             let (ma, mb) = (sum[0] / count as f64, sum[1] / count as f64);
             let sigma = var.sqrt() / count as f64;
             let difference = (ma - mb).abs();
@@ -242,7 +272,11 @@ fn compare_blocks(
             }
         }
     }
-    let pixels = ((x1 - x0) * (y1 - y0)) as f64;
+    // Every pixel used was counted once per channel in each block's `count`; the channel means are over those.
+    let pixels = compared_pixels as f64;
+    if compared_pixels == 0 {
+        bail!("no pixel of the region is finite in both images");
+    }
     Ok(BlockComparison {
         channel_mean: channel_sum.map(|s| s.map(|v| v / pixels)),
         channel_sigma: channel_var.map(|v| v.sqrt() / pixels),
@@ -279,6 +313,15 @@ pub fn run(args: &CompareArgs) -> Result<String> {
     let c = compare(wa, ha, &ea.mean, &eb.mean, args.region)?;
     let mut out = String::new();
     let _ = writeln!(out, "pixels {}", c.pixels);
+    // Which image holds them matters: in a render under test they are a bug, in a reference a limitation.
+    let [x0, y0, x1, y1] = args.region.unwrap_or([0, 0, wa, ha]);
+    let non_finite = |e: &Estimate| {
+        (y0..y1).flat_map(|y| (x0..x1).map(move |x| (y * wa + x) as usize)).filter(|&i| !e.finite_at(i)).count()
+    };
+    let (nfa, nfb) = (non_finite(&ea), non_finite(&eb));
+    if nfa + nfb > 0 {
+        let _ = writeln!(out, "non_finite_pixels {nfa} {nfb} (left out)");
+    }
     let _ = writeln!(out, "mean {:.6e} {:.6e}", c.mean[0], c.mean[1]);
     let _ = writeln!(out, "rmse {:.6e}", c.rmse);
     let _ = writeln!(out, "relative_rmse {:.6}", c.relative_rmse());
@@ -393,5 +436,32 @@ mod tests {
         // Partial blocks at the edges count: 3×3 blocks tile 8×4 as 3 columns by 2 rows.
         let c = compare_blocks((8, 4), &estimate(&a, None), &estimate(&b, None), None, blocks(3)).unwrap();
         assert_eq!(c.blocks, 6);
+    }
+
+    #[test]
+    fn pixels_that_are_not_finite_are_left_out_and_counted() {
+        // b has an infinite pixel at x = 1 and a NaN at x = 2; a is 2 everywhere, b 1 elsewhere.
+        let a = vec![[2.0f32; 3]; 4];
+        let b = vec![[1.0; 3], [f32::INFINITY, 1.0, 1.0], [1.0, f32::NAN, 1.0], [1.0; 3]];
+        let c = compare(4, 1, &a, &b, None).unwrap();
+        assert_eq!((c.pixels, c.non_finite), (2, 2));
+        assert_eq!(c.mean, [2.0, 1.0]);
+        assert!((c.rmse - 1.0).abs() < 1e-12);
+        // Either image's: the same pixels go, whichever holds them.
+        let c = compare(4, 1, &b, &a, None).unwrap();
+        assert_eq!((c.pixels, c.non_finite, c.mean), (2, 2, [1.0, 2.0]));
+        assert!(compare(4, 1, &a, &b, Some([1, 0, 3, 1])).is_err(), "nothing finite is left to compare");
+        // Blocks of 2×1: the block at x = 0 keeps its finite pixel, the one at x = 2 is only the pixel at x = 3.
+        // A second seed with an infinite value makes the pixel's variance infinite, so it goes too.
+        let one = |mean: Vec<[f32; 3]>| Estimate { variance: Some(vec![[0.01; 3]; mean.len()]), mean };
+        let mut noisy_a = one(a.clone());
+        noisy_a.variance.as_mut().unwrap()[3] = [f32::INFINITY; 3];
+        let test = BlockTest { size: 2, tolerance: 0.1, sigmas: 5.0 };
+        let c = compare_blocks((4, 1), &noisy_a, &one(b.clone()), None, test).unwrap();
+        assert_eq!((c.blocks, c.off), (1, 1));
+        assert_eq!(c.channel_mean, [[2.0; 3], [1.0; 3]]);
+        let c = compare_blocks((4, 1), &one(a.clone()), &one(b), None, test).unwrap();
+        assert_eq!((c.blocks, c.off), (2, 2));
+        assert!(c.worst.unwrap().2.is_finite());
     }
 }
