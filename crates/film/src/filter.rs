@@ -9,7 +9,7 @@
 //! otherwise from tabulated 1D distributions of |f| along each axis), and the sample is weighted by f(p)/pdf(p). Each sample then
 //! touches only its own pixel, so pixels are independent: rendering is lock-free and deterministic for any thread
 //! count. For a positive filter the weight is (close to) the constant ∫f; a filter with negative lobes (Mitchell)
-//! gives weights of either sign.
+//! gives weights of either sign, all of one magnitude (see `SignedWeights` for why).
 
 use crate::FilmError;
 use spectral::Distribution1D;
@@ -238,7 +238,8 @@ fn mitchell_1d(x: f64, b: f64, c: f64) -> f64 {
 pub struct FilterSample {
     /// Offset from the pixel centre in pixels, inside the filter's radius.
     pub offset: [f64; 2],
-    /// f(offset) / pdf(offset): the sample's weight in the pixel's weighted average (1 for the default box).
+    /// f(offset) / pdf(offset): the sample's weight in the pixel's weighted average (1 for the default box; for
+    /// Mitchell's filter ± one magnitude, the sign of the tabulated filter).
     pub weight: f64,
 }
 
@@ -256,42 +257,84 @@ pub struct FilterSampler {
     /// here is separable, f(x, y) = fx(x)·fy(y), so sampling x and y independently from |fx| and |fy| is exact
     /// importance sampling of |f| up to the tabulation, and much cheaper than a 2D table).
     distribution: Option<(Distribution1D, Distribution1D)>,
+    /// For a filter with negative lobes (Mitchell), the weights it gives: see [`SignedWeights`].
+    signed: Option<SignedWeights>,
+}
+
+/// The weights of a filter with negative lobes: ±`magnitude`, the sign of the sampled cell of each axis's table.
+///
+/// A pixel divides its weighted sum by the sum of its samples' weights, and with weights of both signs a few of them
+/// can cancel. Weights f/pdf that vary from cell to cell leave a remainder near zero when they nearly cancel, and the
+/// pixel explodes (pbrt-v4's RGBFilm does this: at 4 samples per pixel its Mitchell renders have about one pixel
+/// in a hundred beyond 65504). With one magnitude, rounded to 16 significant bits so that every sum of a pixel's
+/// weights is exact in f32 and f64, the sum is a whole multiple of it: zero exactly when the signs balance (the
+/// film then leaves the camera part black), and otherwise at least the magnitude, so a pixel of n samples stays
+/// within n times its samples' largest value. The effective filter is the table, sign times |f| at the cell
+/// centres, as pbrt-v4's is; the magnitude ∫f / (S_x·S_y), with S the table's signed probability per axis, keeps
+/// the weights' expectation ∫f.
+#[derive(Clone, Debug)]
+struct SignedWeights {
+    /// Per axis, the sign (±1) of f at the centre of each cell of the table.
+    sign: [Vec<f64>; 2],
+    magnitude: f64,
+}
+
+/// `x` rounded to 16 significant bits (a multiple of a power of two that f32 holds exactly).
+fn round_to_16_bits(x: f64) -> f64 {
+    let scale = 2f64.powi(15 - x.abs().log2().floor() as i32);
+    (x * scale).round() / scale
 }
 
 impl FilterSampler {
     /// Validates the filter and tabulates |f| at 64 cells per pixel of radius (at most 512 per axis).
     pub fn new(filter: &Filter) -> Result<Self, FilmError> {
         filter.validate()?;
-        let distribution = match filter {
-            Filter::Box { .. } => None,
+        let (distribution, signed) = match filter {
+            Filter::Box { .. } => (None, None),
             Filter::Gaussian { .. } | Filter::Triangle { .. } | Filter::Mitchell { .. } => {
                 let r = filter.radius();
                 // One axis of |f| through the centre (f(x, 0) ∝ fx(x) for these separable filters, all non-zero
                 // at the origin), tabulated at 64 cells per pixel of radius.
-                let axis = |radius: f64, eval: &dyn Fn(f64) -> f64| -> Result<Distribution1D, FilmError> {
+                // Returns the table and the sign of f in each cell.
+                let axis = |radius: f64, eval: &dyn Fn(f64) -> f64| -> Result<(Distribution1D, Vec<f64>), FilmError> {
                     let n = (CELLS_PER_PIXEL * radius).ceil().clamp(2.0, MAX_CELLS) as usize;
                     let dx = 2.0 * radius / n as f64;
-                    let values: Vec<f64> = (0..n)
+                    let (values, signs): (Vec<f64>, Vec<f64>) = (0..n)
                         .map(|i| {
                             let x0 = -radius + i as f64 * dx;
-                            let centre = eval(x0 + 0.5 * dx).abs();
+                            let centre = eval(x0 + 0.5 * dx);
+                            let (left, right) = (eval(x0), eval(x0 + dx));
                             // A cell centred on a zero crossing still needs some probability, or the estimator
-                            // would miss the filter's mass there: fall back to the edges' mean.
-                            if centre > 0.0 {
-                                centre
+                            // would miss the filter's mass there: fall back to the edges' mean (and the sign of
+                            // the larger edge).
+                            if centre != 0.0 {
+                                (centre.abs(), centre.signum())
                             } else {
-                                0.5 * (eval(x0).abs() + eval(x0 + dx).abs())
+                                let larger = if left.abs() >= right.abs() { left } else { right };
+                                (0.5 * (left.abs() + right.abs()), larger.signum())
                             }
                         })
-                        .collect();
-                    Ok(Distribution1D::new(&values, -radius, radius)?)
+                        .unzip();
+                    Ok((Distribution1D::new(&values, -radius, radius)?, signs))
                 };
-                let dx = axis(r[0], &|x| filter.evaluate([x, 0.0]))?;
-                let dy = axis(r[1], &|y| filter.evaluate([0.0, y]))?;
-                Some((dx, dy))
+                let (dx, sx) = axis(r[0], &|x| filter.evaluate([x, 0.0]))?;
+                let (dy, sy) = axis(r[1], &|y| filter.evaluate([0.0, y]))?;
+                let signed_probability = |d: &Distribution1D, sign: &[f64]| -> f64 {
+                    sign.iter().enumerate().map(|(j, s)| s * d.bin_probability(j)).sum()
+                };
+                let signed = match filter {
+                    Filter::Box { .. } | Filter::Gaussian { .. } | Filter::Triangle { .. } => None,
+                    Filter::Mitchell { .. } => Some(SignedWeights {
+                        magnitude: round_to_16_bits(
+                            filter.integral() / (signed_probability(&dx, &sx) * signed_probability(&dy, &sy)),
+                        ),
+                        sign: [sx, sy],
+                    }),
+                };
+                (Some((dx, dy)), signed)
             }
         };
-        Ok(Self { filter: filter.clone(), distribution })
+        Ok(Self { filter: filter.clone(), distribution, signed })
     }
 
     /// The filter this samples.
@@ -302,7 +345,8 @@ impl FilterSampler {
     /// Draws an offset with `u ∈ [0, 1)²` and returns it with its weight f/pdf.
     ///
     /// The box is sampled uniformly (weight 4·rx·ry, which is 1 for the default radius 0.5); the other filters
-    /// from their table, so that the weight is nearly constant (exactly ±∫|f| up to the tabulation).
+    /// from their table, so that the weight is nearly constant (f/pdf), and for Mitchell's filter exactly ± one
+    /// magnitude.
     pub fn sample(&self, u: [f64; 2]) -> FilterSample {
         let r = self.filter.radius();
         let u = [u[0].clamp(0.0, 1.0), u[1].clamp(0.0, 1.0)];
@@ -315,7 +359,11 @@ impl FilterSampler {
                 let (sx, sy) = (dx.sample(u[0]), dy.sample(u[1]));
                 let pdf = sx.pdf * sy.pdf;
                 let point = [sx.x, sy.x];
-                let weight = if pdf > 0.0 { self.filter.evaluate(point) / pdf } else { 0.0 };
+                let weight = match &self.signed {
+                    Some(w) => w.magnitude * w.sign[0][sx.bin] * w.sign[1][sy.bin],
+                    None if pdf > 0.0 => self.filter.evaluate(point) / pdf,
+                    None => 0.0,
+                };
                 FilterSample { offset: point, weight }
             }
         }

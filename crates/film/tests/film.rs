@@ -482,3 +482,51 @@ fn a_cropped_film_keeps_full_image_coordinates_and_splat_scale() {
     assert_eq!(image.len(), 8);
     assert_eq!(image[0], film.spec().color_space.to_rgb(Xyz::new(1.0, 2.0, 3.0)).map(|c| c as f32));
 }
+
+#[test]
+fn a_pixel_under_mitchells_filter_stays_bounded_at_few_samples() {
+    // 4 samples per pixel of values uniform in [0, 1]: where their signed filter weights nearly cancel, the weighted
+    // average would divide by the remainder. With weights of one magnitude the sum is a whole multiple of it (0, ±2
+    // or ±4 of them here), so a pixel is black (sum 0) or within 4/2 = 2 times the samples' largest value.
+    let (w, h, n) = (128u32, 128u32, 4);
+    let mut spec = FilmSpec::new(w, h, "mitchell.exr");
+    spec.filter = Filter::default_for("mitchell").unwrap();
+    let sampler = FilterSampler::new(&spec.filter).unwrap();
+    let mut film = Film::new(spec).unwrap();
+    let mut rng = Pcg64::seed_from_u64(17);
+    let (mut negative, mut balanced) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let mut signs = 0i32;
+            for _ in 0..n {
+                let s = sampler.sample([uniform(&mut rng), uniform(&mut rng)]);
+                let v = uniform(&mut rng);
+                negative += usize::from(s.weight < 0.0);
+                signs += if s.weight < 0.0 { -1 } else { 1 };
+                assert!(film.add_xyz_sample(x, y, Xyz::new(v, v, v), s.weight, &[]));
+            }
+            balanced += usize::from(signs == 0);
+        }
+    }
+    // The test needs cancellations to mean anything: Mitchell's lobes take about 3% of the samples, so about 0.5%
+    // of the pixels get two negative weights of four.
+    assert!(negative > 1000 && balanced > 20, "{negative} negative weights, {balanced} balanced pixels");
+    let (mut sum, mut count, mut black) = (0.0, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let p = film.pixel_xyz(x, y);
+            assert!(p.y.abs() <= 2.0 + 1e-9, "pixel ({x}, {y}) is {}", p.y);
+            if film.pixel_weight(x, y) == 0.0 {
+                black += 1;
+                assert_eq!(p.y, 0.0);
+            } else {
+                sum += p.y;
+                count += 1;
+            }
+        }
+    }
+    assert_eq!(black, balanced, "a pixel's weights sum to zero exactly when their signs balance");
+    // The samples' values do not depend on the weights, so every pixel with weight estimates their mean, 1/2.
+    let mean = sum / count as f64;
+    assert!((mean - 0.5).abs() < 0.01, "mean {mean}");
+}

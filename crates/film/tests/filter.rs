@@ -196,3 +196,27 @@ fn bad_parameters_are_named() {
     let big = FilterSampler::new(&Filter::gaussian([1000.0, 1000.0], 300.0).unwrap()).unwrap();
     assert!(big.sample([0.5, 0.5]).weight.is_finite());
 }
+
+#[test]
+fn mitchell_weights_are_one_magnitude_of_either_sign() {
+    for f in [Filter::default_for("mitchell").unwrap(), Filter::mitchell([1.5, 2.5], 0.5, 0.25).unwrap()] {
+        let s = FilterSampler::new(&f).unwrap();
+        let mut rng = Pcg64::seed_from_u64(5);
+        let weights: Vec<f64> = (0..20_000).map(|_| s.sample([uniform(&mut rng), uniform(&mut rng)]).weight).collect();
+        let m = weights[0].abs();
+        assert!(weights.iter().all(|w| w.abs() == m), "{f:?}");
+        assert!(weights.iter().any(|&w| w < 0.0) && weights.iter().any(|&w| w > 0.0), "{f:?}");
+        // 16 significant bits: exact in f32 (camera samples carry their weight so), and every sum of a pixel's
+        // weights a whole multiple of m, exact in f64.
+        assert_eq!(m as f32 as f64, m);
+        assert_eq!((m * 2f64.powi(15 - m.log2().floor() as i32)).fract(), 0.0, "{m}");
+        // The sign is the filter's wherever it is not near a zero crossing.
+        for _ in 0..1000 {
+            let d = s.sample([uniform(&mut rng), uniform(&mut rng)]);
+            let v = f.evaluate(d.offset);
+            if v.abs() > 0.01 {
+                assert_eq!(d.weight.signum(), v.signum(), "{f:?} at {:?}", d.offset);
+            }
+        }
+    }
+}
