@@ -196,7 +196,8 @@ impl Topology {
                 let t = match k {
                     2 => q[0] + q[1] - 2.0 * p[v],
                     3 => q[1] - p[v],
-                    4 => -q[0] + 2.0 * q[1] + 2.0 * q[2] - q[3],
+                    // The regular boundary vertex; like every tangent mask its weights sum to zero.
+                    4 => -q[0] + 2.0 * q[1] + 2.0 * q[2] - q[3] - 2.0 * p[v],
                     _ => {
                         let theta = PI / (k - 1) as f32;
                         let mut t = theta.sin() * (q[0] + q[k - 1]);
@@ -367,5 +368,32 @@ mod tests {
         }
         let bad = MeshData { indices: vec![0, 1, 9], ..quad };
         assert!(loop_subdivide(&bad, 1).is_err());
+    }
+
+    #[test]
+    fn a_flat_open_mesh_anywhere_has_the_plane_normal_everywhere() {
+        // A 4×3 grid of squares in the plane z = 7, away from the origin: every tangent mask (interior, and boundary
+        // of every valence) gives vectors in the plane, so every limit normal is +z. A mask whose weights do not sum
+        // to zero adds a multiple of the vertex's position, which leaves the plane unless the plane holds the origin.
+        let offset = Vec3::new(40.0, -25.0, 7.0);
+        let (nx, ny) = (4u32, 3u32);
+        let positions =
+            (0..=ny).flat_map(|j| (0..=nx).map(move |i| offset + Vec3::new(i as f32, j as f32, 0.0))).collect();
+        let at = |i: u32, j: u32| j * (nx + 1) + i;
+        let indices = (0..ny)
+            .flat_map(|j| {
+                (0..nx).flat_map(move |i| {
+                    [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i, j + 1)]
+                })
+            })
+            .collect();
+        let grid = MeshData { positions, indices, ..Default::default() };
+        for levels in 1..4 {
+            let m = loop_subdivide(&grid, levels).unwrap();
+            for (p, n) in m.positions.iter().zip(m.normals.as_ref().unwrap()) {
+                assert!((p.z - 7.0).abs() < 1e-4, "level {levels}: {p}");
+                assert!((n.z - 1.0).abs() < 1e-5, "level {levels}: normal {n} at {p}");
+            }
+        }
     }
 }
