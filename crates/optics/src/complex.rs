@@ -49,6 +49,18 @@ impl Complex {
         Self::new(self.re / d, -self.im / d)
     }
 
+    /// Cosine: cos(a + ib) = cos a·cosh b − i·sin a·sinh b.
+    pub fn cos(self) -> Self {
+        let (s, c) = self.re.sin_cos();
+        Self::new(c * self.im.cosh(), -s * self.im.sinh())
+    }
+
+    /// Sine: sin(a + ib) = sin a·cosh b + i·cos a·sinh b.
+    pub fn sin(self) -> Self {
+        let (s, c) = self.re.sin_cos();
+        Self::new(s * self.im.cosh(), c * self.im.sinh())
+    }
+
     /// Principal square root, by the closed form of seed 000 (Frisvad, "Dispersion and Spectral Rendering"):
     /// √(a+ib) = √((|z|+a)/2) + i·sgn(b)·√((|z|−a)/2).
     ///
@@ -184,5 +196,24 @@ mod tests {
         let c = Complex::cis(std::f64::consts::FRAC_PI_2);
         assert_relative_eq!(c.re, 0.0, epsilon = 1e-16);
         assert_eq!(c.im, 1.0);
+    }
+
+    #[test]
+    fn cosine_and_sine_of_complex_arguments() {
+        // cos² + sin² = 1, and cos(ib) = cosh b, sin(ib) = i·sinh b, and the reals agree with f64's.
+        for &(a, b) in &[(0.3, 0.0), (1.2, -0.7), (-2.5, 3.0), (0.0, 1.5)] {
+            let z = Complex::new(a, b);
+            let (c, s) = (z.cos(), z.sin());
+            let one = c * c + s * s;
+            assert_relative_eq!(one.re, 1.0, epsilon = 1e-12);
+            assert_relative_eq!(one.im, 0.0, epsilon = 1e-12);
+            // cos z = (e^{iz} + e^{−iz})/2 with e^{iz} = e^{−b}·cis(a).
+            let e = Complex::cis(a) * (-b).exp();
+            let f = Complex::cis(-a) * b.exp();
+            assert_relative_eq!(c.re, 0.5 * (e.re + f.re), epsilon = 1e-12);
+            assert_relative_eq!(c.im, 0.5 * (e.im + f.im), epsilon = 1e-12);
+        }
+        assert_eq!(Complex::new(0.3, 0.0).cos().re, 0.3f64.cos());
+        assert_eq!(Complex::new(0.0, 1.5).sin(), Complex::new(0.0, 1.5f64.sinh()));
     }
 }

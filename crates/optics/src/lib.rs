@@ -10,6 +10,8 @@
 //! - [`mie`]: Lorenz–Mie scattering by spheres (efficiencies, amplitudes, exactly sampleable tabulated phase
 //!   functions for one radius or a log-normal distribution, a spectral table for participating media) and the
 //!   Descartes rainbow angles.
+//! - [`thinfilm`]: reflectance and transmittance of stacks of thin layers (interference) by the characteristic-matrix
+//!   method, per wavelength, angle and polarisation.
 //! - [`complex`]: the small complex-number type the above need.
 //!
 //! Everything is `f64` except [`reflect`] and [`refract`], which are generic over the float type so the renderer's
@@ -36,6 +38,7 @@ mod fft;
 pub mod fresnel;
 pub mod ior;
 pub mod mie;
+pub mod thinfilm;
 
 pub use catalogue::{lookup, named_spectrum, CatalogueEntry, Category, DispersionData};
 pub use complex::Complex;
@@ -53,3 +56,4 @@ pub use mie::{
     descartes_rainbow_angle, mie_amplitudes, mie_efficiencies, MieCoefficients, MieEfficiencies, MiePhaseTable,
     MieSpectralTable,
 };
+pub use thinfilm::{film_stack, FilmLayer, FilmResponse};
