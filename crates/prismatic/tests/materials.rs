@@ -190,3 +190,40 @@ fn a_negative_diffusetransmission_scale_is_an_error() {
     let e = build_error(&text, "bad.pbrt");
     assert!(e.contains("'scale'") && e.contains("bad.pbrt:9:"), "{e}");
 }
+
+/// Thin-film coatings on a conductor: each wrong form is an error naming the parameter at its file, line and column;
+/// the right forms build.
+#[test]
+fn film_coating_parameters_are_checked() {
+    let scene = |material: &str| {
+        format!(
+            "Camera \"perspective\"\nFilm \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 4\nWorldBegin\n\
+             Material \"conductor\" {material}\nShape \"sphere\"\n"
+        )
+    };
+    for (material, param) in [
+        (r#""float filmthickness" -5 "float filmeta" 1.5"#, "'filmthickness'"),
+        (r#""float filmthickness" 100"#, "'filmeta' or 'filmmaterial'"),
+        (r#""float filmeta" 1.5"#, "'filmthickness'"),
+        (r#""float filmthickness" 100 "float filmeta" 1.5 "string filmmaterial" "N-BK7""#, "'filmmaterial'"),
+        (r#""float filmthickness" 100 "string filmmaterial" "unobtainium""#, "'filmmaterial'"),
+        (r#""float filmthicknesses" [ 100 50 ] "string filmmaterials" [ "N-BK7" ]"#, "'filmthicknesses'"),
+        (r#""float filmthicknesses" [ 100 -1 ] "string filmmaterials" [ "N-BK7" "1.38" ]"#, "'filmthicknesses'"),
+        (r#""float filmthicknesses" [ 100 ] "string filmmaterials" [ "N-BK8" ]"#, "'filmmaterials'"),
+        (
+            r#""float filmthickness" 100 "float filmeta" 1.5 "float filmthicknesses" [ 1 ] "string filmmaterials" [ "1.5" ]"#,
+            "not both",
+        ),
+    ] {
+        let e = build_error(&scene(material), "film.pbrt");
+        assert!(e.contains(param) && e.contains("film.pbrt:4:"), "{material}: {e}");
+    }
+    for material in [
+        r#""float filmthickness" 80 "float filmeta" 2.4"#,
+        r#""float filmthickness" 80 "spectrum filmeta" [ 400 2.5 700 2.3 ]"#,
+        r#""float filmthickness" 10 "string filmmaterial" "Cr""#,
+        r#""float filmthicknesses" [ 99.6 130 ] "string filmmaterials" [ "1.38" "fused silica" ]"#,
+    ] {
+        build(&scene(material), "film.pbrt");
+    }
+}

@@ -5,7 +5,8 @@ mod rgl;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::{Vec2, Vec3};
-use render::internals::{Bxdf, Layered, MeasuredBrdf, TensorFile, TransportMode, TrowbridgeReitz, Warp2D};
+use optics::{Complex, FilmLayer};
+use render::internals::{Bxdf, CoatingAt, Layered, MeasuredBrdf, TensorFile, TransportMode, TrowbridgeReitz, Warp2D};
 use spectral::SampledSpectrum;
 use std::hint::black_box;
 use std::sync::Arc;
@@ -16,7 +17,24 @@ fn bxdfs() -> Vec<(&'static str, Bxdf)> {
         ("diffuse", Bxdf::Diffuse { r: SampledSpectrum::splat(0.5) }),
         (
             "rough conductor",
-            Bxdf::Conductor { eta: SampledSpectrum::splat(0.2), k: SampledSpectrum::splat(3.0), distrib: rough },
+            Bxdf::Conductor {
+                eta: SampledSpectrum::splat(0.2),
+                k: SampledSpectrum::splat(3.0),
+                distrib: rough,
+                coating: None,
+            },
+        ),
+        (
+            "rough conductor, 80 nm film",
+            Bxdf::Conductor {
+                eta: SampledSpectrum::splat(0.2),
+                k: SampledSpectrum::splat(3.0),
+                distrib: rough,
+                coating: Some(Box::new(CoatingAt::uniform(
+                    [450.0, 520.0, 590.0, 660.0],
+                    &[FilmLayer::new(Complex::from_real(2.4), 80.0)],
+                ))),
+            },
         ),
         ("smooth dielectric", Bxdf::Dielectric { eta: 1.5, distrib: TrowbridgeReitz::new(0.0, 0.0) }),
         ("rough dielectric", Bxdf::Dielectric { eta: 1.5, distrib: rough }),

@@ -8,6 +8,7 @@ use spectral::{SampledSpectrum, N_WAVELENGTHS};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
 
+use crate::coating::CoatingAt;
 use crate::layered::Layered;
 use crate::measured::MeasuredBrdf;
 use crate::microfacet::TrowbridgeReitz;
@@ -82,6 +83,19 @@ pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<(Vec3, f32)> {
     optics::refract_with_eta(wi.to_array(), n.to_array(), eta).map(|(wt, eta)| (Vec3::from_array(wt), eta))
 }
 
+/// A conductor's reflectance at `cos_i` to the (micro)surface normal: the bare Fresnel term, or its coating's.
+fn conductor_reflectance(
+    cos_i: f32,
+    eta: &SampledSpectrum,
+    k: &SampledSpectrum,
+    coating: &Option<Box<CoatingAt>>,
+) -> SampledSpectrum {
+    match coating {
+        None => fresnel_conductor(cos_i, eta, k),
+        Some(c) => c.conductor_reflectance(cos_i, eta, k),
+    }
+}
+
 /// Unpolarised dielectric Fresnel reflectance (f32 wrapper of `optics::fresnel_dielectric`).
 pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     optics::fresnel_dielectric(cos_i as f64, eta as f64) as f32
@@ -112,7 +126,8 @@ pub enum Bxdf {
         /// Transmittance per wavelength, in [0, 1].
         t: SampledSpectrum,
     },
-    /// A metal: complex index η + ik relative to the outside medium, smooth or Trowbridge–Reitz rough.
+    /// A metal: complex index η + ik relative to the outside medium, smooth or Trowbridge–Reitz rough, bare or
+    /// under a thin-film coating.
     Conductor {
         /// Real part of the relative index.
         eta: SampledSpectrum,
@@ -120,6 +135,8 @@ pub enum Bxdf {
         k: SampledSpectrum,
         /// Microfacet roughness.
         distrib: TrowbridgeReitz,
+        /// Thin films on the metal, whose reflectance replaces the bare Fresnel term (`None`: bare).
+        coating: Option<Box<CoatingAt>>,
     },
     /// A dielectric interface with relative index `eta` (inside/outside) at the path's (single) wavelength.
     Dielectric {
@@ -174,7 +191,7 @@ impl Bxdf {
         match self {
             Bxdf::Diffuse { r } => *r,
             Bxdf::DiffuseTransmission { r, t } => (*r + *t).map(|v| v.min(1.0)),
-            Bxdf::Conductor { eta, k, .. } => fresnel_conductor(1.0, eta, k),
+            Bxdf::Conductor { eta, k, coating, .. } => conductor_reflectance(1.0, eta, k, coating),
             Bxdf::Layered(c) => c.base_albedo(),
             Bxdf::Measured { brdf, lambda } => brdf.albedo_hint(lambda),
             Bxdf::Dielectric { .. } | Bxdf::DispersiveDielectric { .. } | Bxdf::ThinDielectric { .. } => {
@@ -202,7 +219,7 @@ impl Bxdf {
                     *t * FRAC_1_PI
                 }
             }
-            Bxdf::Conductor { eta, k, distrib } => {
+            Bxdf::Conductor { eta, k, distrib, coating } => {
                 if !same_hemisphere(wo, wi) || distrib.effectively_smooth() {
                     return SampledSpectrum::zero();
                 }
@@ -211,7 +228,7 @@ impl Bxdf {
                     return SampledSpectrum::zero();
                 }
                 let Some(wm) = (wi + wo).try_normalize() else { return SampledSpectrum::zero() };
-                let fr = fresnel_conductor(wo.dot(wm).abs(), eta, k);
+                let fr = conductor_reflectance(wo.dot(wm).abs(), eta, k, coating);
                 fr * (distrib.d(wm) * distrib.g(wo, wi) / (4.0 * cos_i * cos_o))
             }
             Bxdf::Dielectric { eta, distrib } => {
@@ -333,14 +350,14 @@ impl Bxdf {
                 (pdf > 0.0).then(|| BsdfSample::reflection(*r * FRAC_1_PI, wi, pdf, false))
             }
             Bxdf::DiffuseTransmission { r, t } => sample_diffuse_transmission(r, t, wo, uc, u, lobes),
-            Bxdf::Conductor { eta, k, distrib } => {
+            Bxdf::Conductor { eta, k, distrib, coating } => {
                 if distrib.effectively_smooth() {
                     let wi = Vec3::new(-wo.x, -wo.y, wo.z);
                     let c = wi.z.abs();
                     if c == 0.0 {
                         return None;
                     }
-                    let f = fresnel_conductor(c, eta, k) * (1.0 / c);
+                    let f = conductor_reflectance(c, eta, k, coating) * (1.0 / c);
                     return Some(BsdfSample::reflection(f, wi, 1.0, true));
                 }
                 if wo.z == 0.0 {
@@ -356,7 +373,7 @@ impl Bxdf {
                 if cos_i == 0.0 || cos_o == 0.0 || pdf <= 0.0 {
                     return None;
                 }
-                let fr = fresnel_conductor(wo.dot(wm).abs(), eta, k);
+                let fr = conductor_reflectance(wo.dot(wm).abs(), eta, k, coating);
                 let f = fr * (distrib.d(wm) * distrib.g(wo, wi) / (4.0 * cos_i * cos_o));
                 Some(BsdfSample::reflection(f, wi, pdf, false))
             }
@@ -935,11 +952,11 @@ mod tests {
     #[test]
     fn conductors_match_fresnel_and_sample_consistently() {
         let (eta, k) = (SampledSpectrum::splat(0.2), SampledSpectrum::splat(3.0));
-        let smooth = Bxdf::Conductor { eta, k, distrib: TrowbridgeReitz::new(0.0, 0.0) };
+        let smooth = Bxdf::Conductor { eta, k, distrib: TrowbridgeReitz::new(0.0, 0.0), coating: None };
         let wo = Vec3::new(0.0, 0.0, 1.0);
         let expected = ((0.2f32 - 1.0).powi(2) + 9.0) / ((1.2f32).powi(2) + 9.0);
         assert!((albedo(&smooth, wo, 10) - expected).abs() < 1e-5);
-        let rough = Bxdf::Conductor { eta, k, distrib: TrowbridgeReitz::new(0.3, 0.3) };
+        let rough = Bxdf::Conductor { eta, k, distrib: TrowbridgeReitz::new(0.3, 0.3), coating: None };
         consistent(&rough, Vec3::new(0.4, 0.1, 0.9).normalize());
     }
 

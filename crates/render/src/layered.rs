@@ -172,7 +172,7 @@ impl Layered {
     ) -> Self {
         Self::with_base(
             Bxdf::Dielectric { eta, distrib: coat },
-            Bxdf::Conductor { eta: conductor_eta, k: conductor_k, distrib: base },
+            Bxdf::Conductor { eta: conductor_eta, k: conductor_k, distrib: base, coating: None },
             thickness,
             max_depth,
             n_samples,
@@ -753,7 +753,7 @@ mod tests {
         // f equals the conductor's f pointwise (rounding only) and the albedos agree.
         let (eta, k) = (SampledSpectrum::splat(0.2), SampledSpectrum::splat(3.0));
         let base = TrowbridgeReitz::new(0.3, 0.3);
-        let bare = Bxdf::Conductor { eta, k, distrib: base };
+        let bare = Bxdf::Conductor { eta, k, distrib: base, coating: None };
         let coated = Layered::coated_conductor(1.0, TrowbridgeReitz::new(0.0, 0.0), eta, k, base, 1e-7, 10, 1);
         for (wo, wi) in [(dir(0.3, 0.1, 0.9), dir(-0.4, 0.0, 0.9)), (dir(0.7, 0.0, 0.5), dir(-0.6, 0.2, 0.6))] {
             let (fc, fb) = (coated.f(wo, wi, TransportMode::Radiance)[0], bare.f(wo, wi, TransportMode::Radiance)[0]);

@@ -67,6 +67,7 @@ mod builder;
 mod bump;
 mod bxdf;
 mod camera;
+mod coating;
 mod error;
 mod footprint;
 mod integrator;
@@ -99,6 +100,7 @@ pub use scene::RenderScene;
 #[doc(hidden)]
 pub mod internals {
     pub use crate::bxdf::{Bxdf, TransportMode};
+    pub use crate::coating::CoatingAt;
     pub use crate::layered::Layered;
     pub use crate::measured::tensor::TensorFile;
     pub use crate::measured::warp::Warp2D;

@@ -6,6 +6,7 @@ use optics::Ior;
 use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
 
 use crate::bxdf::Bxdf;
+use crate::coating::Coating;
 use crate::layered::Layered;
 use crate::measured::MeasuredBrdf;
 use crate::microfacet::TrowbridgeReitz;
@@ -138,12 +139,14 @@ pub enum Material {
         /// Multiplies both; the products are clamped to [0, 1].
         scale: f32,
     },
-    /// Metal.
+    /// Metal, bare or under thin films.
     Conductor {
         /// Optical constants.
         spec: ConductorSpec,
         /// Roughness.
         roughness: Roughness,
+        /// Thin films on it (Prismatic's `film*` parameters; no layers: bare).
+        coating: Coating,
     },
     /// Glass, water, gems: refracts with n(λ).
     Dielectric {
@@ -242,9 +245,9 @@ impl Material {
                 r: clamp01(reflectance.eval(ctx, wl) * *scale),
                 t: clamp01(transmittance.eval(ctx, wl) * *scale),
             }),
-            Material::Conductor { spec, roughness } => {
+            Material::Conductor { spec, roughness, coating } => {
                 let (eta, k) = spec.eta_k(ctx, wl);
-                Some(Bxdf::Conductor { eta, k, distrib: distribution(roughness) })
+                Some(Bxdf::Conductor { eta, k, distrib: distribution(roughness), coating: coating.at(ctx, wl) })
             }
             Material::Dielectric { ior, roughness } => {
                 let distrib = distribution(roughness);
@@ -374,6 +377,7 @@ mod tests {
         let metal = Material::Conductor {
             spec: ConductorSpec::EtaK { eta: constant(0.2), k: constant(3.0) },
             roughness: Roughness::smooth(),
+            coating: Coating::default(),
         };
         // α = 0 becomes clamp(0, 0.1, 0.3) = 0.1: no longer a delta lobe.
         let Some(Bxdf::Conductor { distrib, .. }) = metal.bxdf(&ctx, &mut wl(), 0.5, true) else { panic!() };

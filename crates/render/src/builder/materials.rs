@@ -14,6 +14,7 @@ use spectral::Spectrum;
 
 use super::context::{err, file_err, finite_positive, unsupported, Materials, Result, Textures};
 use crate::bump::NormalPerturbation;
+use crate::coating::{Coating, CoatingLayer, LayerIndex};
 use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
 use crate::measured::MeasuredBrdf;
 use crate::medium::HomogeneousMedium;
@@ -118,6 +119,80 @@ fn conductor_spec(t: &Textures, p: &ParamSet, loc: &Loc, eta_name: &str, k_name:
         None => SpectrumTexture::Constant(named_metal("metal-Cu-k", loc)?),
     };
     Ok(ConductorSpec::EtaK { eta, k })
+}
+
+/// Prismatic's thin-film coating of a material (docs/scene-format.md): one layer of `filmthickness` nm (a float or
+/// a float texture) whose index is `filmeta` (a float or a spectrum) or the catalogue's `filmmaterial`; or a stack
+/// of `filmthicknesses` with as many `filmmaterials` (catalogue names or numbers), outermost first. No layers
+/// without these parameters.
+fn coating(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<Coating> {
+    let at = |name: &str| p.loc_of(name, loc);
+    let single = ["filmthickness", "filmeta", "filmmaterial"].into_iter().find(|n| p.contains(n));
+    let stack = ["filmthicknesses", "filmmaterials"].into_iter().find(|n| p.contains(n));
+    let thickness_error =
+        |name: &str, v: f64| err(&at(name), format!("'{name}' must be a finite thickness ≥ 0 nm, got {v}"));
+    match (single, stack) {
+        (None, None) => Ok(Coating::default()),
+        (Some(a), Some(b)) => err(&at(b), format!("give one film ('{a}') or a stack ('{b}'), not both")),
+        (Some(_), None) => {
+            if !p.contains("filmthickness") {
+                return err(loc, "a film needs its 'filmthickness' (nm)");
+            }
+            let thickness = t.float_param(p, "filmthickness", 0.0)?;
+            if let FloatTexture::Constant(v) = thickness {
+                if !(v.is_finite() && v >= 0.0) {
+                    return thickness_error("filmthickness", v as f64);
+                }
+            }
+            let index = match (p.contains("filmeta"), p.contains("filmmaterial")) {
+                (true, true) => return err(&at("filmmaterial"), "give 'filmeta' or 'filmmaterial', not both"),
+                (false, false) => return err(loc, "a film needs its index: 'filmeta' or 'filmmaterial'"),
+                (true, false) => match named_eta(p, loc, "filmeta", 1.5)? {
+                    DielectricIor::Model(m) => LayerIndex::Model(m),
+                    DielectricIor::Spectrum(s) => LayerIndex::Spectrum(s),
+                },
+                (false, true) => {
+                    film_material(&p.get_string("filmmaterial", "")?, &at("filmmaterial"), "filmmaterial")?
+                }
+            };
+            Ok(Coating { layers: vec![CoatingLayer { index, thickness }] })
+        }
+        (None, Some(_)) => {
+            let thicknesses = p.get_floats("filmthicknesses").unwrap_or(&[]);
+            let materials = p.get_strings("filmmaterials").unwrap_or(&[]);
+            if thicknesses.len() != materials.len() || thicknesses.is_empty() {
+                return err(
+                    &at(if p.contains("filmthicknesses") { "filmthicknesses" } else { "filmmaterials" }),
+                    format!(
+                        "'filmthicknesses' and 'filmmaterials' need one entry per layer ({} and {})",
+                        thicknesses.len(),
+                        materials.len()
+                    ),
+                );
+            }
+            let mut layers = Vec::with_capacity(thicknesses.len());
+            for (&d, name) in thicknesses.iter().zip(materials) {
+                if !(d.is_finite() && d >= 0.0) {
+                    return thickness_error("filmthicknesses", d);
+                }
+                let index = film_material(name, &at("filmmaterials"), "filmmaterials")?;
+                layers.push(CoatingLayer { index, thickness: FloatTexture::Constant(d as f32) });
+            }
+            Ok(Coating { layers })
+        }
+    }
+}
+
+/// A film layer's index by name: a catalogue entry (`prismatic ior --list`; metals bring their k) or a number.
+fn film_material(name: &str, loc: &Loc, param: &str) -> Result<LayerIndex> {
+    let ior = match name.trim().parse::<f64>() {
+        Ok(n) => optics::Ior::constant(n),
+        Err(_) => optics::catalogue::lookup(name).map(|entry| entry.ior),
+    };
+    match ior {
+        Ok(ior) => Ok(LayerIndex::Model(ior)),
+        Err(e) => err(loc, format!("'{param}': {e}")),
+    }
 }
 
 /// The medium of a layered material: `thickness` (> 0, default 0.01), `albedo` (default 0), `g` (in (−1, 1),
@@ -247,9 +322,11 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &M
                 scale: scale as f32,
             }
         }
-        "conductor" => {
-            Material::Conductor { spec: conductor_spec(t, p, &e.loc, "eta", "k")?, roughness: roughness(t, p)? }
-        }
+        "conductor" => Material::Conductor {
+            spec: conductor_spec(t, p, &e.loc, "eta", "k")?,
+            roughness: roughness(t, p)?,
+            coating: coating(t, p, &e.loc)?,
+        },
         "dielectric" => Material::Dielectric { ior: dielectric_ior(p, &e.loc, 1.5)?, roughness: roughness(t, p)? },
         "thindielectric" => Material::ThinDielectric { ior: dielectric_ior(p, &e.loc, 1.5)? },
         "coateddiffuse" => Material::CoatedDiffuse {

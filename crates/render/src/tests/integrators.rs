@@ -141,6 +141,7 @@ fn room(extras: Extras) -> RenderScene {
         materials.push(Material::Conductor {
             spec: ConductorSpec::EtaK { eta: named("metal-Au-eta"), k: named("metal-Au-k") },
             roughness: Roughness { u: FloatTexture::Constant(0.3), v: FloatTexture::Constant(0.3), remap: true },
+            coating: Default::default(),
         });
         add(sphere([0.9, 0.6, 0.2], 0.6), materials.len() as u32 - 1, None, &mut lights);
     }

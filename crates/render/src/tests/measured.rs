@@ -168,7 +168,7 @@ fn evaluation_agrees_with_the_analytic_ggx_conductor() {
     // implementation of the model.
     let eta = SampledSpectrum(std::array::from_fn(|i| ETA[i] as f32));
     let k = SampledSpectrum(std::array::from_fn(|i| K[i] as f32));
-    let rough = Bxdf::Conductor { eta, k, distrib: TrowbridgeReitz::new(0.3, 0.3) };
+    let rough = Bxdf::Conductor { eta, k, distrib: TrowbridgeReitz::new(0.3, 0.3), coating: None };
     let d = deviations(f, |wo, wi, c| rough.f(wo.as_vec3(), wi.as_vec3(), TransportMode::Radiance)[c] as f64);
     assert!(within_interpolation_tolerance(d), "against ConductorBxDF: {d:?}");
     // Power: a model only 10% rougher is far outside the tolerance.

@@ -3,6 +3,7 @@
 
 mod builder;
 mod clamp;
+mod coating;
 mod furnace;
 mod integrators;
 mod layered_geometry;
