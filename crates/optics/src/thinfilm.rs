@@ -104,26 +104,27 @@ pub fn film_stack(
     let cos_sub = cos_in(n_substrate, s2);
     let one = Complex::from_real(1.0);
     let i = Complex::new(0.0, 1.0);
-    let mut response = [(0.0, 0.0); 2];
-    for (pol, out) in response.iter_mut().enumerate() {
-        // Tilted admittance: N cos θ for s, N / cos θ for p.
-        let admittance = |n: Complex, c: Complex| if pol == 0 { n * c } else { n / c };
-        let eta0 = if pol == 0 { n_incident * c0 } else { n_incident / c0 };
-        let eta_sub = admittance(n_substrate, cos_sub);
-        // [B, C]ᵀ = M₁ … M_m [1, η_s]ᵀ, applied from the substrate outwards.
-        let (mut b, mut c) = (one, eta_sub);
-        for layer in layers.iter().rev() {
-            let cj = cos_in(layer.n, s2);
-            let eta = admittance(layer.n, cj);
-            let delta = layer.n * cj * (k0 * layer.thickness_nm);
-            let (cd, sd) = (delta.cos(), delta.sin());
-            (b, c) = (cd * b - i * sd / eta * c, -(i * eta * sd) * b + cd * c);
+    // Tilted admittances: N cos θ for s, N / cos θ for p. Both polarisations are carried through the stack together,
+    // since each layer's angle and phase thickness (the costly part) are the same for both.
+    let eta0 = [n_incident * c0, n_incident / c0];
+    let eta_sub = [n_substrate * cos_sub, n_substrate / cos_sub];
+    // [B, C]ᵀ = M₁ … M_m [1, η_s]ᵀ, applied from the substrate outwards.
+    let (mut b, mut c) = ([one; 2], eta_sub);
+    for layer in layers.iter().rev() {
+        let cj = cos_in(layer.n, s2);
+        let delta = layer.n * cj * (k0 * layer.thickness_nm);
+        let (cd, sd) = (delta.cos(), delta.sin());
+        let eta = [layer.n * cj, layer.n / cj];
+        for pol in 0..2 {
+            (b[pol], c[pol]) = (cd * b[pol] - i * sd / eta[pol] * c[pol], -(i * eta[pol] * sd) * b[pol] + cd * c[pol]);
         }
-        let denominator = b * eta0 + c;
-        let r = ((b * eta0 - c) / denominator).norm_sqr();
-        let t = 4.0 * eta0 * eta_sub.re / denominator.norm_sqr();
-        *out = (r.min(1.0), t.max(0.0));
     }
+    let response = [0, 1].map(|pol| {
+        let denominator = b[pol] * eta0[pol] + c[pol];
+        let r = ((b[pol] * eta0[pol] - c[pol]) / denominator).norm_sqr();
+        let t = 4.0 * eta0[pol] * eta_sub[pol].re / denominator.norm_sqr();
+        (r.min(1.0), t.max(0.0))
+    });
     FilmResponse { r_s: response[0].0, r_p: response[1].0, t_s: response[0].1, t_p: response[1].1 }
 }
 
