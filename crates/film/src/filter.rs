@@ -265,8 +265,8 @@ pub struct FilterSampler {
 ///
 /// A pixel divides its weighted sum by the sum of its samples' weights, and with weights of both signs a few of them
 /// can cancel. Weights f/pdf that vary from cell to cell leave a remainder near zero when they nearly cancel, and the
-/// pixel explodes (pbrt-v4's RGBFilm does this: at 4 samples per pixel its Mitchell renders have about one pixel
-/// in a hundred beyond 65504). With one magnitude, rounded to 16 significant bits so that every sum of a pixel's
+/// pixel explodes (pbrt-v4's RGBFilm does this: at 4 samples per pixel one to three pixels in a hundred of its
+/// Mitchell-filtered `veach-ajar` reach ±65504). With one magnitude, rounded to 16 significant bits so that every sum of a pixel's
 /// weights is exact in f32 and f64, the sum is a whole multiple of it: zero exactly when the signs balance (the
 /// film then leaves the camera part black), and otherwise at least the magnitude, so a pixel of n samples stays
 /// within n times its samples' largest value. The effective filter is the table, sign times |f| at the cell
