@@ -279,7 +279,7 @@ fn grey_image(w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> Arc<RgbIma
 
 /// A hash of (x, y) in [0, 1), for images without structure.
 fn noise(x: usize, y: usize) -> f32 {
-    let h = (x as u64 * 0x9E37_79B9_7F4A_7C15) ^ (y as u64 * 0xC2B2_AE3D_27D4_EB4F);
+    let h = (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F);
     ((h ^ (h >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9) >> 40) as f32 / (1u64 << 24) as f32
 }
 
