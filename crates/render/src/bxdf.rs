@@ -88,7 +88,7 @@ fn conductor_reflectance(
     cos_i: f32,
     eta: &SampledSpectrum,
     k: &SampledSpectrum,
-    coating: &Option<Box<CoatingAt>>,
+    coating: Option<&CoatingAt>,
 ) -> SampledSpectrum {
     match coating {
         None => fresnel_conductor(cos_i, eta, k),
@@ -191,7 +191,7 @@ impl Bxdf {
         match self {
             Bxdf::Diffuse { r } => *r,
             Bxdf::DiffuseTransmission { r, t } => (*r + *t).map(|v| v.min(1.0)),
-            Bxdf::Conductor { eta, k, coating, .. } => conductor_reflectance(1.0, eta, k, coating),
+            Bxdf::Conductor { eta, k, coating, .. } => conductor_reflectance(1.0, eta, k, coating.as_deref()),
             Bxdf::Layered(c) => c.base_albedo(),
             Bxdf::Measured { brdf, lambda } => brdf.albedo_hint(lambda),
             Bxdf::Dielectric { .. } | Bxdf::DispersiveDielectric { .. } | Bxdf::ThinDielectric { .. } => {
@@ -228,7 +228,7 @@ impl Bxdf {
                     return SampledSpectrum::zero();
                 }
                 let Some(wm) = (wi + wo).try_normalize() else { return SampledSpectrum::zero() };
-                let fr = conductor_reflectance(wo.dot(wm).abs(), eta, k, coating);
+                let fr = conductor_reflectance(wo.dot(wm).abs(), eta, k, coating.as_deref());
                 fr * (distrib.d(wm) * distrib.g(wo, wi) / (4.0 * cos_i * cos_o))
             }
             Bxdf::Dielectric { eta, distrib } => {
@@ -357,7 +357,7 @@ impl Bxdf {
                     if c == 0.0 {
                         return None;
                     }
-                    let f = conductor_reflectance(c, eta, k, coating) * (1.0 / c);
+                    let f = conductor_reflectance(c, eta, k, coating.as_deref()) * (1.0 / c);
                     return Some(BsdfSample::reflection(f, wi, 1.0, true));
                 }
                 if wo.z == 0.0 {
@@ -373,7 +373,7 @@ impl Bxdf {
                 if cos_i == 0.0 || cos_o == 0.0 || pdf <= 0.0 {
                     return None;
                 }
-                let fr = conductor_reflectance(wo.dot(wm).abs(), eta, k, coating);
+                let fr = conductor_reflectance(wo.dot(wm).abs(), eta, k, coating.as_deref());
                 let f = fr * (distrib.d(wm) * distrib.g(wo, wi) / (4.0 * cos_i * cos_o));
                 Some(BsdfSample::reflection(f, wi, pdf, false))
             }

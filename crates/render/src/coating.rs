@@ -60,15 +60,21 @@ impl Coating {
         if self.layers.is_empty() {
             return None;
         }
-        let thickness: Vec<f64> = self.layers.iter().map(|l| (l.thickness.eval(ctx) as f64).max(0.0)).collect();
-        if thickness.iter().all(|&d| d == 0.0) {
-            return None;
-        }
         let n_layers = self.layers.len();
         let mut layers = Vec::with_capacity(N_WAVELENGTHS * n_layers);
-        for i in 0..N_WAVELENGTHS {
+        // The first slot's layers carry each texture's thickness, evaluated once; the other slots copy it.
+        let lambda0 = wl.lambda(0);
+        layers.extend(
+            self.layers.iter().map(|l| FilmLayer::new(l.index.at(lambda0), (l.thickness.eval(ctx) as f64).max(0.0))),
+        );
+        if layers.iter().all(|l| l.thickness_nm == 0.0) {
+            return None;
+        }
+        for i in 1..N_WAVELENGTHS {
             let lambda = wl.lambda(i);
-            layers.extend(self.layers.iter().zip(&thickness).map(|(l, &d)| FilmLayer::new(l.index.at(lambda), d)));
+            for (j, l) in self.layers.iter().enumerate() {
+                layers.push(FilmLayer::new(l.index.at(lambda), layers[j].thickness_nm));
+            }
         }
         Some(Box::new(CoatingAt { lambda: wl.lambdas(), layers, n_layers }))
     }
