@@ -56,4 +56,4 @@ pub use mie::{
     descartes_rainbow_angle, mie_amplitudes, mie_efficiencies, MieCoefficients, MieEfficiencies, MiePhaseTable,
     MieSpectralTable,
 };
-pub use thinfilm::{film_stack, FilmLayer, FilmResponse};
+pub use thinfilm::{film_stack, film_stack_reversed, FilmLayer, FilmResponse};

@@ -94,6 +94,30 @@ pub fn film_stack(
     cos_theta_i: f64,
     lambda_nm: f64,
 ) -> FilmResponse {
+    stack_response(n_incident, layers.iter(), n_substrate, cos_theta_i, lambda_nm)
+}
+
+/// [`film_stack`] for light arriving from the other side: `layers` are listed as for [`film_stack`] from the far
+/// medium (of complex index `n_exit`) towards the incident one (real `n_incident`), and are crossed in reverse, so
+/// a coating stored outermost first is lit from its substrate without copying it.
+pub fn film_stack_reversed(
+    n_incident: f64,
+    layers: &[FilmLayer],
+    n_exit: Complex,
+    cos_theta_i: f64,
+    lambda_nm: f64,
+) -> FilmResponse {
+    stack_response(n_incident, layers.iter().rev(), n_exit, cos_theta_i, lambda_nm)
+}
+
+/// The characteristic-matrix product of `layers` (an iterator from the incident side towards the substrate).
+fn stack_response<'a>(
+    n_incident: f64,
+    layers: impl DoubleEndedIterator<Item = &'a FilmLayer>,
+    n_substrate: Complex,
+    cos_theta_i: f64,
+    lambda_nm: f64,
+) -> FilmResponse {
     let c0 = cos_theta_i.abs().min(1.0);
     if c0 == 0.0 {
         // Grazing incidence: everything is reflected.
@@ -110,7 +134,7 @@ pub fn film_stack(
     let eta_sub = [n_substrate * cos_sub, n_substrate / cos_sub];
     // [B, C]ᵀ = M₁ … M_m [1, η_s]ᵀ, applied from the substrate outwards.
     let (mut b, mut c) = ([one; 2], eta_sub);
-    for layer in layers.iter().rev() {
+    for layer in layers.rev() {
         let cj = cos_in(layer.n, s2);
         let delta = layer.n * cj * (k0 * layer.thickness_nm);
         let (cd, sd) = (delta.cos(), delta.sin());
@@ -253,6 +277,8 @@ mod tests {
                     if sin2_sub < 1.0 && c0 > 0.0 {
                         let reversed: Vec<FilmLayer> = layers.iter().rev().copied().collect();
                         let g = film_stack(ns.re, &reversed, real(n0), (1.0 - sin2_sub).sqrt(), lambda);
+                        let h = film_stack_reversed(ns.re, &layers, real(n0), (1.0 - sin2_sub).sqrt(), lambda);
+                        assert_eq!(g, h, "film_stack_reversed is film_stack of the reversed layers");
                         assert!((g.t_s - f.t_s).abs() < 1e-11 && (g.t_p - f.t_p).abs() < 1e-11, "{f:?} {g:?}");
                         assert!((g.r_s - f.r_s).abs() < 1e-11 && (g.r_p - f.r_p).abs() < 1e-11);
                     } else {

@@ -191,14 +191,15 @@ fn a_negative_diffusetransmission_scale_is_an_error() {
     assert!(e.contains("'scale'") && e.contains("bad.pbrt:9:"), "{e}");
 }
 
-/// Thin-film coatings on a conductor: each wrong form is an error naming the parameter at its file, line and column;
+/// Thin-film coatings on a conductor or a dielectric: each wrong form is an error naming the parameter at its file,
+/// line and column;
 /// the right forms build.
 #[test]
 fn film_coating_parameters_are_checked() {
-    let scene = |material: &str| {
+    let scene_of = |kind: &str, material: &str| {
         format!(
             "Camera \"perspective\"\nFilm \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 4\nWorldBegin\n\
-             Material \"conductor\" {material}\nShape \"sphere\"\n"
+             Material \"{kind}\" {material}\nShape \"sphere\"\n"
         )
     };
     for (material, param) in [
@@ -215,8 +216,10 @@ fn film_coating_parameters_are_checked() {
             "not both",
         ),
     ] {
-        let e = build_error(&scene(material), "film.pbrt");
-        assert!(e.contains(param) && e.contains("film.pbrt:4:"), "{material}: {e}");
+        for kind in ["conductor", "dielectric"] {
+            let e = build_error(&scene_of(kind, material), "film.pbrt");
+            assert!(e.contains(param) && e.contains("film.pbrt:4:"), "{kind} {material}: {e}");
+        }
     }
     for material in [
         r#""float filmthickness" 80 "float filmeta" 2.4"#,
@@ -224,6 +227,7 @@ fn film_coating_parameters_are_checked() {
         r#""float filmthickness" 10 "string filmmaterial" "Cr""#,
         r#""float filmthicknesses" [ 99.6 130 ] "string filmmaterials" [ "1.38" "fused silica" ]"#,
     ] {
-        build(&scene(material), "film.pbrt");
+        build(&scene_of("conductor", material), "film.pbrt");
+        build(&scene_of("dielectric", material), "film.pbrt");
     }
 }

@@ -13,7 +13,7 @@
 //! Extension to Microfacet Theory for the Modeling of Varying Iridescence" (SIGGRAPH 2017), which evaluates the
 //! same Airy reflectance per wavelength (and only needs its spectral antialiasing for RGB rendering).
 
-use optics::{film_stack, Complex, FilmLayer, Ior};
+use optics::{film_stack, film_stack_reversed, Complex, FilmLayer, Ior};
 use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
 
 use crate::texture::{FloatTexture, TextureEvalContext};
@@ -111,6 +111,47 @@ impl CoatingAt {
             r[i] = response.reflectance() as f32;
         }
         r
+    }
+
+    /// Unpolarised reflectance and transmittance per slot of the coating on a dielectric of relative index `eta`
+    /// (per slot), for light at `cos_i` to the (micro)surface normal: from outside (`cos_i` > 0) through the layers
+    /// outermost first into the dielectric, from inside (`cos_i` < 0) from the dielectric through them in reverse
+    /// out into vacuum. Lossless layers give R + T = 1; beyond the critical angle from inside T is 0.
+    pub fn dielectric_reflectance_transmittance(
+        &self,
+        cos_i: f32,
+        eta: &SampledSpectrum,
+    ) -> (SampledSpectrum, SampledSpectrum) {
+        let (mut r, mut t) = (SampledSpectrum::zero(), SampledSpectrum::zero());
+        let c = cos_i.abs() as f64;
+        for i in 0..N_WAVELENGTHS {
+            let (n, lambda) = (eta[i] as f64, self.lambda[i] as f64);
+            let response = if cos_i >= 0.0 {
+                film_stack(1.0, self.stack(i), Complex::from_real(n), c, lambda)
+            } else {
+                film_stack_reversed(n, self.stack(i), Complex::from_real(1.0), c, lambda)
+            };
+            r[i] = response.reflectance() as f32;
+            t[i] = response.transmittance() as f32;
+        }
+        (r, t)
+    }
+
+    /// Unpolarised reflectance and transmittance per slot of the layers alone, free-standing in vacuum (a soap
+    /// film), for light at `cos_i` to the normal from either side.
+    pub fn free_film_reflectance_transmittance(&self, cos_i: f32) -> (SampledSpectrum, SampledSpectrum) {
+        let (mut r, mut t) = (SampledSpectrum::zero(), SampledSpectrum::zero());
+        let c = cos_i.abs() as f64;
+        for i in 0..N_WAVELENGTHS {
+            let response = if cos_i >= 0.0 {
+                film_stack(1.0, self.stack(i), Complex::from_real(1.0), c, self.lambda[i] as f64)
+            } else {
+                film_stack_reversed(1.0, self.stack(i), Complex::from_real(1.0), c, self.lambda[i] as f64)
+            };
+            r[i] = response.reflectance() as f32;
+            t[i] = response.transmittance() as f32;
+        }
+        (r, t)
     }
 }
 

@@ -148,12 +148,14 @@ pub enum Material {
         /// Thin films on it (Prismatic's `film*` parameters; no layers: bare).
         coating: Coating,
     },
-    /// Glass, water, gems: refracts with n(λ).
+    /// Glass, water, gems: refracts with n(λ); bare or under thin films.
     Dielectric {
         /// n(λ).
         ior: DielectricIor,
         /// Roughness.
         roughness: Roughness,
+        /// Thin films on the outside (Prismatic's `film*` parameters; no layers: bare).
+        coating: Coating,
     },
     /// A thin sheet of glass (no refraction offset).
     ThinDielectric {
@@ -205,7 +207,12 @@ impl Material {
     /// distribution a specular-chain solver can follow; `None` for every other material.
     pub(crate) fn smooth_dielectric_ior(&self, ctx: &TextureEvalContext) -> Option<&DielectricIor> {
         match self {
-            Material::Dielectric { ior, roughness } if roughness.distribution(ctx).effectively_smooth() => Some(ior),
+            // A coated interface's transmittance is the film's, which a specular chain does not carry.
+            Material::Dielectric { ior, roughness, coating }
+                if coating.layers.is_empty() && roughness.distribution(ctx).effectively_smooth() =>
+            {
+                Some(ior)
+            }
             Material::Diffuse { .. }
             | Material::DiffuseTransmission { .. }
             | Material::Conductor { .. }
@@ -249,7 +256,7 @@ impl Material {
                 let (eta, k) = spec.eta_k(ctx, wl);
                 Some(Bxdf::Conductor { eta, k, distrib: distribution(roughness), coating: coating.at(ctx, wl) })
             }
-            Material::Dielectric { ior, roughness } => {
+            Material::Dielectric { ior, roughness, coating } => {
                 let distrib = distribution(roughness);
                 if ior.is_dispersive() && distrib.effectively_smooth() && !wl.is_single() {
                     // Keep all wavelengths until the sampled event is a refraction (see DispersiveDielectric).
@@ -259,10 +266,10 @@ impl Material {
                         active[i] = wl.is_active(i);
                         eta[i] = ior.n(wl.lambda(i));
                     }
-                    return Some(Bxdf::DispersiveDielectric { eta, active });
+                    return Some(Bxdf::DispersiveDielectric { eta, active, coating: coating.at(ctx, wl) });
                 }
                 let eta = single_eta(ior, wl, u);
-                Some(Bxdf::Dielectric { eta, distrib })
+                Some(Bxdf::Dielectric { eta, distrib, coating: coating.at(ctx, wl) })
             }
             Material::ThinDielectric { ior } => {
                 let mut eta = SampledSpectrum::zero();
@@ -347,15 +354,23 @@ mod tests {
     #[test]
     fn dispersive_glass_keeps_one_wavelength_and_uses_its_index() {
         let sf11 = optics::catalogue::lookup("N-SF11").unwrap().ior;
-        let m = Material::Dielectric { ior: DielectricIor::Model(sf11.clone()), roughness: Roughness::smooth() };
+        let m = Material::Dielectric {
+            ior: DielectricIor::Model(sf11.clone()),
+            roughness: Roughness::smooth(),
+            coating: Coating::default(),
+        };
         let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
         let ctx = TextureEvalContext::new(Vec3::ZERO, Vec3::Z, Vec2::ZERO);
-        let Some(Bxdf::DispersiveDielectric { eta, active }) = m.bxdf(&ctx, &mut wl, 0.6, false) else { panic!() };
+        let Some(Bxdf::DispersiveDielectric { eta, active, .. }) = m.bxdf(&ctx, &mut wl, 0.6, false) else { panic!() };
         assert_eq!(active, [true; 4], "a smooth dispersive interface keeps all wavelengths until it refracts");
         assert!((eta[2] as f64 - sf11.n(650.0)).abs() < 1e-6);
         // A rough dispersive interface reduces the path to one wavelength first (its microfacet sampling is shared).
         let rough = Roughness { u: FloatTexture::Constant(0.1), v: FloatTexture::Constant(0.1), remap: false };
-        let m = Material::Dielectric { ior: DielectricIor::Model(sf11.clone()), roughness: rough };
+        let m = Material::Dielectric {
+            ior: DielectricIor::Model(sf11.clone()),
+            roughness: rough,
+            coating: Coating::default(),
+        };
         let Some(Bxdf::Dielectric { eta, .. }) = m.bxdf(&ctx, &mut wl, 0.6, false) else { panic!() };
         assert!(wl.is_single());
         assert!((eta as f64 - sf11.n(650.0)).abs() < 1e-6, "kept slot 2 (650 nm)");
@@ -363,6 +378,7 @@ mod tests {
         let m = Material::Dielectric {
             ior: DielectricIor::Model(optics::Ior::constant(1.5).unwrap()),
             roughness: Roughness::smooth(),
+            coating: Coating::default(),
         };
         let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
         m.bxdf(&ctx, &mut wl, 0.6, false);
@@ -386,7 +402,11 @@ mod tests {
         assert!(smooth.is_specular());
         // A smooth dispersive dielectric becomes a rough one, which keeps one wavelength up front.
         let sf11 = optics::catalogue::lookup("N-SF11").unwrap().ior;
-        let glass = Material::Dielectric { ior: DielectricIor::Model(sf11), roughness: Roughness::smooth() };
+        let glass = Material::Dielectric {
+            ior: DielectricIor::Model(sf11),
+            roughness: Roughness::smooth(),
+            coating: Coating::default(),
+        };
         let mut w = wl();
         let Some(Bxdf::Dielectric { distrib, .. }) = glass.bxdf(&ctx, &mut w, 0.6, true) else { panic!() };
         assert!(w.is_single() && distrib == TrowbridgeReitz::new(0.1, 0.1));

@@ -327,7 +327,11 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &M
             roughness: roughness(t, p)?,
             coating: coating(t, p, &e.loc)?,
         },
-        "dielectric" => Material::Dielectric { ior: dielectric_ior(p, &e.loc, 1.5)?, roughness: roughness(t, p)? },
+        "dielectric" => Material::Dielectric {
+            ior: dielectric_ior(p, &e.loc, 1.5)?,
+            roughness: roughness(t, p)?,
+            coating: coating(t, p, &e.loc)?,
+        },
         "thindielectric" => Material::ThinDielectric { ior: dielectric_ior(p, &e.loc, 1.5)? },
         "coateddiffuse" => Material::CoatedDiffuse {
             reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.5)?,

@@ -74,6 +74,7 @@ pub(super) fn subsurface(e: &Entity, roughness: Roughness) -> Result<(Material, 
             optics::Ior::constant(eta).map_err(|x| SceneError::at(loc("eta"), format!("'eta': {x}")))?,
         ),
         roughness,
+        coating: Default::default(),
     };
     let medium = HomogeneousMedium {
         sigma_a: sigma_a.scaled(scale),

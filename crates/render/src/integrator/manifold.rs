@@ -763,7 +763,7 @@ mod tests {
         let glass = DielectricIor::Model(optics::catalogue::lookup("N-SF11").unwrap().ior);
         let materials = vec![
             Material::Diffuse { reflectance: SpectrumTexture::Constant(Spectrum::Constant(0.5)) },
-            Material::Dielectric { ior: glass, roughness: Roughness::smooth() },
+            Material::Dielectric { ior: glass, roughness: Roughness::smooth(), coating: Default::default() },
         ];
         let mut shapes = vec![horizontal(0.0, 20.0, true)];
         let mut info = vec![ShapeInfo { material: 0, area_light_base: None, media: None }];
@@ -937,7 +937,7 @@ mod tests_support {
         let glass = DielectricIor::Model(optics::catalogue::lookup("N-SF11").unwrap().ior);
         let materials = vec![
             Material::Diffuse { reflectance: SpectrumTexture::Constant(Spectrum::Constant(0.5)) },
-            Material::Dielectric { ior: glass, roughness: Roughness::smooth() },
+            Material::Dielectric { ior: glass, roughness: Roughness::smooth(), coating: Default::default() },
         ];
         let s = 20.0;
         let p = vec![Vec3::new(-s, 0.0, s), Vec3::new(s, 0.0, s), Vec3::new(s, 0.0, -s), Vec3::new(-s, 0.0, -s)];

@@ -92,3 +92,63 @@ fn a_film_of_no_thickness_is_the_bare_metal_and_a_thick_one_colours_it() {
     let spread = coated.iter().fold(0.0f64, |m, &v| m.max(v)) - coated.iter().fold(1.0f64, |m, &v| m.min(v));
     assert!(spread > 0.05, "{coated:?}");
 }
+
+/// A smooth coated dielectric reflects the film stack's R and transmits its T per wavelength, from outside and
+/// from inside (the stack crossed in reverse): a specular event's f·|cos θi| is its R or T (importance transport,
+/// no η² factor), and the event is chosen with probability R̄/(R̄ + T̄), the means over the slots.
+#[test]
+fn a_smooth_coated_dielectric_reflects_and_transmits_the_stacks_r_and_t_per_wavelength() {
+    use crate::bxdf::{Bxdf, TransportMode};
+    use crate::coating::CoatingAt;
+    use crate::microfacet::TrowbridgeReitz;
+    use glam::{Vec2, Vec3};
+    let lambda = [450.0f32, 550.0, 650.0, 750.0];
+    let layers = [FilmLayer::new(Complex::from_real(1.38), 99.6), FilmLayer::new(Complex::from_real(2.1), 130.0)];
+    let reversed: Vec<FilmLayer> = layers.iter().rev().copied().collect();
+    let eta = 1.52f32;
+    let coated = |layers: &[FilmLayer]| Bxdf::Dielectric {
+        eta,
+        distrib: TrowbridgeReitz::new(0.0, 0.0),
+        coating: Some(Box::new(CoatingAt::uniform(lambda, layers))),
+    };
+    let b = coated(&layers);
+    // From outside at three angles; from inside below and beyond the critical angle (41.1°).
+    for (cos_o, inside) in [(1.0f32, false), (0.7, false), (0.2, false), (0.9, true), (0.6, true)] {
+        let sin = (1.0 - cos_o * cos_o).sqrt();
+        let wo = Vec3::new(sin, 0.0, if inside { -cos_o } else { cos_o });
+        let want: Vec<_> = (0..4)
+            .map(|i| {
+                let lambda = lambda[i] as f64;
+                if inside {
+                    film_stack(eta as f64, &reversed, Complex::from_real(1.0), cos_o as f64, lambda)
+                } else {
+                    film_stack(1.0, &layers, Complex::from_real(eta as f64), cos_o as f64, lambda)
+                }
+            })
+            .collect();
+        let mean = |g: fn(&optics::FilmResponse) -> f64| want.iter().map(g).sum::<f64>() / 4.0;
+        let p_reflect = mean(|w| w.reflectance()) / (mean(|w| w.reflectance()) + mean(|w| w.transmittance()));
+        let what = format!("cos {cos_o}, inside {inside}");
+        let r = b.sample_f(wo, 0.0, Vec2::splat(0.5), TransportMode::Importance).unwrap();
+        assert!(!r.transmission && r.specular, "{what}");
+        assert!((r.pdf as f64 - p_reflect).abs() < 1e-5, "{what}: P(reflect) {} vs {p_reflect}", r.pdf);
+        let t = b.sample_f(wo, 0.99999, Vec2::splat(0.5), TransportMode::Importance).unwrap();
+        let total_internal = inside && cos_o < 0.75;
+        assert_eq!(t.transmission, !total_internal, "{what}");
+        for (i, want) in want.iter().enumerate() {
+            let reflectance = (r.f[i] * r.wi.z.abs()) as f64;
+            assert!((reflectance - want.reflectance()).abs() < 1e-5, "{what}, slot {i}: R {reflectance} vs {want:?}");
+            if !total_internal {
+                let transmittance = (t.f[i] * t.wi.z.abs()) as f64;
+                assert!((transmittance - want.transmittance()).abs() < 1e-5, "{what}, slot {i}: T {transmittance}");
+                assert!((reflectance + transmittance - 1.0).abs() < 1e-5, "{what}, slot {i}: lossless layers");
+            }
+        }
+    }
+    // The quarter-wave MgF₂ layer alone at its design wavelength (slot 1) and normal incidence:
+    // R = ((n₀n_s − n₁²)/(n₀n_s + n₁²))², 1.26% in place of the bare glass's 4.26%.
+    let quarter = coated(&[FilmLayer::new(Complex::from_real(1.38), 550.0 / (4.0 * 1.38))]);
+    let s = quarter.sample_f(Vec3::Z, 0.0, Vec2::splat(0.5), TransportMode::Importance).unwrap();
+    let want = ((1.52f64 - 1.38 * 1.38) / (1.52 + 1.38 * 1.38)).powi(2);
+    assert!(!s.transmission && (s.f[1] as f64 - want).abs() < 1e-6, "{} vs {want}", s.f[1]);
+}

@@ -136,7 +136,33 @@ fn glass_spheres_in_a_furnace_are_invisible() {
         DielectricIor::Model(optics::catalogue::lookup("N-SF11").unwrap().ior),
     ];
     for ior in glasses {
-        let s = scene(Material::Dielectric { ior, roughness: Roughness::smooth() });
+        let s = scene(Material::Dielectric { ior, roughness: Roughness::smooth(), coating: Default::default() });
+        for strategy in WavelengthStrategy::ALL {
+            let (y, se) = mean_y(&s, strategy, 256, 64);
+            assert!((y - 1.0).abs() < 4.0 * se + 0.01, "{strategy}: Y = {y} ± {se}");
+        }
+    }
+}
+
+/// Glass under a lossless anti-reflection stack (three layers) is still invisible in the furnace: the coating moves
+/// light between reflection and refraction per wavelength but neither absorbs nor emits. Through the constant
+/// index (all wavelengths carried through both events) and through N-SF11 (dispersive: refraction keeps one).
+/// Fails if a coated interface's reflected or transmitted weight is not the stack's R or T over its probability.
+#[test]
+fn coated_glass_spheres_in_a_furnace_are_invisible() {
+    use crate::coating::{Coating, CoatingLayer, LayerIndex};
+    use crate::texture::FloatTexture;
+    let layer = |n: f64, d: f32| CoatingLayer {
+        index: LayerIndex::Spectrum(Spectrum::Constant(n)),
+        thickness: FloatTexture::Constant(d),
+    };
+    let coating = Coating { layers: vec![layer(1.38, 99.6), layer(2.1, 130.0), layer(1.65, 283.0)] };
+    let glasses = [
+        DielectricIor::Model(optics::Ior::constant(1.5).unwrap()),
+        DielectricIor::Model(optics::catalogue::lookup("N-SF11").unwrap().ior),
+    ];
+    for ior in glasses {
+        let s = scene(Material::Dielectric { ior, roughness: Roughness::smooth(), coating: coating.clone() });
         for strategy in WavelengthStrategy::ALL {
             let (y, se) = mean_y(&s, strategy, 256, 64);
             assert!((y - 1.0).abs() < 4.0 * se + 0.01, "{strategy}: Y = {y} ± {se}");
