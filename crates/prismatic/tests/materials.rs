@@ -192,8 +192,7 @@ fn a_negative_diffusetransmission_scale_is_an_error() {
 }
 
 /// Thin-film coatings on a conductor or a dielectric: each wrong form is an error naming the parameter at its file,
-/// line and column;
-/// the right forms build.
+/// line and column; the right forms build.
 #[test]
 fn film_coating_parameters_are_checked() {
     let scene_of = |kind: &str, material: &str| {
