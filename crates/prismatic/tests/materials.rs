@@ -229,4 +229,14 @@ fn film_coating_parameters_are_checked() {
         build(&scene_of("conductor", material), "film.pbrt");
         build(&scene_of("dielectric", material), "film.pbrt");
     }
+    // The free-standing film takes a thickness and a dielectric's index.
+    for (material, param) in [
+        (r#""float filmthickness" -3"#, "'filmthickness'"),
+        (r#""float filmthickness" [ 1e40 ]"#, "'filmthickness'"),
+        (r#""string glass" "unobtainium""#, "'glass'"),
+    ] {
+        let e = build_error(&scene_of("thinfilm", material), "film.pbrt");
+        assert!(e.contains(param) && e.contains("film.pbrt:4:"), "thinfilm {material}: {e}");
+    }
+    build(&scene_of("thinfilm", r#""float filmthickness" 350 "string glass" "water""#), "film.pbrt");
 }

@@ -167,6 +167,12 @@ pub enum Bxdf {
         /// Relative index per wavelength.
         eta: SampledSpectrum,
     },
+    /// A free-standing thin film (a soap film in air): mirror reflection and straight-through transmission with
+    /// the film's interference R and T per carried wavelength (directions do not depend on λ, so none is dropped).
+    ThinFilm {
+        /// The film's layers at this hit (`None`: no thickness here, so no surface: everything passes).
+        film: Option<Box<CoatingAt>>,
+    },
     /// A measured BRDF (pbrt-v4's `MeasuredBxDF`): an RGL material's tables evaluated at the path's wavelengths.
     /// The camera-side direction is the table's incident direction in both transport modes.
     Measured {
@@ -185,7 +191,7 @@ impl Bxdf {
             Bxdf::Conductor { distrib, .. } => distrib.effectively_smooth(),
             // An index-matched interface passes light straight through whatever its roughness.
             Bxdf::Dielectric { eta, distrib, .. } => *eta == 1.0 || distrib.effectively_smooth(),
-            Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => true,
+            Bxdf::ThinDielectric { .. } | Bxdf::ThinFilm { .. } | Bxdf::DispersiveDielectric { .. } => true,
             Bxdf::Layered(_) | Bxdf::Measured { .. } => false,
         }
     }
@@ -199,9 +205,10 @@ impl Bxdf {
             Bxdf::Conductor { eta, k, coating, .. } => conductor_reflectance(1.0, eta, k, coating.as_deref()),
             Bxdf::Layered(c) => c.base_albedo(),
             Bxdf::Measured { brdf, lambda } => brdf.albedo_hint(lambda),
-            Bxdf::Dielectric { .. } | Bxdf::DispersiveDielectric { .. } | Bxdf::ThinDielectric { .. } => {
-                SampledSpectrum::splat(1.0)
-            }
+            Bxdf::Dielectric { .. }
+            | Bxdf::DispersiveDielectric { .. }
+            | Bxdf::ThinDielectric { .. }
+            | Bxdf::ThinFilm { .. } => SampledSpectrum::splat(1.0),
         }
     }
 
@@ -242,7 +249,9 @@ impl Bxdf {
                 }
                 rough_dielectric_f(*eta, distrib, coating.as_deref(), wo, wi, mode)
             }
-            Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => SampledSpectrum::zero(),
+            Bxdf::ThinDielectric { .. } | Bxdf::ThinFilm { .. } | Bxdf::DispersiveDielectric { .. } => {
+                SampledSpectrum::zero()
+            }
             Bxdf::Layered(c) => c.f(wo, wi, mode),
             Bxdf::Measured { brdf, lambda } => match mode {
                 TransportMode::Radiance => brdf.f(wo, wi, lambda),
@@ -266,7 +275,8 @@ impl Bxdf {
             | Bxdf::Dielectric { .. }
             | Bxdf::DispersiveDielectric { .. }
             | Bxdf::Layered(_)
-            | Bxdf::ThinDielectric { .. } => (self.f(wo, wi, mode), self.pdf(wo, wi, mode)),
+            | Bxdf::ThinDielectric { .. }
+            | Bxdf::ThinFilm { .. } => (self.f(wo, wi, mode), self.pdf(wo, wi, mode)),
         }
     }
 
@@ -320,7 +330,7 @@ impl Bxdf {
                 }
                 rough_dielectric_pdf(*eta, distrib, coating.as_deref(), wo, wi, lobes)
             }
-            Bxdf::ThinDielectric { .. } | Bxdf::DispersiveDielectric { .. } => 0.0,
+            Bxdf::ThinDielectric { .. } | Bxdf::ThinFilm { .. } | Bxdf::DispersiveDielectric { .. } => 0.0,
             Bxdf::Layered(c) => c.pdf(wo, wi, mode),
             // Sampling always starts from wo, so its density is indexed by wo in both modes.
             Bxdf::Measured { brdf, .. } => brdf.pdf(wo, wi),
@@ -389,6 +399,13 @@ impl Bxdf {
             Bxdf::DispersiveDielectric { eta, active, coating } => {
                 sample_dispersive(eta, active, coating.as_deref(), wo, uc, mode, lobes)
             }
+            Bxdf::ThinFilm { film } => {
+                let (r, t) = match film {
+                    Some(film) => film.free_film_reflectance_transmittance(wo.z),
+                    None => (SampledSpectrum::zero(), SampledSpectrum::splat(1.0)),
+                };
+                sample_thin(r, t, wo, uc, lobes)
+            }
             Bxdf::ThinDielectric { eta } => {
                 let mut r = SampledSpectrum::zero();
                 for i in 0..N_WAVELENGTHS {
@@ -397,31 +414,37 @@ impl Bxdf {
                     r[i] = if r0 < 1.0 { r0 + (1.0 - r0) * (1.0 - r0) * r0 / (1.0 - r0 * r0) } else { 1.0 };
                 }
                 let t = SampledSpectrum::splat(1.0) - r;
-                let (pr, pt) = lobe_weights(r.average(), t.average(), lobes);
-                if pr + pt <= 0.0 {
-                    return None;
-                }
-                let c = wo.z.abs();
-                if c == 0.0 {
-                    return None;
-                }
-                if uc < pr / (pr + pt) {
-                    let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                    Some(BsdfSample::reflection(r * (1.0 / c), wi, pr / (pr + pt), true))
-                } else {
-                    Some(BsdfSample {
-                        f: t * (1.0 / c),
-                        wi: -wo,
-                        pdf: pt / (pr + pt),
-                        specular: true,
-                        transmission: true,
-                        eta: 1.0,
-                        pdf_is_proportional: false,
-                        keep_slot: None,
-                    })
-                }
+                sample_thin(r, t, wo, uc, lobes)
             }
         }
+    }
+}
+
+/// A thin sheet's mirror reflection or straight-through transmission, with reflectance `r` and transmittance `t`
+/// per slot, chosen by their means over the slots (each slot then weighs Rᵢ/P̄ or Tᵢ/(1 − P̄)).
+fn sample_thin(r: SampledSpectrum, t: SampledSpectrum, wo: Vec3, uc: f32, lobes: Lobes) -> Option<BsdfSample> {
+    let (pr, pt) = lobe_weights(r.average(), t.average(), lobes);
+    if pr + pt <= 0.0 {
+        return None;
+    }
+    let c = wo.z.abs();
+    if c == 0.0 {
+        return None;
+    }
+    if uc < pr / (pr + pt) {
+        let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+        Some(BsdfSample::reflection(r * (1.0 / c), wi, pr / (pr + pt), true))
+    } else {
+        Some(BsdfSample {
+            f: t * (1.0 / c),
+            wi: -wo,
+            pdf: pt / (pr + pt),
+            specular: true,
+            transmission: true,
+            eta: 1.0,
+            pdf_is_proportional: false,
+            keep_slot: None,
+        })
     }
 }
 

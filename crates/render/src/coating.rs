@@ -92,6 +92,7 @@ pub struct CoatingAt {
 
 impl CoatingAt {
     /// The same layers at every carried wavelength `lambda` (indices that do not depend on λ).
+    #[cfg(any(test, feature = "internals"))]
     pub fn uniform(lambda: [f32; N_WAVELENGTHS], layers: &[FilmLayer]) -> Self {
         let per_slot = layers.iter().copied();
         Self { lambda, layers: (0..N_WAVELENGTHS).flat_map(|_| per_slot.clone()).collect(), n_layers: layers.len() }

@@ -162,6 +162,11 @@ pub enum Material {
         /// n(λ).
         ior: DielectricIor,
     },
+    /// A free-standing thin film in air (a soap film): interference in reflection and transmission.
+    ThinFilm {
+        /// The film: one layer, its index and thickness (nm, may be a texture).
+        film: Coating,
+    },
     /// Diffuse under a dielectric coat.
     CoatedDiffuse {
         /// Base albedo.
@@ -218,6 +223,7 @@ impl Material {
             | Material::Conductor { .. }
             | Material::Dielectric { .. }
             | Material::ThinDielectric { .. }
+            | Material::ThinFilm { .. }
             | Material::CoatedDiffuse { .. }
             | Material::CoatedConductor { .. }
             | Material::Mix { .. }
@@ -278,6 +284,7 @@ impl Material {
                 }
                 Some(Bxdf::ThinDielectric { eta })
             }
+            Material::ThinFilm { film } => Some(Bxdf::ThinFilm { film: film.at(ctx, wl) }),
             Material::CoatedDiffuse { reflectance, roughness, ior, medium } => {
                 let eta = single_eta(ior, wl, u);
                 let layered = Layered::coated_diffuse(

@@ -183,6 +183,26 @@ fn coating(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<Coating> {
     }
 }
 
+/// Prismatic's free-standing film (`Material "thinfilm"`, docs/scene-format.md): one layer of `filmthickness` nm (a
+/// float or a float texture, default 500) whose index is given as a dielectric's (`eta`, `glass`, Sellmeier or Abbe
+/// forms; default 1.33, a soap film's water).
+fn free_film(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<Coating> {
+    let thickness = t.float_param(p, "filmthickness", 500.0)?;
+    if let FloatTexture::Constant(v) = thickness {
+        if !(v.is_finite() && v >= 0.0) {
+            return err(
+                &p.loc_of("filmthickness", loc),
+                format!("'filmthickness' must be a finite thickness ≥ 0 nm, got {v}"),
+            );
+        }
+    }
+    let index = match dielectric_ior(p, loc, 1.33)? {
+        DielectricIor::Model(m) => LayerIndex::Model(m),
+        DielectricIor::Spectrum(s) => LayerIndex::Spectrum(s),
+    };
+    Ok(Coating { layers: vec![CoatingLayer { index, thickness }] })
+}
+
 /// A film layer's index by name: a catalogue entry (`prismatic ior --list`; metals bring their k) or a number.
 fn film_material(name: &str, loc: &Loc, param: &str) -> Result<LayerIndex> {
     let ior = match name.trim().parse::<f64>() {
@@ -333,6 +353,7 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &M
             coating: coating(t, p, &e.loc)?,
         },
         "thindielectric" => Material::ThinDielectric { ior: dielectric_ior(p, &e.loc, 1.5)? },
+        "thinfilm" => Material::ThinFilm { film: free_film(t, p, &e.loc)? },
         "coateddiffuse" => Material::CoatedDiffuse {
             reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.5)?,
             roughness: roughness(t, p)?,
@@ -375,6 +396,7 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &M
                         "conductor",
                         "dielectric",
                         "thindielectric",
+                        "thinfilm",
                         "coateddiffuse",
                         "coatedconductor",
                         "mix",

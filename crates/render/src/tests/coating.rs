@@ -11,6 +11,11 @@ use crate::{build_scene, BuildOptions, BuiltScene};
 /// A 16×8 RGB film: the metal fills the right half of the image (world x < 0 is on the image's right, seen from +z
 /// with y up, as in pbrt-v4), the sky the left.
 fn scene(material: &str, spp: u32) -> BuiltScene {
+    scene_with(material, "", spp)
+}
+
+/// [`scene`] with more of the world after the coated quad.
+fn scene_with(material: &str, more: &str, spp: u32) -> BuiltScene {
     let text = format!(
         "LookAt 0 0 5  0 0 0  0 1 0\n\
          Camera \"orthographic\" \"float screenwindow\" [ -2 2 -1 1 ]\n\
@@ -21,7 +26,8 @@ fn scene(material: &str, spp: u32) -> BuiltScene {
          WorldBegin\n\
          LightSource \"infinite\" \"spectrum L\" [ 360 1 830 1 ]\n\
          {material}\n\
-         Shape \"trianglemesh\" \"point3 P\" [ -3 -2 0  0 -2 0  0 2 0  -3 2 0 ] \"integer indices\" [ 0 1 2  0 2 3 ]\n"
+         Shape \"trianglemesh\" \"point3 P\" [ -3 -2 0  0 -2 0  0 2 0  -3 2 0 ] \"integer indices\" [ 0 1 2  0 2 3 ]\n\
+         {more}"
     );
     let desc = pbrt::parse_str(&text, Path::new("coating.pbrt")).unwrap_or_else(|e| panic!("{e}"));
     build_scene(&desc, &BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"))
@@ -29,7 +35,14 @@ fn scene(material: &str, spp: u32) -> BuiltScene {
 
 /// X, Y, Z of the metal's pixels (x > 8) over those of the sky's (x < 7), each averaged.
 fn metal_over_sky(built: &BuiltScene) -> [f64; 3] {
-    let mut film = film::Film::new(built.film.clone()).unwrap();
+    metal_over_sky_with(built, spectral::WavelengthStrategy::Hero)
+}
+
+/// [`metal_over_sky`] with the film's wavelength strategy `strategy`.
+fn metal_over_sky_with(built: &BuiltScene, strategy: spectral::WavelengthStrategy) -> [f64; 3] {
+    let mut spec = built.film.clone();
+    spec.wavelengths = strategy;
+    let mut film = film::Film::new(spec).unwrap();
     built.integrator.render(&built.scene, &mut film, 0..built.spp, 3, &|_| {}).unwrap();
     let sum = |xs: std::ops::Range<u32>| {
         let mut s = [0.0; 3];
@@ -151,4 +164,84 @@ fn a_smooth_coated_dielectric_reflects_and_transmits_the_stacks_r_and_t_per_wave
     let s = quarter.sample_f(Vec3::Z, 0.0, Vec2::splat(0.5), TransportMode::Importance).unwrap();
     let want = ((1.52f64 - 1.38 * 1.38) / (1.52 + 1.38 * 1.38)).powi(2);
     assert!(!s.transmission && (s.f[1] as f64 - want).abs() < 1e-6, "{} vs {want}", s.f[1]);
+}
+
+/// A black quad under the film's quad, so the camera sees only what the film reflects of the sky.
+const BLACK_BELOW: &str = "Material \"diffuse\" \"spectrum reflectance\" [ 360 0 830 0 ]\n\
+     Shape \"trianglemesh\" \"point3 P\" [ -3 -2 -1  0 -2 -1  0 2 -1  -3 2 -1 ] \"integer indices\" [ 0 1 2  0 2 3 ]\n";
+
+/// A water film's reflectance (n 1.33, `d` nm, in air at normal incidence) weighted by each CIE 1931 colour matching
+/// function: what the film over black shows of a sky of constant spectral radiance.
+fn water_film_xyz_ratio(d: f64) -> [f64; 3] {
+    let (mut num, mut den) = ([0.0; 3], [0.0; 3]);
+    for j in 0..4700 {
+        let lambda = 360.0 + 0.1 * (j as f64 + 0.5);
+        let r = film_stack(1.0, &[FilmLayer::new(Complex::from_real(1.33), d)], Complex::from_real(1.0), 1.0, lambda)
+            .reflectance();
+        let cmf = spectral::Observer::Cie1931.xyz_bar(lambda);
+        for c in 0..3 {
+            num[c] += r * cmf[c];
+            den[c] += cmf[c];
+        }
+    }
+    [0, 1, 2].map(|c| num[c] / den[c])
+}
+
+/// A free-standing soap film (`thinfilm`) reflects its interference colour and, with nothing behind it but the sky,
+/// is invisible: what it does not reflect it transmits (R + T = 1, no offset), at every wavelength. A film of no
+/// thickness is no surface at all.
+#[test]
+fn a_soap_film_reflects_its_interference_colour_and_transmits_the_rest() {
+    let soap = |d: f64| format!("Material \"thinfilm\" \"float filmthickness\" {d} \"float eta\" 1.33");
+    for d in [120.0, 300.0, 550.0] {
+        // 1024 samples on each of 56 pixels: the ratios converge to 0.05% at 8192 and scatter by about 0.3% here.
+        let measured = metal_over_sky(&scene_with(&soap(d), BLACK_BELOW, 1024));
+        let exact = water_film_xyz_ratio(d);
+        for c in 0..3 {
+            assert!((measured[c] / exact[c] - 1.0).abs() < 0.01, "{d} nm, channel {c}: {measured:?} vs {exact:?}");
+        }
+        // Each sample weighs Rᵢ/P̄ or Tᵢ/(1 − P̄) per wavelength, 1 only on average: noise of about 0.2% here.
+        let alone = metal_over_sky(&scene(&soap(d), 256));
+        assert!(alone.iter().all(|v| (v - 1.0).abs() < 0.01), "{d} nm over the sky: {alone:?}");
+    }
+    let none = metal_over_sky(&scene_with(&soap(0.0), BLACK_BELOW, 4));
+    assert!(none.iter().all(|&v| v == 0.0), "no film: the black quad, {none:?}");
+}
+
+/// Spectral honesty. A 2 µm water film's reflectance oscillates with a period of about 57 nm in λ (λ²/2nd at 550 nm),
+/// so its colour is an average over many fringes, nearly neutral. All of Prismatic's wavelength strategies sample λ
+/// continuously (`rgb` stratifies its three bands but draws a random wavelength in each), so each converges to its
+/// own integral of the reflectance spectrum; a renderer that evaluates the film at three fixed wavelengths (one per
+/// RGB primary, as an RGB renderer must) lands on three points of the fringes and shows a strong false colour.
+#[test]
+fn a_thick_film_converges_under_every_wavelength_strategy_where_three_fixed_wavelengths_cannot() {
+    use spectral::{Observer, Spectrum, WavelengthSampler, WavelengthStrategy};
+    let d = 2000.0;
+    let r = |lambda: f64| {
+        film_stack(1.0, &[FilmLayer::new(Complex::from_real(1.33), d)], Complex::from_real(1.0), 1.0, lambda)
+            .reflectance()
+    };
+    let lambdas: Vec<f64> = (0..=47000).map(|j| 360.0 + 0.01 * j as f64).collect();
+    let reflectance = Spectrum::piecewise_linear(lambdas.clone(), lambdas.iter().map(|&l| r(l)).collect()).unwrap();
+    let built =
+        scene_with(&format!("Material \"thinfilm\" \"float filmthickness\" {d} \"float eta\" 1.33"), BLACK_BELOW, 2048);
+    for strategy in WavelengthStrategy::ALL {
+        // What the strategy converges to: its own colour matching functions (`cmf`: Stiles & Burch through a fitted
+        // matrix, which differs from CIE 1931 by up to 1.6% on this spectrum) applied to R(λ), over the sky's.
+        let sampler = WavelengthSampler::new(strategy, Observer::Cie1931);
+        let (film, sky) = (sampler.reference_xyz(&reflectance), sampler.reference_xyz(&Spectrum::Constant(1.0)));
+        let exact = [film.x / sky.x, film.y / sky.y, film.z / sky.z];
+        let measured = metal_over_sky_with(&built, strategy);
+        for c in 0..3 {
+            // 2048 samples on 56 pixels: within 0.5% of the reference for every strategy and channel.
+            assert!((measured[c] / exact[c] - 1.0).abs() < 0.01, "{strategy}, channel {c}: {measured:?} vs {exact:?}");
+        }
+    }
+    // Three fixed wavelengths near sRGB's primaries' dominant wavelengths, as an RGB renderer's three channels.
+    let exact = water_film_xyz_ratio(d);
+    let xyz = spectral::RgbColorSpace::srgb().to_xyz([r(612.0), r(549.0), r(465.0)]);
+    let white = spectral::RgbColorSpace::srgb().to_xyz([1.0; 3]);
+    let three = [xyz.x / white.x, xyz.y / white.y, xyz.z / white.z];
+    let off = (0..3).map(|c| (three[c] / exact[c] - 1.0).abs()).fold(0.0, f64::max);
+    assert!(off > 0.3, "three wavelengths {three:?} vs {exact:?}");
 }
