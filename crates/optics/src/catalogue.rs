@@ -16,8 +16,10 @@
 //!   is the different SCHOTT flint F5 (n_d 1.6034), while `glass-F5` is SF5 (n_d 1.6727).
 //! - `metal-<M>`, `metal-<M>-eta` and `metal-<M>-k` for the metals M = Au, Ag, Cu, Al, Cr, Ti, and the English names
 //!   gold, silver, copper, aluminium/aluminum, chromium, titanium.
-//! - the short forms `BK7` (→ N-BK7), `water` (→ water 20C), `sapphire` (→ sapphire o, the ordinary ray) and
-//!   `spinel` (→ MgAl2O4 spinel).
+//! - the short forms `BK7` (→ N-BK7), `water` (→ water 20C), `sapphire` (→ sapphire o, the ordinary ray),
+//!   `spinel` (→ MgAl2O4 spinel), and for coatings `MgF2` (→ MgF2 o), `rutile` (→ TiO2 rutile o), `zirconia` (→
+//!   ZrO2 cubic) and `Ta2O5` (→ Ta2O5 film Gao fit). Plain `TiO2` stays pbrt-v4's metal name without data: rutile's
+//!   index is well above a deposited TiO₂ film's (2.65 against 2.2–2.5 at 550 nm), so the name says which it is.
 //!
 //! `glass-BAF10` maps to SCHOTT N-BAF10 rather than the HOYA BAF10 row: both carry glass code 670472 and the same
 //! n_d = 1.67003, but N-BAF10 is SCHOTT's own published Sellmeier (valid 350–2500 nm, covering the whole 360–830 nm
@@ -67,13 +69,17 @@ const PBRT_METALS_WITHOUT_DATA: [(&str, &str); 3] =
     [("CuZn", "brass"), ("MgO", "magnesium oxide"), ("TiO2", "titanium dioxide")];
 
 /// Extra short names: (alias, catalogue name).
-const ALIASES: [(&str, &str); 6] = [
+const ALIASES: [(&str, &str); 10] = [
     ("BK7", "N-BK7"),
     ("water", "water 20C"),
     ("sapphire", "sapphire o"),
     ("spinel", "MgAl2O4 spinel"),
     ("aluminum", "Al"),
     ("fused quartz", "fused silica"),
+    ("MgF2", "MgF2 o"),
+    ("rutile", "TiO2 rutile o"),
+    ("zirconia", "ZrO2 cubic"),
+    ("Ta2O5", "Ta2O5 film Gao fit"),
 ];
 
 /// What kind of material a catalogue entry is (the CSV `category` column, plus `Metal`).
@@ -539,8 +545,8 @@ mod tests {
 
     #[test]
     fn parses_every_row() {
-        assert_eq!(glass_rows().len(), 24);
-        assert_eq!(entries().len(), 24 + 6);
+        assert_eq!(glass_rows().len(), 31);
+        assert_eq!(entries().len(), 31 + 6);
         for (sym, l, n, k) in metal_tables() {
             assert_eq!((l.len(), n.len(), k.len()), (121, 121, 121), "{sym}");
             assert_eq!((l[0], l[120]), (300.0, 900.0));
@@ -548,9 +554,49 @@ mod tests {
     }
 
     #[test]
-    fn a0_is_zero_everywhere() {
-        // SOURCES.md §5: "A0 is 0 in every row".
-        assert!(glass_rows().iter().all(|r| r.a0 == 0.0));
+    fn a0_is_zero_except_in_converted_and_fitted_rows() {
+        // SOURCES.md §5: A0 is 0 in every row but the two converted from formula 4 and the Ta2O5 fit.
+        let nonzero: Vec<&str> = glass_rows().iter().filter(|r| r.a0 != 0.0).map(|r| r.name).collect();
+        assert_eq!(nonzero, ["TiO2 rutile o", "TiO2 rutile e", "Ta2O5 film Gao fit"]);
+    }
+
+    #[test]
+    fn formula_4_rows_are_the_database_formula_exactly() {
+        // formula 4: n² = C1 + C2·λ^C3/(λ² − C4^C5) + C6·λ^C7/(λ² − C8^C9), λ in µm (Devore's rutile: C3 = C7 = 0,
+        // C5 = C9 = 1, C6 = 0), rewritten as 1 + A0 + B1λ²/(λ² − C1) with B1 = C2/C4, A0 = C1 − 1 − B1.
+        let mut count = 0;
+        for r in glass_rows().iter().filter(|r| r.formula == "formula 4") {
+            let c: Vec<f64> = r.coefficients_raw.split_whitespace().map(|s| num(s, "raw")).collect();
+            let ior = lookup(r.name).unwrap().ior;
+            for l_nm in [430.0f64, 500.0, 587.5618, 700.0, 1500.0] {
+                let l = l_nm / 1e3;
+                let n2 = c[0]
+                    + c[1] * l.powf(c[2]) / (l * l - c[3].powf(c[4]))
+                    + c[5] * l.powf(c[6]) / (l * l - c[7].powf(c[8]));
+                assert_relative_eq!(ior.n(l_nm), n2.sqrt(), max_relative = 1e-14);
+            }
+            count += 1;
+        }
+        assert_eq!(count, 2); // TiO2 rutile o, e
+    }
+
+    #[test]
+    fn the_ta2o5_fit_matches_gaos_film_table() {
+        // database/data/main/Ta2O5/nk/Gao.yml (Gao, Lemarchand & Lequime, Opt. Express 20, 15734, 2012): n of a
+        // 400 nm ion-assisted e-beam film, read from the table; SOURCES.md quotes a largest fit error of 5.9e-5.
+        let gao = [
+            (400.0, 2.246896),
+            (450.0, 2.204562),
+            (500.0, 2.176708),
+            (550.0, 2.157262),
+            (600.0, 2.143086),
+            (700.0, 2.124149),
+            (800.0, 2.112356),
+        ];
+        let fit = lookup("Ta2O5").unwrap().ior;
+        for (l, n) in gao {
+            assert!((fit.n(l) - n).abs() < 6e-5, "{l} nm: {} vs {n}", fit.n(l));
+        }
     }
 
     #[test]
@@ -578,7 +624,8 @@ mod tests {
             }
             count += 1;
         }
-        assert_eq!(count, 6); // fused silica, diamond, sapphire o/e, CaF2 (Malitson), spinel
+        // fused silica, diamond, sapphire o/e, CaF2 (Malitson), spinel, MgF2 o/e, cubic zirconia, cyclohexane
+        assert_eq!(count, 10);
     }
 
     #[test]

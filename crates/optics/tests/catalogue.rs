@@ -18,7 +18,7 @@ fn every_row_reproduces_the_csv_computed_nd_and_vd() {
         assert_eq!(d.nd, e.ior.nd());
         assert_eq!(d.vd, e.ior.vd());
     }
-    assert_eq!(rows, 24);
+    assert_eq!(rows, 31);
 }
 
 #[test]
