@@ -404,7 +404,9 @@ impl Bxdf {
                     Some(film) => film.free_film_reflectance_transmittance(wo.z),
                     None => (SampledSpectrum::zero(), SampledSpectrum::splat(1.0)),
                 };
-                sample_thin(r, t, wo, uc, lobes)
+                // A film reflects a few per cent at most: chosen by R alone, the reflection - often of something
+                // bright, as the sheen of a bubble - would come from few samples with large weights.
+                sample_thin(r, t, wo, uc, lobes, THIN_FILM_MIN_EVENT_PROBABILITY)
             }
             Bxdf::ThinDielectric { eta } => {
                 let mut r = SampledSpectrum::zero();
@@ -414,15 +416,26 @@ impl Bxdf {
                     r[i] = if r0 < 1.0 { r0 + (1.0 - r0) * (1.0 - r0) * r0 / (1.0 - r0 * r0) } else { 1.0 };
                 }
                 let t = SampledSpectrum::splat(1.0) - r;
-                sample_thin(r, t, wo, uc, lobes)
+                sample_thin(r, t, wo, uc, lobes, 0.0)
             }
         }
     }
 }
 
+/// The least probability with which a free-standing film picks reflection or transmission (defensive sampling).
+const THIN_FILM_MIN_EVENT_PROBABILITY: f32 = 0.25;
+
 /// A thin sheet's mirror reflection or straight-through transmission, with reflectance `r` and transmittance `t`
-/// per slot, chosen by their means over the slots (each slot then weighs Rᵢ/P̄ or Tᵢ/(1 − P̄)).
-fn sample_thin(r: SampledSpectrum, t: SampledSpectrum, wo: Vec3, uc: f32, lobes: Lobes) -> Option<BsdfSample> {
+/// per slot, chosen by their means over the slots, each event with probability at least `floor` where both are
+/// possible (each slot then weighs Rᵢ/P or Tᵢ/(1 − P)).
+fn sample_thin(
+    r: SampledSpectrum,
+    t: SampledSpectrum,
+    wo: Vec3,
+    uc: f32,
+    lobes: Lobes,
+    floor: f32,
+) -> Option<BsdfSample> {
     let (pr, pt) = lobe_weights(r.average(), t.average(), lobes);
     if pr + pt <= 0.0 {
         return None;
@@ -431,14 +444,18 @@ fn sample_thin(r: SampledSpectrum, t: SampledSpectrum, wo: Vec3, uc: f32, lobes:
     if c == 0.0 {
         return None;
     }
-    if uc < pr / (pr + pt) {
+    let mut p_reflect = pr / (pr + pt);
+    if pr > 0.0 && pt > 0.0 {
+        p_reflect = p_reflect.clamp(floor, 1.0 - floor);
+    }
+    if uc < p_reflect {
         let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-        Some(BsdfSample::reflection(r * (1.0 / c), wi, pr / (pr + pt), true))
+        Some(BsdfSample::reflection(r * (1.0 / c), wi, p_reflect, true))
     } else {
         Some(BsdfSample {
             f: t * (1.0 / c),
             wi: -wo,
-            pdf: pt / (pr + pt),
+            pdf: 1.0 - p_reflect,
             specular: true,
             transmission: true,
             eta: 1.0,
