@@ -422,8 +422,21 @@ impl Bxdf {
     }
 }
 
-/// The least probability with which a free-standing film picks reflection or transmission (defensive sampling).
+/// The least probability with which a free-standing film or a coated dielectric picks reflection or transmission
+/// (defensive sampling).
 const THIN_FILM_MIN_EVENT_PROBABILITY: f32 = 0.25;
+
+/// The probability of reflecting at a coated interface of reflectance `r` and transmittance `t` (means over the
+/// slots, or one slot's): r/(r + t), but at least [`THIN_FILM_MIN_EVENT_PROBABILITY`] for either event where both
+/// are possible. A coating exists to change what a surface reflects, often a few per cent, and its colour is the
+/// point: chosen by R alone, that reflection - of a bright sky or a softbox - would come from few samples with
+/// large, per-wavelength weights (colour noise). Unbiased either way.
+fn defensive(r: f32, t: f32) -> f32 {
+    if r <= 0.0 || t <= 0.0 {
+        return if r > 0.0 { 1.0 } else { 0.0 };
+    }
+    (r / (r + t)).clamp(THIN_FILM_MIN_EVENT_PROBABILITY, 1.0 - THIN_FILM_MIN_EVENT_PROBABILITY)
+}
 
 /// A thin sheet's mirror reflection or straight-through transmission, with reflectance `r` and transmittance `t`
 /// per slot, chosen by their means over the slots, each event with probability at least `floor` where both are
@@ -510,7 +523,8 @@ fn sample_diffuse_transmission(
 /// is shared by all wavelengths, so every slot keeps its own R(λi)/P. Refraction through slot j has probability
 /// (1/k)·T(λj); the returned pdf is T(λj) and the integrator divides slot j's density by k when it keeps it.
 /// A smooth dielectric interface's reflectance and transmittance per slot at `cos_i` (negative from inside), and
-/// the probability of reflecting that sampling gives each slot: R/(R + T), which is R for a bare interface.
+/// the probability of reflecting that sampling gives each slot: R for a bare interface, [`defensive`] for a coated
+/// one.
 fn dispersive_rt(
     eta: &SampledSpectrum,
     active: &[bool; N_WAVELENGTHS],
@@ -533,7 +547,7 @@ fn dispersive_rt(
             let (cr, ct) = c.dielectric_reflectance_transmittance(cos_i, eta);
             for i in 0..N_WAVELENGTHS {
                 if active[i] && cr[i] + ct[i] > 0.0 {
-                    (r[i], t[i], p[i]) = (cr[i], ct[i], cr[i] / (cr[i] + ct[i]));
+                    (r[i], t[i], p[i]) = (cr[i], ct[i], defensive(cr[i], ct[i]));
                 }
             }
         }
@@ -567,7 +581,8 @@ fn sample_dispersive(
     let pick = (x as usize).min(k - 1);
     let u_event = x - pick as f32;
     let j = (0..N_WAVELENGTHS).filter(|&i| active[i]).nth(pick)?;
-    let (pr, pt) = lobe_weights(r[j], t[j], lobes);
+    // The slot's probability of reflecting (R for a bare interface, so 1 − p is its T).
+    let (pr, pt) = lobe_weights(p[j], 1.0 - p[j], lobes);
     if pr + pt <= 0.0 {
         return None;
     }
@@ -679,7 +694,8 @@ fn lobe_weights(r: f32, t: f32, lobes: Lobes) -> (f32, f32) {
 
 /// A dielectric interface's reflectance and transmittance per slot at `cos_i` to the (micro)normal (negative from
 /// inside), bare or coated, with the scalars that choose between reflection and refraction: R and 1 − R for a bare
-/// interface, the means over the slots for a coated one (each slot then weighs Rᵢ/P̄ or Tᵢ/(1 − P̄)).
+/// interface (as pbrt-v4), for a coated one the probability [`defensive`] gives the means over the slots (each slot
+/// then weighs Rᵢ/P or Tᵢ/(1 − P)).
 struct InterfaceRt {
     r: SampledSpectrum,
     t: SampledSpectrum,
@@ -695,7 +711,8 @@ fn interface_rt(cos_i: f32, eta: f32, coating: Option<&CoatingAt>) -> InterfaceR
         }
         Some(c) => {
             let (r, t) = c.dielectric_reflectance_transmittance(cos_i, &SampledSpectrum::splat(eta));
-            InterfaceRt { r, t, pr: r.average(), pt: t.average() }
+            let p = defensive(r.average(), t.average());
+            InterfaceRt { r, t, pr: p, pt: 1.0 - p }
         }
     }
 }

@@ -108,7 +108,8 @@ fn a_film_of_no_thickness_is_the_bare_metal_and_a_thick_one_colours_it() {
 
 /// A smooth coated dielectric reflects the film stack's R and transmits its T per wavelength, from outside and
 /// from inside (the stack crossed in reverse): a specular event's f·|cos θi| is its R or T (importance transport,
-/// no η² factor), and the event is chosen with probability R̄/(R̄ + T̄), the means over the slots.
+/// no η² factor), and the event is chosen with probability R̄/(R̄ + T̄) of the means over the slots, kept within
+/// [1/4, 3/4] where both events can happen.
 #[test]
 fn a_smooth_coated_dielectric_reflects_and_transmits_the_stacks_r_and_t_per_wavelength() {
     use crate::bxdf::{Bxdf, TransportMode};
@@ -140,7 +141,9 @@ fn a_smooth_coated_dielectric_reflects_and_transmits_the_stacks_r_and_t_per_wave
             })
             .collect();
         let mean = |g: fn(&optics::FilmResponse) -> f64| want.iter().map(g).sum::<f64>() / 4.0;
-        let p_reflect = mean(|w| w.reflectance()) / (mean(|w| w.reflectance()) + mean(|w| w.transmittance()));
+        // Chosen by the means, but each event with probability at least 1/4 where both can happen.
+        let (mean_r, mean_t) = (mean(|w| w.reflectance()), mean(|w| w.transmittance()));
+        let p_reflect = if mean_t == 0.0 { 1.0 } else { (mean_r / (mean_r + mean_t)).clamp(0.25, 0.75) };
         let what = format!("cos {cos_o}, inside {inside}");
         let r = b.sample_f(wo, 0.0, Vec2::splat(0.5), TransportMode::Importance).unwrap();
         assert!(!r.transmission && r.specular, "{what}");
@@ -244,4 +247,32 @@ fn a_thick_film_converges_under_every_wavelength_strategy_where_three_fixed_wave
     let three = [xyz.x / white.x, xyz.y / white.y, xyz.z / white.z];
     let off = (0..3).map(|c| (three[c] / exact[c] - 1.0).abs()).fold(0.0, f64::max);
     assert!(off > 0.3, "three wavelengths {three:?} vs {exact:?}");
+}
+
+/// A free-standing film reflects R and transmits T per slot (f·|cos| of each event, in either direction), and
+/// picks either event with probability at least 1/4 although it reflects only a few per cent.
+#[test]
+fn a_free_film_samples_each_event_with_probability_at_least_a_quarter() {
+    use crate::bxdf::{Bxdf, TransportMode};
+    use crate::coating::CoatingAt;
+    use glam::{Vec2, Vec3};
+    let lambda = [450.0f32, 520.0, 600.0, 680.0];
+    let layer = [FilmLayer::new(Complex::from_real(1.33), 300.0)];
+    let film = Bxdf::ThinFilm { film: Some(Box::new(CoatingAt::uniform(lambda, &layer))) };
+    for wo in [Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.0, 0.6, -0.8)] {
+        let reflected = film.sample_f(wo, 0.24, Vec2::splat(0.5), TransportMode::Radiance).unwrap();
+        let transmitted = film.sample_f(wo, 0.26, Vec2::splat(0.5), TransportMode::Radiance).unwrap();
+        assert!(!reflected.transmission && reflected.pdf == 0.25, "{reflected:?}");
+        assert!(transmitted.transmission && transmitted.pdf == 0.75 && transmitted.wi == -wo, "{transmitted:?}");
+        for (i, &l) in lambda.iter().enumerate() {
+            let want = film_stack(1.0, &layer, Complex::from_real(1.0), 0.8, l as f64);
+            assert!(want.reflectance() < 0.15);
+            assert!(((reflected.f[i] * 0.8) as f64 - want.reflectance()).abs() < 1e-5, "slot {i}");
+            assert!(((transmitted.f[i] * 0.8) as f64 - want.transmittance()).abs() < 1e-5, "slot {i}");
+        }
+    }
+    // No film here (thickness 0): everything passes straight through.
+    let none = Bxdf::ThinFilm { film: None };
+    let s = none.sample_f(Vec3::new(0.6, 0.0, 0.8), 0.0, Vec2::splat(0.5), TransportMode::Radiance).unwrap();
+    assert!(s.transmission && s.pdf == 1.0 && (s.f[0] * 0.8 - 1.0).abs() < 1e-6, "{s:?}");
 }
