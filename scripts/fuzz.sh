@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Coverage-guided fuzzing of the input readers with AFL++ through `cargo afl` (stable Rust).
 #
-#   scripts/fuzz.sh TARGET [SECONDS]   fuzz one target (pbrt, ply, png, exr, pfm, tga, bsdf) from fuzz/corpus/TARGET until
+#   scripts/fuzz.sh TARGET [SECONDS]   fuzz one target (pbrt, ply, png, exr, pfm, tga, bsdf, lens) from fuzz/corpus/TARGET until
 #                                      ten million executions (or SECONDS, whichever comes first); an existing run in
 #                                      fuzz/out/TARGET is resumed, so repeated calls add up
 #   scripts/fuzz.sh seeds              regenerate the raw seeds (scenes of the repository, generated meshes and
@@ -19,7 +19,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
-targets="pbrt ply png exr pfm tga bsdf"
+targets="pbrt ply png exr pfm tga bsdf lens"
 execs=${FUZZ_EXECS:-10000000}
 
 usage() {

@@ -130,3 +130,9 @@ impl Drop for Scratch {
         let _ = std::fs::remove_file(&self.0);
     }
 }
+
+/// The lens-file reader (pbrt-v4's lens files with Prismatic's glass names, Abbe pairs and coatings), on the bytes as
+/// text (invalid UTF-8 replaced, as a reader of a text file would see it).
+pub fn lens(data: &[u8]) {
+    report("lens", optics::LensPrescription::parse(&String::from_utf8_lossy(data)));
+}

@@ -10,6 +10,8 @@
 //! - [`mie`]: Lorenz–Mie scattering by spheres (efficiencies, amplitudes, exactly sampleable tabulated phase
 //!   functions for one radius or a log-normal distribution, a spectral table for participating media) and the
 //!   Descartes rainbow angles.
+//! - [`lens`]: lens prescriptions (pbrt-v4's lens files, with glass by catalogue name or Abbe pair and coatings per
+//!   surface).
 //! - [`thinfilm`]: reflectance and transmittance of stacks of thin layers (interference) by the characteristic-matrix
 //!   method, per wavelength, angle and polarisation.
 //! - [`complex`]: the small complex-number type the above need.
@@ -37,6 +39,7 @@ mod error;
 mod fft;
 pub mod fresnel;
 pub mod ior;
+pub mod lens;
 pub mod mie;
 pub mod thinfilm;
 
@@ -52,6 +55,7 @@ pub use ior::{
     Cauchy, ConstantIor, Ior, MaterialConstants, Sellmeier, TabulatedComplexIor, TabulatedIor, LAMBDA_C_NM,
     LAMBDA_D_NM, LAMBDA_F_NM,
 };
+pub use lens::{CoatingLayerSpec, LensFileError, LensMedium, LensPrescription, LensSurface};
 pub use mie::{
     descartes_rainbow_angle, mie_amplitudes, mie_efficiencies, MieCoefficients, MieEfficiencies, MiePhaseTable,
     MieSpectralTable,

@@ -18,7 +18,7 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let dir = PathBuf::from(args.next().expect("usage: seeds DIR [SCENE.pbrt ...]"));
     let scenes: Vec<PathBuf> = args.map(PathBuf::from).collect();
-    for t in ["pbrt", "ply", "png", "exr", "pfm", "tga", "bsdf"] {
+    for t in ["pbrt", "ply", "png", "exr", "pfm", "tga", "bsdf", "lens"] {
         std::fs::create_dir_all(dir.join(t)).unwrap();
     }
     ply_seeds(&dir.join("ply"));
@@ -27,6 +27,7 @@ fn main() {
     pfm_seeds(&dir.join("pfm"));
     tga_seeds(&dir.join("tga"));
     bsdf_seeds(&dir.join("bsdf"));
+    lens_seeds(&dir.join("lens"));
     // One scene compressed, so the gzip path of the scene reader has a seed.
     if let Some(first) = scenes.first() {
         let text = std::fs::read(first).unwrap();
@@ -262,4 +263,14 @@ fn tga_seeds(dir: &Path) {
     ] {
         std::fs::write(dir.join(format!("{name}.tga")), bytes).unwrap();
     }
+}
+
+/// Lens files: pbrt-v4's numbers only, and Prismatic's rows with glass names, an Abbe pair, a stop and coatings.
+fn lens_seeds(dir: &Path) {
+    std::fs::write(dir.join("pbrt.dat"), "# singlet\n50 5 1.5 20\n-50 45 0 20\n").unwrap();
+    std::fs::write(
+        dir.join("rows.dat"),
+        "61.07 6.0 N-BK7 25.4 MgF2@99.6\n-47.68 2.5 SF5 25.4\n0 10 0 15\n-178.6 90 1.6/40 25.4 MgF2@92.4+zirconia@117.7\n",
+    )
+    .unwrap();
 }
