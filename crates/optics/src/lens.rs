@@ -298,6 +298,124 @@ impl LensPrescription {
     }
 }
 
+/// First-order (paraxial) properties of a lens at one wavelength: what a lens designer checks first.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Paraxial {
+    /// Effective focal length, mm (positive: converging).
+    pub efl_mm: f64,
+    /// Back focal length: from the last surface to the focus of rays parallel to the axis, mm.
+    pub bfl_mm: f64,
+    /// Where that focus lies relative to the film plane of the prescription, mm (positive: behind the film).
+    pub focus_behind_film_mm: f64,
+    /// Entrance pupil: its position from the first surface (positive: towards the film), mm, and diameter, mm.
+    pub entrance_pupil_mm: (f64, f64),
+    /// Exit pupil: its position from the last surface (negative: in front of it), mm, and diameter, mm.
+    pub exit_pupil_mm: (f64, f64),
+    /// Focal ratio EFL / entrance pupil diameter.
+    pub f_number: f64,
+}
+
+/// A paraxial ray: height y (mm) and slope u (the reduced angle n·u is conserved across a refraction's tangent).
+#[derive(Clone, Copy, Debug)]
+struct ParaxialRay {
+    y: f64,
+    u: f64,
+}
+
+impl LensPrescription {
+    /// The index of the stop surface, if the prescription has one.
+    pub fn stop(&self) -> Option<usize> {
+        self.surfaces.iter().position(|s| s.is_stop)
+    }
+
+    /// Traces a paraxial ray from just before surface `from` to just after surface `to` (inclusive), then along the
+    /// following thickness when `transfer_last`: n′u′ = nu − y(n′ − n)/R at each surface, y ← y + u′t between them
+    /// (the y-nu trace of first-order optics; e.g. Smith, *Modern Optical Engineering*, 4th ed., §2.6).
+    fn trace_paraxial(&self, mut ray: ParaxialRay, to: usize, lambda_nm: f64, transfer_last: bool) -> ParaxialRay {
+        for i in 0..=to {
+            let s = &self.surfaces[i];
+            let (n, n_after) = (self.index_before(i, lambda_nm), s.medium.n(lambda_nm));
+            if !s.is_stop {
+                let curvature = if s.radius_mm == 0.0 { 0.0 } else { 1.0 / s.radius_mm };
+                ray.u = (n * ray.u - ray.y * (n_after - n) * curvature) / n_after;
+            }
+            if i < to || transfer_last {
+                ray.y += ray.u * s.thickness_mm;
+            }
+        }
+        ray
+    }
+
+    /// The paraxial properties at `lambda_nm`, or why there are none: no surfaces, an afocal lens, no stop (the
+    /// pupils and f-number need one), or a last medium that is not air.
+    pub fn paraxial(&self, lambda_nm: f64) -> Result<Paraxial, String> {
+        let last = self.surfaces.len().checked_sub(1).ok_or("no surfaces")?;
+        if self.surfaces[last].medium != LensMedium::Air {
+            return Err("the last surface must be followed by air (the film side)".into());
+        }
+        // A ray parallel to the axis at height 1: its slope after the lens gives the focal length.
+        let marginal = self.trace_paraxial(ParaxialRay { y: 1.0, u: 0.0 }, last, lambda_nm, false);
+        if marginal.u.abs() < 1e-15 {
+            return Err("the lens is afocal (parallel rays leave it parallel)".into());
+        }
+        let efl_mm = -1.0 / marginal.u;
+        let bfl_mm = -marginal.y / marginal.u;
+        let focus_behind_film_mm = bfl_mm - self.surfaces[last].thickness_mm;
+        let stop = self.stop().ok_or("no aperture stop (a row with radius 0 and index 0)")?;
+        // Rays at the front surface map linearly onto the stop: y_stop = a·y₀ + b·u₀.
+        let at_stop = |y: f64, u: f64| self.trace_paraxial(ParaxialRay { y, u }, stop, lambda_nm, false);
+        let (a, b) = (at_stop(1.0, 0.0).y, at_stop(0.0, 1.0).y);
+        if a.abs() < 1e-15 {
+            return Err("the stop is at a focus of the elements in front of it".into());
+        }
+        let stop_radius = 0.5 * self.surfaces[stop].aperture_mm;
+        // The chief ray crosses the stop's centre: y₀ = −(b/a)·u₀; in object space it crosses the axis at z = b/a.
+        let entrance_pupil = (b / a, 2.0 * stop_radius / a.abs());
+        let chief = self.trace_paraxial(ParaxialRay { y: -b / a, u: 1.0 }, last, lambda_nm, false);
+        if chief.u.abs() < 1e-15 {
+            return Err("the exit pupil is at infinity (telecentric in image space)".into());
+        }
+        // In image space the chief ray crosses the axis at the exit pupil; the pupils' magnification is u₀/u′.
+        let exit_pupil = (-chief.y / chief.u, entrance_pupil.1 * (1.0 / chief.u).abs());
+        Ok(Paraxial {
+            efl_mm,
+            bfl_mm,
+            focus_behind_film_mm,
+            entrance_pupil_mm: entrance_pupil,
+            exit_pupil_mm: exit_pupil,
+            f_number: efl_mm.abs() / entrance_pupil.1,
+        })
+    }
+
+    /// Lateral colour, mm: the height difference, in the paraxial focal plane at `reference_nm`, between the images
+    /// at `lambda_a_nm` and `lambda_b_nm` of a distant point whose image at the reference wavelength lies
+    /// `image_height_mm` from the axis (each wavelength's chief ray through the stop's centre).
+    pub fn lateral_colour(
+        &self,
+        lambda_a_nm: f64,
+        lambda_b_nm: f64,
+        reference_nm: f64,
+        image_height_mm: f64,
+    ) -> Result<f64, String> {
+        let reference = self.paraxial(reference_nm)?;
+        let last = self.surfaces.len() - 1;
+        let stop = self.stop().ok_or("no aperture stop")?;
+        // The field angle's slope whose chief ray at the reference wavelength lands at the image height.
+        let height = |lambda: f64, u0: f64| -> f64 {
+            let a = self.trace_paraxial(ParaxialRay { y: 1.0, u: 0.0 }, stop, lambda, false).y;
+            let b = self.trace_paraxial(ParaxialRay { y: 0.0, u: 1.0 }, stop, lambda, false).y;
+            let chief = self.trace_paraxial(ParaxialRay { y: -b / a * u0, u: u0 }, last, lambda, false);
+            chief.y + chief.u * reference.bfl_mm
+        };
+        let per_unit_slope = height(reference_nm, 1.0);
+        if per_unit_slope.abs() < 1e-15 {
+            return Err("no image height for any field angle".into());
+        }
+        let u0 = image_height_mm / per_unit_slope;
+        Ok(height(lambda_a_nm, u0) - height(lambda_b_nm, u0))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -348,5 +466,68 @@ mod tests {
             assert_eq!((e.line, e.column), at, "{text:?}: {e}");
             assert!(e.message.contains(says), "{text:?}: {e}");
         }
+    }
+
+    /// A singlet of index n, radii R1 and R2 and thickness d, stop at its front surface, film at `back` mm.
+    fn singlet(glass: &str, r1: f64, r2: f64, d: f64, back: f64) -> LensPrescription {
+        LensPrescription::parse(&format!("0 0 0 20\n{r1} {d} {glass} 25\n{r2} {back} 1 25\n")).unwrap()
+    }
+
+    #[test]
+    fn a_singlets_paraxial_figures_are_the_thick_lens_equations() {
+        // 1/f = (n − 1)[1/R1 − 1/R2 + (n − 1)d/(n R1 R2)], BFL = f(1 − (n − 1)d/(n R1)) (Hecht, Optics, §6.1).
+        for (r1, r2, d) in [(50.0, -50.0, 5.0), (60.0, 0.0, 4.0), (40.0, 120.0, 6.0), (-80.0, 30.0, 3.0)] {
+            let lens = singlet("1.5168", r1, r2, d, 90.0);
+            let p = lens.paraxial(587.5618).unwrap();
+            let n = 1.5168;
+            let inv_r = |r: f64| if r == 0.0 { 0.0 } else { 1.0 / r };
+            let f = 1.0 / ((n - 1.0) * (inv_r(r1) - inv_r(r2) + (n - 1.0) * d * inv_r(r1) * inv_r(r2) / n));
+            let bfl = f * (1.0 - (n - 1.0) * d * inv_r(r1) / n);
+            assert!((p.efl_mm - f).abs() < 1e-9 * f.abs(), "{r1} {r2} {d}: {} vs {f}", p.efl_mm);
+            assert!((p.bfl_mm - bfl).abs() < 1e-9 * f.abs(), "{r1} {r2} {d}: {} vs {bfl}", p.bfl_mm);
+            assert!((p.focus_behind_film_mm - (bfl - 90.0)).abs() < 1e-9 * f.abs());
+            // The stop sits on the first surface: the entrance pupil is the stop itself, f-number f/20.
+            assert!(p.entrance_pupil_mm.0.abs() < 1e-12 && (p.entrance_pupil_mm.1 - 20.0).abs() < 1e-12);
+            assert!((p.f_number - f.abs() / 20.0).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_singlets_colour_focus_shift_is_about_f_over_abbe_and_an_achromat_cancels_it() {
+        // A thin singlet's focal length varies as 1/(n − 1): f_F − f_C ≈ −f/V_d (Smith §10.2). N-BK7, V_d 64.17.
+        let lens = singlet("N-BK7", 103.36, -103.36, 2.0, 100.0);
+        let (f, c, d) = (
+            lens.paraxial(crate::LAMBDA_F_NM).unwrap(),
+            lens.paraxial(crate::LAMBDA_C_NM).unwrap(),
+            lens.paraxial(crate::LAMBDA_D_NM).unwrap(),
+        );
+        let shift = f.bfl_mm - c.bfl_mm;
+        let vd = crate::catalogue::lookup("N-BK7").unwrap().ior.vd();
+        assert!((shift - (-d.efl_mm / vd)).abs() < 0.03 * d.efl_mm / vd, "{shift} vs {}", -d.efl_mm / vd);
+        // A cemented achromat from the thin-lens conditions φ₁ + φ₂ = φ, φ₁/V₁ + φ₂/V₂ = 0 (N-BK7 crown, F2 flint,
+        // f = 100 mm, equiconvex crown): F and C focus within a twentieth of the singlet's shift.
+        let cat = |n: &str| crate::catalogue::lookup(n).unwrap().ior;
+        let (crown, flint) = (cat("N-BK7"), cat("F2"));
+        let (v1, v2) = (crown.vd(), flint.vd());
+        let phi = 0.01;
+        let (phi1, phi2) = (phi * v1 / (v1 - v2), -phi * v2 / (v1 - v2));
+        let (n1, n2) = (crown.nd() - 1.0, flint.nd() - 1.0);
+        let r1 = 2.0 * n1 / phi1; // equiconvex crown: φ₁ = (n₁ − 1)·2/R
+        let r2 = -r1;
+        // Flint: φ₂ = (n₂ − 1)(1/R2 − 1/R3).
+        let r3 = 1.0 / (1.0 / r2 - phi2 / n2);
+        let achromat =
+            LensPrescription::parse(&format!("0 0 0 20\n{r1} 4 N-BK7 25\n{r2} 2 F2 25\n{r3} 97 1 25\n")).unwrap();
+        let residual = achromat.paraxial(crate::LAMBDA_F_NM).unwrap().bfl_mm
+            - achromat.paraxial(crate::LAMBDA_C_NM).unwrap().bfl_mm;
+        assert!(residual.abs() < shift.abs() / 20.0, "achromat F − C {residual} vs singlet {shift}");
+        // With the stop at the lens the chief ray crosses it undeviated: no lateral colour to first order; with the
+        // stop 30 mm in front, the singlet has some.
+        assert!(
+            lens.lateral_colour(crate::LAMBDA_F_NM, crate::LAMBDA_C_NM, crate::LAMBDA_D_NM, 20.0).unwrap().abs() < 0.05
+        );
+        let ahead = LensPrescription::parse("0 30 0 10\n103.36 2 N-BK7 25\n-103.36 100 1 25\n").unwrap();
+        let lateral = ahead.lateral_colour(crate::LAMBDA_F_NM, crate::LAMBDA_C_NM, crate::LAMBDA_D_NM, 20.0).unwrap();
+        assert!(lateral.abs() > 0.05, "{lateral}");
     }
 }

@@ -10,6 +10,7 @@ mod compare_cmd;
 mod convert_cmd;
 mod exit;
 mod ior_cmd;
+mod lens_cmd;
 mod merge_cmd;
 mod preview;
 mod render_cmd;
@@ -31,6 +32,8 @@ struct Cli {
 enum Command {
     /// Print the index of refraction n(λ) (and k for metals) of a catalogue material, then n_d and V_d.
     Ior(ior_cmd::IorArgs),
+    /// Print a lens prescription's first-order optics per wavelength: focal lengths, pupils, f-number and colour.
+    Lens(lens_cmd::LensArgs),
     /// Print the colour of a spectrum: CIE XYZ, chromaticity xy and linear RGB.
     Spectrum(spectrum_cmd::SpectrumArgs),
     /// Render a pbrt-v4 scene to EXR, PNG or PFM (spectral path tracing with dispersion).
@@ -47,6 +50,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Ior(args) => ior_cmd::run(&args),
+        Command::Lens(args) => lens_cmd::run(&args),
         Command::Spectrum(args) => spectrum_cmd::run(&args),
         Command::Render(args) => render_cmd::run(&args),
         Command::Compare(args) => compare_cmd::run(&args),
