@@ -416,6 +416,116 @@ impl LensPrescription {
     }
 }
 
+/// A ray in lens space: z along the optical axis towards the film, 0 at the front surface's vertex; mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LensRay {
+    /// A point on the ray, mm.
+    pub origin: [f64; 3],
+    /// Its unit direction.
+    pub direction: [f64; 3],
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn along(o: [f64; 3], d: [f64; 3], t: f64) -> [f64; 3] {
+    [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]]
+}
+
+impl LensPrescription {
+    /// The axial position of each surface's vertex, mm from the front surface.
+    pub fn vertices_mm(&self) -> Vec<f64> {
+        let mut z = 0.0;
+        self.surfaces
+            .iter()
+            .map(|s| {
+                let at = z;
+                z += s.thickness_mm;
+                at
+            })
+            .collect()
+    }
+
+    /// Where `ray` meets surface `i` (vertex at `z`) within its clear aperture, and the surface's unit normal
+    /// there facing against the ray; `None` if it misses or is vignetted.
+    fn hit(&self, i: usize, z: f64, ray: &LensRay) -> Option<([f64; 3], [f64; 3])> {
+        let s = &self.surfaces[i];
+        let (o, d) = (ray.origin, ray.direction);
+        let (p, mut normal) = if s.radius_mm == 0.0 {
+            if d[2] == 0.0 {
+                return None;
+            }
+            (along(o, d, (z - o[2]) / d[2]), [0.0, 0.0, -1.0])
+        } else {
+            // The sphere of radius R centred at z + R; of its two crossings, the one on the vertex's side of the
+            // centre: (z_hit − z_centre)·(−R) > 0.
+            let c = z + s.radius_mm;
+            let oc = [o[0], o[1], o[2] - c];
+            let b = dot(oc, d);
+            let disc = b * b - (dot(oc, oc) - s.radius_mm * s.radius_mm);
+            if disc < 0.0 {
+                return None;
+            }
+            let root = disc.sqrt();
+            let p =
+                [-b - root, -b + root].into_iter().map(|t| along(o, d, t)).find(|p| (p[2] - c) * -s.radius_mm > 0.0)?;
+            let n = [p[0] / s.radius_mm, p[1] / s.radius_mm, (p[2] - c) / s.radius_mm];
+            // Outward from the centre for R > 0 is towards the object; flipped below to face the ray either way.
+            (p, [-n[0], -n[1], -n[2]])
+        };
+        if p[0] * p[0] + p[1] * p[1] > 0.25 * s.aperture_mm * s.aperture_mm {
+            return None;
+        }
+        if dot(normal, d) > 0.0 {
+            normal = [-normal[0], -normal[1], -normal[2]];
+        }
+        Some((p, normal))
+    }
+
+    /// Traces `ray` through surfaces in `order`, refracting with each medium's n(`lambda_nm`) by Snell's law in vector
+    /// form; `None` where it misses an aperture or is totally reflected.
+    fn trace(
+        &self,
+        mut ray: LensRay,
+        lambda_nm: f64,
+        order: impl Iterator<Item = usize>,
+        forward: bool,
+    ) -> Option<LensRay> {
+        let z = self.vertices_mm();
+        for i in order {
+            let (p, m) = self.hit(i, z[i], &ray)?;
+            ray.origin = p;
+            if self.surfaces[i].is_stop {
+                continue;
+            }
+            let (before, after) = (self.index_before(i, lambda_nm), self.surfaces[i].medium.n(lambda_nm));
+            let mu = if forward { before / after } else { after / before };
+            // t = μd + (μ cos θi − cos θt) m, with m facing against d (Snell's law in vector form).
+            let d = ray.direction;
+            let cos_i = -dot(m, d);
+            let sin2_t = mu * mu * (1.0 - cos_i * cos_i);
+            if sin2_t > 1.0 {
+                return None;
+            }
+            let k = mu * cos_i - (1.0 - sin2_t).sqrt();
+            ray.direction = [mu * d[0] + k * m[0], mu * d[1] + k * m[1], mu * d[2] + k * m[2]];
+        }
+        Some(ray)
+    }
+
+    /// Traces a ray from the object side through every surface towards the film: the ray leaving the last surface.
+    pub fn trace_from_object(&self, ray: LensRay, lambda_nm: f64) -> Option<LensRay> {
+        self.trace(ray, lambda_nm, 0..self.surfaces.len(), true)
+    }
+
+    /// Traces a ray from the film side back through every surface: the ray leaving the front surface towards the
+    /// scene (what a camera does with a ray from a point on its film).
+    pub fn trace_from_film(&self, ray: LensRay, lambda_nm: f64) -> Option<LensRay> {
+        self.trace(ray, lambda_nm, (0..self.surfaces.len()).rev(), false)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -529,5 +639,59 @@ mod tests {
         let ahead = LensPrescription::parse("0 30 0 10\n103.36 2 N-BK7 25\n-103.36 100 1 25\n").unwrap();
         let lateral = ahead.lateral_colour(crate::LAMBDA_F_NM, crate::LAMBDA_C_NM, crate::LAMBDA_D_NM, 20.0).unwrap();
         assert!(lateral.abs() > 0.05, "{lateral}");
+    }
+
+    /// Where a traced ray crosses the axis (its height's zero), mm from the front surface.
+    fn axis_crossing(r: &LensRay) -> f64 {
+        r.origin[2] - r.origin[1] * r.direction[2] / r.direction[1]
+    }
+
+    #[test]
+    fn real_rays_agree_with_the_paraxial_focus_near_the_axis_and_show_spherical_aberration() {
+        let lens = singlet("N-BK7", 51.5, 0.0, 3.6, 97.6);
+        let vertex_last = lens.vertices_mm()[2];
+        for lambda in [crate::LAMBDA_F_NM, crate::LAMBDA_D_NM, crate::LAMBDA_C_NM] {
+            let bfl = lens.paraxial(lambda).unwrap().bfl_mm;
+            let ray = |h: f64| LensRay { origin: [0.0, h, -10.0], direction: [0.0, 0.0, 1.0] };
+            let near = lens.trace_from_object(ray(0.01), lambda).unwrap();
+            let focus = axis_crossing(&near) - vertex_last;
+            assert!((focus - bfl).abs() < 1e-4, "{lambda} nm: real {focus} vs paraxial {bfl}");
+            // A convex singlet is undercorrected: the marginal rays focus shorter than the paraxial focus, by
+            // roughly the square of the height (third-order spherical aberration).
+            let (f5, f9) = [5.0, 9.0]
+                .map(|h| axis_crossing(&lens.trace_from_object(ray(h), lambda).unwrap()) - vertex_last)
+                .into();
+            assert!(f5 < bfl && f9 < f5, "{lambda}: {f9} < {f5} < {bfl}");
+            let ratio = (bfl - f9) / (bfl - f5);
+            assert!((ratio - 81.0 / 25.0).abs() < 0.3, "{ratio}");
+            // Beyond the clear aperture the ray is stopped.
+            assert!(lens.trace_from_object(ray(10.5), lambda).is_none());
+        }
+    }
+
+    #[test]
+    fn a_ray_traced_back_from_the_film_retraces_its_path() {
+        let lens =
+            LensPrescription::parse("0 4 0 18\n61.07 6.0 N-BK7 25.4\n-47.68 2.5 F2 25.4\n-178.6 95 1 25.4\n").unwrap();
+        let norm = |d: [f64; 3]| {
+            let l = dot(d, d).sqrt();
+            [d[0] / l, d[1] / l, d[2] / l]
+        };
+        for (h, tilt) in [(0.0, 0.02), (3.0, -0.05), (6.0, 0.1), (-7.0, 0.0)] {
+            for lambda in [420.0, 550.0, 700.0] {
+                let start = LensRay { origin: [0.5, h, -20.0], direction: norm([0.01, tilt, 1.0]) };
+                let out = lens.trace_from_object(start, lambda).unwrap();
+                let back = lens
+                    .trace_from_film(LensRay { origin: out.origin, direction: out.direction.map(|v| -v) }, lambda)
+                    .unwrap();
+                // Back at the front surface, going the other way along the same line.
+                for k in 0..3 {
+                    assert!((back.direction[k] + start.direction[k]).abs() < 1e-12, "{h} {tilt} {lambda}");
+                }
+                let t = (back.origin[2] - start.origin[2]) / start.direction[2];
+                let on_line = along(start.origin, start.direction, t);
+                assert!((0..3).all(|k| (on_line[k] - back.origin[k]).abs() < 1e-9), "{h} {tilt} {lambda}");
+            }
+        }
     }
 }
