@@ -416,6 +416,78 @@ impl LensPrescription {
     }
 }
 
+/// The cardinal points of a lens at one wavelength (Gaussian optics), as axial positions in mm from the front
+/// vertex (positive towards the film), with its focal length.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CardinalPoints {
+    /// Front focal point F.
+    pub front_focus: f64,
+    /// Front principal plane H.
+    pub front_principal: f64,
+    /// Rear principal plane H′.
+    pub rear_principal: f64,
+    /// Rear focal point F′.
+    pub rear_focus: f64,
+    /// Effective focal length f (H′ to F′).
+    pub focal_length: f64,
+}
+
+impl LensPrescription {
+    /// The cardinal points at `lambda_nm`, from the paraxial system matrix between the front and last vertices:
+    /// [y′, u′] = [[A, B], [C, D]]·[y, u] in air on both sides gives f = −1/C, F′ = z_last − A/C, F = D/C, and the
+    /// principal planes one focal length from the foci (Hecht, *Optics*, §6.2).
+    pub fn cardinal_points(&self, lambda_nm: f64) -> Result<CardinalPoints, String> {
+        let last = self.surfaces.len().checked_sub(1).ok_or("no surfaces")?;
+        let (a, c) = {
+            let r = self.trace_paraxial(ParaxialRay { y: 1.0, u: 0.0 }, last, lambda_nm, false);
+            (r.y, r.u)
+        };
+        let d = self.trace_paraxial(ParaxialRay { y: 0.0, u: 1.0 }, last, lambda_nm, false).u;
+        if c.abs() < 1e-15 {
+            return Err("the lens is afocal (parallel rays leave it parallel)".into());
+        }
+        let z_last = self.vertices_mm()[last];
+        let focal_length = -1.0 / c;
+        let (front_focus, rear_focus) = (d / c, z_last - a / c);
+        Ok(CardinalPoints {
+            front_focus,
+            front_principal: front_focus + focal_length,
+            rear_principal: rear_focus - focal_length,
+            rear_focus,
+            focal_length,
+        })
+    }
+
+    /// The same lens with its film moved (the last thickness changed) so that a plane `focus_distance_mm` in front
+    /// of the film is in focus at `lambda_nm`: with x the film's distance from H′ and K the object's distance from H
+    /// plus x, the thick-lens equation 1/(K − x) + 1/x = 1/f gives x² − Kx + Kf = 0, whose root near f is the film
+    /// (K = focus distance − HH′). pbrt-v4's realistic camera focuses the same way, from its thick-lens approximation.
+    pub fn focused(&self, focus_distance_mm: f64, lambda_nm: f64) -> Result<LensPrescription, String> {
+        let cp = self.cardinal_points(lambda_nm)?;
+        let f = cp.focal_length;
+        if f <= 0.0 {
+            return Err(format!("a lens of negative focal length ({f:.3} mm) forms no real image to focus"));
+        }
+        let k = focus_distance_mm - (cp.rear_principal - cp.front_principal);
+        if !(focus_distance_mm.is_finite() && k > 4.0 * f) {
+            return Err(format!(
+                "focus distance {focus_distance_mm} mm is too close: this lens (f = {f:.3} mm) focuses no nearer \
+                 than {:.3} mm from its film",
+                4.0 * f + cp.rear_principal - cp.front_principal
+            ));
+        }
+        let x = 0.5 * (k - (k * k - 4.0 * k * f).sqrt());
+        let last = self.surfaces.len() - 1;
+        let back = cp.rear_principal + x - self.vertices_mm()[last];
+        if back <= 0.0 {
+            return Err(format!("focused at {focus_distance_mm} mm the film would lie inside the lens"));
+        }
+        let mut lens = self.clone();
+        lens.surfaces[last].thickness_mm = back;
+        Ok(lens)
+    }
+}
+
 /// A ray in lens space: z along the optical axis towards the film, 0 at the front surface's vertex; mm.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LensRay {
@@ -693,5 +765,36 @@ mod tests {
                 assert!((0..3).all(|k| (on_line[k] - back.origin[k]).abs() < 1e-9), "{h} {tilt} {lambda}");
             }
         }
+    }
+
+    #[test]
+    fn cardinal_points_and_focusing_put_the_object_plane_on_the_film() {
+        let lens =
+            LensPrescription::parse("0 4 0 18\n61.07 6.0 N-BK7 25.4\n-47.68 2.5 F2 25.4\n-178.6 95 1 25.4\n").unwrap();
+        let lambda = crate::LAMBDA_D_NM;
+        let cp = lens.cardinal_points(lambda).unwrap();
+        let p = lens.paraxial(lambda).unwrap();
+        assert!((cp.focal_length - p.efl_mm).abs() < 1e-9);
+        assert!((cp.rear_focus - lens.vertices_mm()[3] - p.bfl_mm).abs() < 1e-9);
+        // Thin-lens check of the principal planes of a thin singlet: both at its centre.
+        let thin = singlet("1.5", 100.0, -100.0, 1e-6, 100.0);
+        let t = thin.cardinal_points(lambda).unwrap();
+        assert!((t.front_principal - 5e-7).abs() < 1e-5 && (t.rear_principal - 5e-7).abs() < 1e-5, "{t:?}");
+        for distance in [500.0, 1000.0, 1e7] {
+            let focused = lens.focused(distance, lambda).unwrap();
+            let z = focused.vertices_mm();
+            let film = z[3] + focused.surfaces[3].thickness_mm;
+            // A ray from the axial object point reaching the lens 0.02 mm from the axis (where spherical aberration,
+            // about 0.01 mm per mm² of height here, is negligible) crosses the axis at the film.
+            let object = film - distance;
+            let u: f64 = 0.02 / distance;
+            let ray = LensRay { origin: [0.0, 0.0, object], direction: [0.0, u.sin(), u.cos()] };
+            let out = focused.trace_from_object(ray, lambda).unwrap();
+            let crossing = axis_crossing(&out);
+            assert!((crossing - film).abs() < 1e-4, "{distance} mm: crossing {crossing} vs film {film}");
+        }
+        // Too close: an error saying how close it can focus.
+        let e = lens.focused(200.0, lambda).unwrap_err();
+        assert!(e.contains("too close"), "{e}");
     }
 }

@@ -24,6 +24,10 @@ pub struct LensArgs {
     /// frame).
     #[arg(long, value_name = "MM", default_value_t = 21.6)]
     pub image_height: f64,
+
+    /// Also print where the film must sit to focus on a plane this far in front of it (mm), at the d line.
+    #[arg(long, value_name = "MM")]
+    pub focus: Option<f64>,
 }
 
 /// Runs the command and returns what it prints.
@@ -99,6 +103,17 @@ pub fn run(args: &LensArgs) -> Result<String> {
             args.image_height, lateral
         )?;
     }
+    if let Some(distance) = args.focus {
+        let focused = lens.focused(distance, LAMBDA_D_NM).map_err(|e| anyhow::anyhow!("--focus: {e}"))?;
+        let last = lens.surfaces.len() - 1;
+        let (from, to) = (lens.surfaces[last].thickness_mm, focused.surfaces[last].thickness_mm);
+        writeln!(out)?;
+        writeln!(
+            out,
+            "focused at {distance} mm (d line): last surface to film {to:.4} mm (the file's {from:.4}; moved {:+.4})",
+            to - from
+        )?;
+    }
     Ok(out)
 }
 
@@ -118,27 +133,68 @@ mod tests {
     fn prints_the_thick_lens_focal_length_and_colour() {
         // Plano-convex, n 1.5 constant: f = R/(n − 1) = 100 mm exactly, and no colour at all (pbrt-v4's numbers).
         let file = write("pc.dat", "0 2 0 10\n50 4 1.5 25\n0 96 1 25\n");
-        let out = run(&LensArgs { file, nm: vec![550.0], image_height: 21.6 }).unwrap();
+        let out = run(&LensArgs { file, nm: vec![550.0], image_height: 21.6, focus: None }).unwrap();
         assert!(out.contains("     550.00     100.0000"), "{out}");
         assert!(out.contains("longitudinal colour (focus at F − focus at C): 0.0000 mm"), "{out}");
         // N-BK7: the F line focuses shorter than the C line.
         let file = write("bk7.dat", "0 2 0 10\n51.5 3.6 N-BK7 25.4\n0 97.6 1 25.4\n");
-        let out = run(&LensArgs { file, nm: vec![], image_height: 21.6 }).unwrap();
+        let out = run(&LensArgs { file, nm: vec![], image_height: 21.6, focus: None }).unwrap();
         assert!(out.contains("longitudinal colour (focus at F − focus at C): -1.53"), "{out}");
     }
 
     #[test]
     fn bad_files_and_arguments_are_errors_naming_them() {
         let file = write("bad.dat", "0 2 0 10\n51.5 3.6 N-BK8 25.4\n");
-        let e = run(&LensArgs { file, nm: vec![], image_height: 21.6 }).unwrap_err().to_string();
+        let e = run(&LensArgs { file, nm: vec![], image_height: 21.6, focus: None }).unwrap_err().to_string();
         assert!(e.contains("bad.dat:2:10:") && e.contains("N-BK8"), "{e}");
         let file = write("ok.dat", "0 2 0 10\n50 4 1.5 25\n0 96 1 25\n");
-        let e = run(&LensArgs { file: file.clone(), nm: vec![-3.0], image_height: 21.6 }).unwrap_err().to_string();
+        let e = run(&LensArgs { file: file.clone(), nm: vec![-3.0], image_height: 21.6, focus: None })
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--nm"), "{e}");
-        let e = run(&LensArgs { file, nm: vec![], image_height: 0.0 }).unwrap_err().to_string();
+        let e =
+            run(&LensArgs { file: file.clone(), nm: vec![], image_height: 0.0, focus: None }).unwrap_err().to_string();
         assert!(e.contains("--image-height"), "{e}");
         let e =
-            run(&LensArgs { file: PathBuf::from("/nonexistent/x.dat"), nm: vec![], image_height: 1.0 }).unwrap_err();
+            run(&LensArgs { file: PathBuf::from("/nonexistent/x.dat"), nm: vec![], image_height: 1.0, focus: None })
+                .unwrap_err();
         assert!(format!("{e:#}").contains("/nonexistent/x.dat"), "{e:#}");
+        let e = run(&LensArgs { file, nm: vec![], image_height: 1.0, focus: Some(150.0) }).unwrap_err().to_string();
+        assert!(e.contains("--focus") && e.contains("too close"), "{e}");
+    }
+
+    #[test]
+    fn focuses_by_the_thin_lens_equation() {
+        // A thin lens of f = 100 mm (n 1.5, R ±100, almost no thickness) focused at 1000 mm from the film: the
+        // object is u from the lens, the film v behind it, u + v = 1000 and 1/u + 1/v = 1/100, so v = 112.7017 mm.
+        let file = write("thin.dat", "0 0 0 10\n100 0.000001 1.5 25\n-100 100 1 25\n");
+        let out = run(&LensArgs { file, nm: vec![], image_height: 1.0, focus: Some(1000.0) }).unwrap();
+        assert!(out.contains("last surface to film 112.7017 mm"), "{out}");
+    }
+
+    /// The repository's lens files: each reads, and its first-order figures are its published ones.
+    #[test]
+    fn the_shipped_lens_files_have_their_published_focal_lengths() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/lenses");
+        let read = |name: &str| LensPrescription::parse(&std::fs::read_to_string(dir.join(name)).unwrap()).unwrap();
+        let d = |lens: &LensPrescription| lens.paraxial(LAMBDA_D_NM).unwrap();
+        let colour = |lens: &LensPrescription| {
+            lens.paraxial(LAMBDA_F_NM).unwrap().bfl_mm - lens.paraxial(LAMBDA_C_NM).unwrap().bfl_mm
+        };
+        let singlet = read("singlet-bk7.dat");
+        let achromat = read("achromat-100mm.dat");
+        let dgauss = read("dgauss-50mm.dat");
+        // Thorlabs AC254-100-A: f = 100.1 mm; the achromat's F − C focus shift is a tenth of the singlet's or less.
+        assert!((d(&achromat).efl_mm - 100.1).abs() < 0.5, "{:?}", d(&achromat));
+        assert!(
+            colour(&achromat).abs() < colour(&singlet).abs() / 10.0,
+            "{} vs {}",
+            colour(&achromat),
+            colour(&singlet)
+        );
+        // Smith's double Gauss: f = 50 mm (50.36 with the table's three-decimal indices), f/2, focused near infinity.
+        assert!((d(&dgauss).efl_mm - 50.0).abs() < 0.5 && (d(&dgauss).f_number - 2.0).abs() < 0.05, "{:?}", d(&dgauss));
+        assert!(d(&dgauss).focus_behind_film_mm.abs() < 0.05);
+        assert!((d(&singlet).efl_mm - 100.0).abs() < 0.5);
     }
 }
