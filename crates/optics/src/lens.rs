@@ -488,6 +488,39 @@ impl LensPrescription {
     }
 }
 
+impl LensPrescription {
+    /// The box on the rear element's vertex plane, (x₀, x₁, y₀, y₁) in mm, through which rays from film points
+    /// between `film_radius_mm.0` and `.1` from the axis (on the +x axis) reach the scene at any of `lambdas_nm`:
+    /// found as pbrt-v4's realistic camera finds it, by tracing `n`² rays aimed at a grid over the rear element from
+    /// each of `n` film points, then widened by one grid step so that rays between grid points are not cut off.
+    /// `None` if no ray gets through (the lens vignettes that whole ring). A camera samples the rear element only
+    /// inside the box of each film ring, and rotates it for film points off the +x axis (the lens is round).
+    pub fn exit_pupil_bounds(&self, film_radius_mm: (f64, f64), lambdas_nm: &[f64], n: usize) -> Option<[f64; 4]> {
+        let last = self.surfaces.len().checked_sub(1)?;
+        let z_last = self.vertices_mm()[last];
+        let z_film = self.length_mm();
+        let rear = 0.5 * self.surfaces[last].aperture_mm;
+        let step = 2.0 * rear / n as f64;
+        let mut bounds: Option<[f64; 4]> = None;
+        for k in 0..n {
+            let r = film_radius_mm.0 + (film_radius_mm.1 - film_radius_mm.0) * (k as f64 + 0.5) / n as f64;
+            for i in 0..n {
+                for j in 0..n {
+                    let (x, y) = (-rear + (i as f64 + 0.5) * step, -rear + (j as f64 + 0.5) * step);
+                    let d = [x - r, y, z_last - z_film];
+                    let len = dot(d, d).sqrt();
+                    let ray = LensRay { origin: [r, 0.0, z_film], direction: [d[0] / len, d[1] / len, d[2] / len] };
+                    if lambdas_nm.iter().any(|&l| self.trace_from_film(ray, l).is_some()) {
+                        let b = bounds.get_or_insert([x, x, y, y]);
+                        *b = [b[0].min(x), b[1].max(x), b[2].min(y), b[3].max(y)];
+                    }
+                }
+            }
+        }
+        bounds.map(|b| [b[0] - step, b[1] + step, b[2] - step, b[3] + step])
+    }
+}
+
 /// A ray in lens space: z along the optical axis towards the film, 0 at the front surface's vertex; mm.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LensRay {
@@ -796,5 +829,49 @@ mod tests {
         // Too close: an error saying how close it can focus.
         let e = lens.focused(200.0, lambda).unwrap_err();
         assert!(e.contains("too close"), "{e}");
+    }
+
+    #[test]
+    fn no_ray_aimed_outside_the_exit_pupil_bounds_gets_through() {
+        let lens = LensPrescription::parse(
+            "29.475 3.76 1.670/47.1 25.2\n84.83 0.12 1 25.2\n19.275 4.025 1.670/47.1 23.0\n40.77 3.275 1.699/30.1 23.0\n\
+             12.75 5.705 1 18.0\n0 4.5 0 17.1\n-14.495 1.18 1.603/38.0 17.0\n40.77 6.065 1.658/57.3 20.0\n\
+             -20.385 0.19 1 20.0\n437.065 3.22 1.717/48.0 20.0\n-39.73 36.114 1 20.0\n",
+        )
+        .unwrap();
+        let lambdas = [450.0, 550.0, 650.0];
+        let (z_last, z_film) = (lens.vertices_mm()[10], lens.length_mm());
+        let mut areas = Vec::new();
+        for ring in [(0.0, 0.5), (10.0, 10.5), (20.0, 20.5)] {
+            let b = lens.exit_pupil_bounds(ring, &lambdas, 48).unwrap();
+            areas.push((b[1] - b[0]) * (b[3] - b[2]));
+            // A finer grid of aims over the whole rear element from film points in the ring: every ray that gets
+            // through was aimed inside the box, and some aimed inside do get through.
+            let (mut inside, mut through) = (0, 0);
+            for k in 0..4 {
+                let r = ring.0 + (ring.1 - ring.0) * k as f64 / 3.0;
+                for i in 0..100 {
+                    for j in 0..100 {
+                        let (x, y) =
+                            (-10.0 + 20.0 * (i as f64 + 0.37) / 100.0, -10.0 + 20.0 * (j as f64 + 0.61) / 100.0);
+                        let d = [x - r, y, z_last - z_film];
+                        let l = dot(d, d).sqrt();
+                        let ray = LensRay { origin: [r, 0.0, z_film], direction: [d[0] / l, d[1] / l, d[2] / l] };
+                        let ok = lambdas.iter().any(|&lambda| lens.trace_from_film(ray, lambda).is_some());
+                        let in_box = x >= b[0] && x <= b[1] && y >= b[2] && y <= b[3];
+                        assert!(!ok || in_box, "ring {ring:?}: ({x}, {y}) gets through outside {b:?}");
+                        inside += in_box as usize;
+                        through += ok as usize;
+                    }
+                }
+            }
+            assert!(through > inside / 3, "ring {ring:?}: {through} of {inside} aims in the box get through");
+            // The lens is round: on the axis the box is symmetric.
+            if ring.0 == 0.0 {
+                assert!((b[0] + b[1]).abs() < 0.5 && (b[2] + b[3]).abs() < 0.5, "{b:?}");
+            }
+        }
+        // Towards the edge of the field the double Gauss vignettes: the box shrinks.
+        assert!(areas[2] < areas[0], "{areas:?}");
     }
 }
