@@ -492,14 +492,17 @@ impl LensPrescription {
     /// The box on the rear element's vertex plane, (x₀, x₁, y₀, y₁) in mm, through which rays from film points
     /// between `film_radius_mm.0` and `.1` from the axis (on the +x axis) reach the scene at any of `lambdas_nm`:
     /// found as pbrt-v4's realistic camera finds it, by tracing `n`² rays aimed at a grid over the rear element from
-    /// each of `n` film points, then widened by one grid step so that rays between grid points are not cut off.
+    /// each of `n` film points (over 1.5 times the rear aperture), then widened by twice a grid cell's diagonal so
+    /// that rays between grid points are not cut off.
     /// `None` if no ray gets through (the lens vignettes that whole ring). A camera samples the rear element only
     /// inside the box of each film ring, and rotates it for film points off the +x axis (the lens is round).
     pub fn exit_pupil_bounds(&self, film_radius_mm: (f64, f64), lambdas_nm: &[f64], n: usize) -> Option<[f64; 4]> {
         let last = self.surfaces.len().checked_sub(1)?;
         let z_last = self.vertices_mm()[last];
         let z_film = self.length_mm();
-        let rear = 0.5 * self.surfaces[last].aperture_mm;
+        // The aims cover 1.5 times the rear aperture's radius, as pbrt-v4's do: a rear surface that bulges towards
+        // the film is crossed within its aperture by rays aimed beyond it on the vertex plane.
+        let rear = 1.5 * 0.5 * self.surfaces[last].aperture_mm;
         let step = 2.0 * rear / n as f64;
         let mut bounds: Option<[f64; 4]> = None;
         for k in 0..n {
@@ -517,7 +520,9 @@ impl LensPrescription {
                 }
             }
         }
-        bounds.map(|b| [b[0] - step, b[1] + step, b[2] - step, b[3] + step])
+        // pbrt-v4 widens by twice the grid cell's diagonal.
+        let widen = 2.0 * std::f64::consts::SQRT_2 * step;
+        bounds.map(|b| [b[0] - widen, b[1] + widen, b[2] - widen, b[3] + widen])
     }
 }
 
@@ -845,7 +850,7 @@ mod tests {
         for ring in [(0.0, 0.5), (10.0, 10.5), (20.0, 20.5)] {
             let b = lens.exit_pupil_bounds(ring, &lambdas, 48).unwrap();
             areas.push((b[1] - b[0]) * (b[3] - b[2]));
-            // A finer grid of aims over the whole rear element from film points in the ring: every ray that gets
+            // A finer grid of aims over 1.6 times the rear element from film points in the ring: every ray that gets
             // through was aimed inside the box, and some aimed inside do get through.
             let (mut inside, mut through) = (0, 0);
             for k in 0..4 {
@@ -853,7 +858,7 @@ mod tests {
                 for i in 0..100 {
                     for j in 0..100 {
                         let (x, y) =
-                            (-10.0 + 20.0 * (i as f64 + 0.37) / 100.0, -10.0 + 20.0 * (j as f64 + 0.61) / 100.0);
+                            (-16.0 + 32.0 * (i as f64 + 0.37) / 100.0, -16.0 + 32.0 * (j as f64 + 0.61) / 100.0);
                         let d = [x - r, y, z_last - z_film];
                         let l = dot(d, d).sqrt();
                         let ray = LensRay { origin: [r, 0.0, z_film], direction: [d[0] / l, d[1] / l, d[2] / l] };
