@@ -328,8 +328,8 @@ impl LensPrescription {
         self.surfaces.iter().position(|s| s.is_stop)
     }
 
-    /// Traces a paraxial ray from just before surface `from` to just after surface `to` (inclusive), then along the
-    /// following thickness when `transfer_last`: n′u′ = nu − y(n′ − n)/R at each surface, y ← y + u′t between them
+    /// Traces a paraxial ray from just before the front surface to just after surface `to` (inclusive), then along
+    /// the following thickness when `transfer_last`: n′u′ = nu − y(n′ − n)/R at each surface, y ← y + u′t between them
     /// (the y-nu trace of first-order optics; e.g. Smith, *Modern Optical Engineering*, 4th ed., §2.6).
     fn trace_paraxial(&self, mut ray: ParaxialRay, to: usize, lambda_nm: f64, transfer_last: bool) -> ParaxialRay {
         for i in 0..=to {
@@ -344,6 +344,13 @@ impl LensPrescription {
             }
         }
         ray
+    }
+
+    /// The linear map of rays at the front surface onto the stop, y_stop = a·y₀ + b·u₀, as (a, b): the chief ray,
+    /// through the stop's centre, starts at y₀ = −(b/a)·u₀.
+    fn onto_stop(&self, stop: usize, lambda_nm: f64) -> (f64, f64) {
+        let at_stop = |y: f64, u: f64| self.trace_paraxial(ParaxialRay { y, u }, stop, lambda_nm, false).y;
+        (at_stop(1.0, 0.0), at_stop(0.0, 1.0))
     }
 
     /// The paraxial properties at `lambda_nm`, or why there are none: no surfaces, an afocal lens, no stop (the
@@ -362,9 +369,7 @@ impl LensPrescription {
         let bfl_mm = -marginal.y / marginal.u;
         let focus_behind_film_mm = bfl_mm - self.surfaces[last].thickness_mm;
         let stop = self.stop().ok_or("no aperture stop (a row with radius 0 and index 0)")?;
-        // Rays at the front surface map linearly onto the stop: y_stop = a·y₀ + b·u₀.
-        let at_stop = |y: f64, u: f64| self.trace_paraxial(ParaxialRay { y, u }, stop, lambda_nm, false);
-        let (a, b) = (at_stop(1.0, 0.0).y, at_stop(0.0, 1.0).y);
+        let (a, b) = self.onto_stop(stop, lambda_nm);
         if a.abs() < 1e-15 {
             return Err("the stop is at a focus of the elements in front of it".into());
         }
@@ -402,8 +407,7 @@ impl LensPrescription {
         let stop = self.stop().ok_or("no aperture stop")?;
         // The field angle's slope whose chief ray at the reference wavelength lands at the image height.
         let height = |lambda: f64, u0: f64| -> f64 {
-            let a = self.trace_paraxial(ParaxialRay { y: 1.0, u: 0.0 }, stop, lambda, false).y;
-            let b = self.trace_paraxial(ParaxialRay { y: 0.0, u: 1.0 }, stop, lambda, false).y;
+            let (a, b) = self.onto_stop(stop, lambda);
             let chief = self.trace_paraxial(ParaxialRay { y: -b / a * u0, u: u0 }, last, lambda, false);
             chief.y + chief.u * reference.bfl_mm
         };
@@ -593,18 +597,23 @@ impl LensPrescription {
         Some((p, normal))
     }
 
-    /// Traces `ray` through surfaces in `order`, refracting with each medium's n(`lambda_nm`) by Snell's law in vector
-    /// form; `None` where it misses an aperture or is totally reflected.
-    fn trace(
-        &self,
-        mut ray: LensRay,
-        lambda_nm: f64,
-        order: impl Iterator<Item = usize>,
-        forward: bool,
-    ) -> Option<LensRay> {
-        let z = self.vertices_mm();
-        for i in order {
-            let (p, m) = self.hit(i, z[i], &ray)?;
+    /// Traces `ray` through every surface, front to film when `forward`, film to front otherwise, refracting with
+    /// each medium's n(`lambda_nm`) by Snell's law in vector form (as pbrt-v4's `Refract`); `None` where it misses
+    /// an aperture or is totally reflected.
+    fn trace(&self, mut ray: LensRay, lambda_nm: f64, forward: bool) -> Option<LensRay> {
+        let count = self.surfaces.len();
+        // Each surface's vertex, followed along the way rather than collected: no allocation per ray.
+        let mut z =
+            if forward { 0.0 } else { self.surfaces[..count.saturating_sub(1)].iter().map(|s| s.thickness_mm).sum() };
+        for step in 0..count {
+            let i = if forward { step } else { count - 1 - step };
+            if !forward && step > 0 {
+                z -= self.surfaces[i].thickness_mm;
+            }
+            let (p, m) = self.hit(i, z, &ray)?;
+            if forward {
+                z += self.surfaces[i].thickness_mm;
+            }
             ray.origin = p;
             if self.surfaces[i].is_stop {
                 continue;
@@ -626,13 +635,13 @@ impl LensPrescription {
 
     /// Traces a ray from the object side through every surface towards the film: the ray leaving the last surface.
     pub fn trace_from_object(&self, ray: LensRay, lambda_nm: f64) -> Option<LensRay> {
-        self.trace(ray, lambda_nm, 0..self.surfaces.len(), true)
+        self.trace(ray, lambda_nm, true)
     }
 
     /// Traces a ray from the film side back through every surface: the ray leaving the front surface towards the
     /// scene (what a camera does with a ray from a point on its film).
     pub fn trace_from_film(&self, ray: LensRay, lambda_nm: f64) -> Option<LensRay> {
-        self.trace(ray, lambda_nm, (0..self.surfaces.len()).rev(), false)
+        self.trace(ray, lambda_nm, false)
     }
 }
 

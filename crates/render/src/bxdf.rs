@@ -404,9 +404,7 @@ impl Bxdf {
                     Some(film) => film.free_film_reflectance_transmittance(wo.z),
                     None => (SampledSpectrum::zero(), SampledSpectrum::splat(1.0)),
                 };
-                // A film reflects a few per cent at most: chosen by R alone, the reflection - often of something
-                // bright, as the sheen of a bubble - would come from few samples with large weights.
-                sample_thin(r, t, wo, uc, lobes, THIN_FILM_MIN_EVENT_PROBABILITY)
+                sample_thin(r, t, wo, uc, lobes, FILM_MIN_EVENT_PROBABILITY)
             }
             Bxdf::ThinDielectric { eta } => {
                 let mut r = SampledSpectrum::zero();
@@ -423,19 +421,19 @@ impl Bxdf {
 }
 
 /// The least probability with which a free-standing film or a coated dielectric picks reflection or transmission
-/// (defensive sampling).
-const THIN_FILM_MIN_EVENT_PROBABILITY: f32 = 0.25;
+/// (defensive sampling). A film or coating exists to change what a surface reflects, often a few per cent, and its
+/// colour is the point: chosen by R alone, that reflection - of a bright sky, a softbox, the sheen of a bubble -
+/// would come from few samples with large, per-wavelength weights (colour noise). Unbiased either way.
+const FILM_MIN_EVENT_PROBABILITY: f32 = 0.25;
 
-/// The probability of reflecting at a coated interface of reflectance `r` and transmittance `t` (means over the
-/// slots, or one slot's): r/(r + t), but at least [`THIN_FILM_MIN_EVENT_PROBABILITY`] for either event where both
-/// are possible. A coating exists to change what a surface reflects, often a few per cent, and its colour is the
-/// point: chosen by R alone, that reflection - of a bright sky or a softbox - would come from few samples with
-/// large, per-wavelength weights (colour noise). Unbiased either way.
-fn defensive(r: f32, t: f32) -> f32 {
+/// The probability of reflecting at a surface of reflectance `r` and transmittance `t` (means over the slots, or
+/// one slot's): r/(r + t), kept between `floor` and 1 − `floor` where both events are possible (0 or 1 where one is
+/// not). A floor of 0 is the proportional choice, pbrt-v4's.
+fn reflect_probability(r: f32, t: f32, floor: f32) -> f32 {
     if r <= 0.0 || t <= 0.0 {
         return if r > 0.0 { 1.0 } else { 0.0 };
     }
-    (r / (r + t)).clamp(THIN_FILM_MIN_EVENT_PROBABILITY, 1.0 - THIN_FILM_MIN_EVENT_PROBABILITY)
+    (r / (r + t)).clamp(floor, 1.0 - floor)
 }
 
 /// A thin sheet's mirror reflection or straight-through transmission, with reflectance `r` and transmittance `t`
@@ -457,10 +455,7 @@ fn sample_thin(
     if c == 0.0 {
         return None;
     }
-    let mut p_reflect = pr / (pr + pt);
-    if pr > 0.0 && pt > 0.0 {
-        p_reflect = p_reflect.clamp(floor, 1.0 - floor);
-    }
+    let p_reflect = reflect_probability(pr, pt, floor);
     if uc < p_reflect {
         let wi = Vec3::new(-wo.x, -wo.y, wo.z);
         Some(BsdfSample::reflection(r * (1.0 / c), wi, p_reflect, true))
@@ -518,13 +513,9 @@ fn sample_diffuse_transmission(
     }
 }
 
-/// Smooth dispersive interface. A slot j is drawn uniformly from the k active ones (from `uc`), and reflection is
-/// chosen with probability R(λj). Reflection is an event of marginal probability P = (1/k)·Σj R(λj) whose direction
-/// is shared by all wavelengths, so every slot keeps its own R(λi)/P. Refraction through slot j has probability
-/// (1/k)·T(λj); the returned pdf is T(λj) and the integrator divides slot j's density by k when it keeps it.
 /// A smooth dielectric interface's reflectance and transmittance per slot at `cos_i` (negative from inside), and
-/// the probability of reflecting that sampling gives each slot: R for a bare interface, [`defensive`] for a coated
-/// one.
+/// the probability of reflecting that sampling gives each slot: R for a bare interface, [`reflect_probability`]'s
+/// for a coated one.
 fn dispersive_rt(
     eta: &SampledSpectrum,
     active: &[bool; N_WAVELENGTHS],
@@ -547,7 +538,7 @@ fn dispersive_rt(
             let (cr, ct) = c.dielectric_reflectance_transmittance(cos_i, eta);
             for i in 0..N_WAVELENGTHS {
                 if active[i] && cr[i] + ct[i] > 0.0 {
-                    (r[i], t[i], p[i]) = (cr[i], ct[i], defensive(cr[i], ct[i]));
+                    (r[i], t[i], p[i]) = (cr[i], ct[i], reflect_probability(cr[i], ct[i], FILM_MIN_EVENT_PROBABILITY));
                 }
             }
         }
@@ -555,6 +546,11 @@ fn dispersive_rt(
     (r, t, p)
 }
 
+/// Smooth dispersive interface. A slot j is drawn uniformly from the k active ones (from `uc`), and reflection is
+/// chosen with probability pⱼ (R(λj) for a bare interface; see [`dispersive_rt`]). Reflection is an event of
+/// marginal probability P = (1/k)·Σj pⱼ whose direction is shared by all wavelengths, so every slot keeps its own
+/// R(λi)/P. Refraction through slot j has probability (1/k)·(1 − pⱼ) and weight T(λj)/(1 − pⱼ); the returned pdf is
+/// 1 − pⱼ and the integrator divides slot j's density by k when it keeps it.
 fn sample_dispersive(
     eta: &SampledSpectrum,
     active: &[bool; N_WAVELENGTHS],
@@ -614,8 +610,9 @@ pub enum DispersiveSplit {
 
 impl Bxdf {
     /// Samples a smooth dispersive interface carrying several wavelengths by splitting instead of selecting: with
-    /// probability R̄ (the mean Fresnel reflectance of the active slots) a mirror reflection of all of them, and
-    /// otherwise a refraction of *every* active slot, slot i with weight Tᵢ/(1 − R̄) along its own direction, so
+    /// probability P̄ (the mean over the active slots of their probability of reflecting, which for a bare interface
+    /// is the Fresnel reflectance) a mirror reflection of all of them, slot i with weight Rᵢ/P̄, and otherwise a
+    /// refraction of *every* active slot, slot i with weight Tᵢ/(1 − P̄) along its own direction, so
     /// that the path continues once per wavelength and none is dropped (the expectation per slot is Rᵢ·L_R + Tᵢ·L_Tᵢ,
     /// as for [`Bxdf::sample_f`], whose refraction keeps one slot chosen uniformly at k times the weight). `None`
     /// for other BxDFs and when at most one slot is active.
@@ -694,8 +691,8 @@ fn lobe_weights(r: f32, t: f32, lobes: Lobes) -> (f32, f32) {
 
 /// A dielectric interface's reflectance and transmittance per slot at `cos_i` to the (micro)normal (negative from
 /// inside), bare or coated, with the scalars that choose between reflection and refraction: R and 1 − R for a bare
-/// interface (as pbrt-v4), for a coated one the probability [`defensive`] gives the means over the slots (each slot
-/// then weighs Rᵢ/P or Tᵢ/(1 − P)).
+/// interface (as pbrt-v4), for a coated one [`reflect_probability`] of the means over the slots with the film's
+/// floor (each slot then weighs Rᵢ/P or Tᵢ/(1 − P)).
 struct InterfaceRt {
     r: SampledSpectrum,
     t: SampledSpectrum,
@@ -711,7 +708,7 @@ fn interface_rt(cos_i: f32, eta: f32, coating: Option<&CoatingAt>) -> InterfaceR
         }
         Some(c) => {
             let (r, t) = c.dielectric_reflectance_transmittance(cos_i, &SampledSpectrum::splat(eta));
-            let p = defensive(r.average(), t.average());
+            let p = reflect_probability(r.average(), t.average(), FILM_MIN_EVENT_PROBABILITY);
             InterfaceRt { r, t, pr: p, pt: 1.0 - p }
         }
     }
@@ -729,7 +726,7 @@ fn sample_dielectric(
     lobes: Lobes,
 ) -> Option<BsdfSample> {
     if eta == 1.0 || distrib.effectively_smooth() {
-        // Smooth interface: choose reflection or transmission in proportion to R and T.
+        // Smooth interface: choose reflection or transmission by R and T (with the film's floor when coated).
         let rt = interface_rt(wo.z, eta, coating);
         let (r, t) = lobe_weights(rt.pr, rt.pt, lobes);
         if r + t <= 0.0 || wo.z == 0.0 {

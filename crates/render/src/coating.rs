@@ -3,9 +3,10 @@
 //!
 //! A coating is a list of layers from the outside in, each with its index n(λ) (and k(λ) for an absorbing layer) and
 //! a thickness in nm that may come from a texture. At a hit it is evaluated at the path's wavelengths into a
-//! [`CoatingAt`], whose reflectance and transmittance are exact per carried wavelength and angle
-//! ([`optics::film_stack`], s and p averaged for unpolarised light): no wavelength is dropped, since the layers are
-//! parallel and the directions of reflection and refraction do not depend on them. The medium outside the coating
+//! [`CoatingAt`], whose reflectance and transmittance are exact per carried wavelength and angle (s and p averaged for
+//! unpolarised light): one non-absorbing layer, the common case, by Airy's closed form for the four wavelength slots
+//! at once, anything else by [`optics::film_stack`]'s characteristic matrices. No wavelength is dropped, since the
+//! layers are parallel and the directions of reflection and refraction do not depend on them. The medium outside the coating
 //! is taken as vacuum (index 1), as a conductor's and a dielectric's relative index are relative to it.
 //!
 //! Rough coated surfaces use the film's Fresnel term in the microfacet model in place of the bare interface's, at

@@ -129,8 +129,7 @@ fn coating(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<Coating> {
     let at = |name: &str| p.loc_of(name, loc);
     let single = ["filmthickness", "filmeta", "filmmaterial"].into_iter().find(|n| p.contains(n));
     let stack = ["filmthicknesses", "filmmaterials"].into_iter().find(|n| p.contains(n));
-    let thickness_error =
-        |name: &str, v: f64| err(&at(name), format!("'{name}' must be a finite thickness ≥ 0 nm, got {v}"));
+    let thickness_error = |name: &str, v: f64| err(&at(name), thickness_message(name, v));
     match (single, stack) {
         (None, None) => Ok(Coating::default()),
         (Some(a), Some(b)) => err(&at(b), format!("give one film ('{a}') or a stack ('{b}'), not both")),
@@ -138,19 +137,11 @@ fn coating(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<Coating> {
             if !p.contains("filmthickness") {
                 return err(loc, "a film needs its 'filmthickness' (nm)");
             }
-            let thickness = t.float_param(p, "filmthickness", 0.0)?;
-            if let FloatTexture::Constant(v) = thickness {
-                if !(v.is_finite() && v >= 0.0) {
-                    return thickness_error("filmthickness", v as f64);
-                }
-            }
+            let thickness = film_thickness(t, p, loc, 0.0)?;
             let index = match (p.contains("filmeta"), p.contains("filmmaterial")) {
                 (true, true) => return err(&at("filmmaterial"), "give 'filmeta' or 'filmmaterial', not both"),
                 (false, false) => return err(loc, "a film needs its index: 'filmeta' or 'filmmaterial'"),
-                (true, false) => match named_eta(p, loc, "filmeta", 1.5)? {
-                    DielectricIor::Model(m) => LayerIndex::Model(m),
-                    DielectricIor::Spectrum(s) => LayerIndex::Spectrum(s),
-                },
+                (true, false) => layer_index(named_eta(p, loc, "filmeta", 1.5)?),
                 (false, true) => {
                     film_material(&p.get_string("filmmaterial", "")?, &at("filmmaterial"), "filmmaterial")?
                 }
@@ -187,20 +178,33 @@ fn coating(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<Coating> {
 /// float or a float texture, default 500) whose index is given as a dielectric's (`eta`, `glass`, Sellmeier or Abbe
 /// forms; default 1.33, a soap film's water).
 fn free_film(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<Coating> {
-    let thickness = t.float_param(p, "filmthickness", 500.0)?;
+    let thickness = film_thickness(t, p, loc, 500.0)?;
+    let index = layer_index(dielectric_ior(p, loc, 1.33)?);
+    Ok(Coating { layers: vec![CoatingLayer { index, thickness }] })
+}
+
+/// `filmthickness` (nm, a float or a float texture): a constant must be finite and ≥ 0 (a texture's values are
+/// clamped at 0 where evaluated).
+fn film_thickness(t: &Textures, p: &ParamSet, loc: &Loc, default: f64) -> Result<FloatTexture> {
+    let thickness = t.float_param(p, "filmthickness", default)?;
     if let FloatTexture::Constant(v) = thickness {
         if !(v.is_finite() && v >= 0.0) {
-            return err(
-                &p.loc_of("filmthickness", loc),
-                format!("'filmthickness' must be a finite thickness ≥ 0 nm, got {v}"),
-            );
+            return err(&p.loc_of("filmthickness", loc), thickness_message("filmthickness", v as f64));
         }
     }
-    let index = match dielectric_ior(p, loc, 1.33)? {
+    Ok(thickness)
+}
+
+fn thickness_message(name: &str, v: f64) -> String {
+    format!("'{name}' must be a finite thickness ≥ 0 nm, got {v}")
+}
+
+/// A dielectric's index as a film layer's.
+fn layer_index(ior: DielectricIor) -> LayerIndex {
+    match ior {
         DielectricIor::Model(m) => LayerIndex::Model(m),
         DielectricIor::Spectrum(s) => LayerIndex::Spectrum(s),
-    };
-    Ok(Coating { layers: vec![CoatingLayer { index, thickness }] })
+    }
 }
 
 /// A film layer's index by name: a catalogue entry (`prismatic ior --list`; metals bring their k) or a number.
