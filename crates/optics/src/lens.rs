@@ -494,39 +494,58 @@ impl LensPrescription {
 
 impl LensPrescription {
     /// The box on the rear element's vertex plane, (x₀, x₁, y₀, y₁) in mm, through which rays from film points
-    /// between `film_radius_mm.0` and `.1` from the axis (on the +x axis) reach the scene at any of `lambdas_nm`:
-    /// found as pbrt-v4's realistic camera finds it, by tracing `n`² rays aimed at a grid over the rear element from
-    /// each of `n` film points (over 1.5 times the rear aperture), then widened by twice a grid cell's diagonal so
-    /// that rays between grid points are not cut off.
+    /// between `film_radius_mm.0` and `.1` from the axis (on the +x axis) reach the scene at any of `lambdas_nm`
+    /// through the stop's circle or `stop`'s mask: found as pbrt-v4's realistic camera finds it, by tracing rays from
+    /// `film_points` film points in the ring aimed at a grid of `aims`² points over 1.5 times the rear aperture, then
+    /// (where pbrt-v4 takes a million aims) again over that box widened by one grid cell, with `aims`² aims, and
+    /// widened by twice the finer cell's diagonal so that rays between grid points are not cut off. Aims inside the
+    /// box found so far are not traced.
     /// `None` if no ray gets through (the lens vignettes that whole ring). A camera samples the rear element only
     /// inside the box of each film ring, and rotates it for film points off the +x axis (the lens is round).
-    pub fn exit_pupil_bounds(&self, film_radius_mm: (f64, f64), lambdas_nm: &[f64], n: usize) -> Option<[f64; 4]> {
+    pub fn exit_pupil_bounds(
+        &self,
+        film_radius_mm: (f64, f64),
+        lambdas_nm: &[f64],
+        (film_points, aims): (usize, usize),
+        stop: Option<StopMask<'_>>,
+    ) -> Option<[f64; 4]> {
         let last = self.surfaces.len().checked_sub(1)?;
         let z_last = self.vertices_mm()[last];
         let z_film = self.length_mm();
-        // The aims cover 1.5 times the rear aperture's radius, as pbrt-v4's do: a rear surface that bulges towards
-        // the film is crossed within its aperture by rays aimed beyond it on the vertex plane.
-        let rear = 1.5 * 0.5 * self.surfaces[last].aperture_mm;
-        let step = 2.0 * rear / n as f64;
-        let mut bounds: Option<[f64; 4]> = None;
-        for k in 0..n {
-            let r = film_radius_mm.0 + (film_radius_mm.1 - film_radius_mm.0) * (k as f64 + 0.5) / n as f64;
-            for i in 0..n {
-                for j in 0..n {
-                    let (x, y) = (-rear + (i as f64 + 0.5) * step, -rear + (j as f64 + 0.5) * step);
-                    let d = [x - r, y, z_last - z_film];
-                    let len = dot(d, d).sqrt();
-                    let ray = LensRay { origin: [r, 0.0, z_film], direction: [d[0] / len, d[1] / len, d[2] / len] };
-                    if lambdas_nm.iter().any(|&l| self.trace_from_film(ray, l).is_some()) {
-                        let b = bounds.get_or_insert([x, x, y, y]);
-                        *b = [b[0].min(x), b[1].max(x), b[2].min(y), b[3].max(y)];
+        // The box of the aims over `area` that get through, and the grid's cell size.
+        let search = |area: [f64; 4]| -> (Option<[f64; 4]>, [f64; 2]) {
+            let step = [(area[1] - area[0]) / aims as f64, (area[3] - area[2]) / aims as f64];
+            let mut bounds: Option<[f64; 4]> = None;
+            for k in 0..film_points {
+                let r =
+                    film_radius_mm.0 + (film_radius_mm.1 - film_radius_mm.0) * (k as f64 + 0.5) / film_points as f64;
+                for i in 0..aims {
+                    for j in 0..aims {
+                        let (x, y) = (area[0] + (i as f64 + 0.5) * step[0], area[2] + (j as f64 + 0.5) * step[1]);
+                        if bounds.is_some_and(|b| x >= b[0] && x <= b[1] && y >= b[2] && y <= b[3]) {
+                            continue;
+                        }
+                        let d = [x - r, y, z_last - z_film];
+                        let len = dot(d, d).sqrt();
+                        let ray = LensRay { origin: [r, 0.0, z_film], direction: [d[0] / len, d[1] / len, d[2] / len] };
+                        if lambdas_nm.iter().any(|&l| self.trace(ray, l, false, stop).is_some()) {
+                            let b = bounds.get_or_insert([x, x, y, y]);
+                            *b = [b[0].min(x), b[1].max(x), b[2].min(y), b[3].max(y)];
+                        }
                     }
                 }
             }
-        }
+            (bounds, step)
+        };
+        // The aims first cover 1.5 times the rear aperture's radius, as pbrt-v4's do: a rear surface that bulges
+        // towards the film is crossed within its aperture by rays aimed beyond it on the vertex plane.
+        let rear = 1.5 * 0.5 * self.surfaces[last].aperture_mm;
+        let (coarse, step) = search([-rear, rear, -rear, rear]);
+        let c = coarse?;
+        let (fine, step) = search([c[0] - step[0], c[1] + step[0], c[2] - step[1], c[3] + step[1]]);
         // pbrt-v4 widens by twice the grid cell's diagonal.
-        let widen = 2.0 * std::f64::consts::SQRT_2 * step;
-        bounds.map(|b| [b[0] - widen, b[1] + widen, b[2] - widen, b[3] + widen])
+        let widen = 2.0 * step[0].hypot(step[1]);
+        fine.map(|b| [b[0] - widen, b[1] + widen, b[2] - widen, b[3] + widen])
     }
 }
 
@@ -561,8 +580,8 @@ impl LensPrescription {
             .collect()
     }
 
-    /// Where `ray` meets surface `i` (vertex at `z`) within its clear aperture, and the surface's unit normal
-    /// there facing against the ray; `None` if it misses or is vignetted.
+    /// Where `ray` meets surface `i` (vertex at `z`), and the surface's unit normal there facing against the ray;
+    /// `None` if it misses the surface. The aperture is checked by the caller.
     fn hit(&self, i: usize, z: f64, ray: &LensRay) -> Option<([f64; 3], [f64; 3])> {
         let s = &self.surfaces[i];
         let (o, d) = (ray.origin, ray.direction);
@@ -588,9 +607,6 @@ impl LensPrescription {
             // Outward from the centre for R > 0 is towards the object; flipped below to face the ray either way.
             (p, [-n[0], -n[1], -n[2]])
         };
-        if p[0] * p[0] + p[1] * p[1] > 0.25 * s.aperture_mm * s.aperture_mm {
-            return None;
-        }
         if dot(normal, d) > 0.0 {
             normal = [-normal[0], -normal[1], -normal[2]];
         }
@@ -598,10 +614,18 @@ impl LensPrescription {
     }
 
     /// Traces `ray` through every surface, front to film when `forward`, film to front otherwise, refracting with
-    /// each medium's n(`lambda_nm`) by Snell's law in vector form (as pbrt-v4's `Refract`); `None` where it misses
-    /// an aperture or is totally reflected.
-    fn trace(&self, mut ray: LensRay, lambda_nm: f64, forward: bool) -> Option<LensRay> {
+    /// each medium's n(`lambda_nm`) by Snell's law in vector form (as pbrt-v4's `Refract`): the ray leaving the last
+    /// surface crossed and the stop's transmission there (1 for a clear circular stop, else `stop`'s). `None` where
+    /// it misses a surface or its clear aperture, is totally reflected, or the stop's mask is 0 there.
+    fn trace(
+        &self,
+        mut ray: LensRay,
+        lambda_nm: f64,
+        forward: bool,
+        stop: Option<StopMask<'_>>,
+    ) -> Option<(LensRay, f64)> {
         let count = self.surfaces.len();
+        let mut weight = 1.0;
         // Each surface's vertex, followed along the way rather than collected: no allocation per ray.
         let mut z =
             if forward { 0.0 } else { self.surfaces[..count.saturating_sub(1)].iter().map(|s| s.thickness_mm).sum() };
@@ -611,14 +635,30 @@ impl LensPrescription {
                 z -= self.surfaces[i].thickness_mm;
             }
             let (p, m) = self.hit(i, z, &ray)?;
+            let surface = &self.surfaces[i];
             if forward {
-                z += self.surfaces[i].thickness_mm;
+                z += surface.thickness_mm;
+            }
+            let radius = 0.5 * surface.aperture_mm;
+            match stop {
+                // pbrt-v4's aperture image replaces the stop's circle: its value over the square [−r, r]².
+                Some(mask) if surface.is_stop => {
+                    weight = mask(p[0] / radius, p[1] / radius);
+                    if weight <= 0.0 {
+                        return None;
+                    }
+                }
+                _ => {
+                    if p[0] * p[0] + p[1] * p[1] > radius * radius {
+                        return None;
+                    }
+                }
             }
             ray.origin = p;
-            if self.surfaces[i].is_stop {
+            if surface.is_stop {
                 continue;
             }
-            let (before, after) = (self.index_before(i, lambda_nm), self.surfaces[i].medium.n(lambda_nm));
+            let (before, after) = (self.index_before(i, lambda_nm), surface.medium.n(lambda_nm));
             let mu = if forward { before / after } else { after / before };
             // t = μd + (μ cos θi − cos θt) m, with m facing against d (Snell's law in vector form).
             let d = ray.direction;
@@ -630,20 +670,31 @@ impl LensPrescription {
             let k = mu * cos_i - (1.0 - sin2_t).sqrt();
             ray.direction = [mu * d[0] + k * m[0], mu * d[1] + k * m[1], mu * d[2] + k * m[2]];
         }
-        Some(ray)
+        Some((ray, weight))
     }
 
     /// Traces a ray from the object side through every surface towards the film: the ray leaving the last surface.
     pub fn trace_from_object(&self, ray: LensRay, lambda_nm: f64) -> Option<LensRay> {
-        self.trace(ray, lambda_nm, true)
+        self.trace(ray, lambda_nm, true, None).map(|(r, _)| r)
     }
 
     /// Traces a ray from the film side back through every surface: the ray leaving the front surface towards the
     /// scene (what a camera does with a ray from a point on its film).
     pub fn trace_from_film(&self, ray: LensRay, lambda_nm: f64) -> Option<LensRay> {
-        self.trace(ray, lambda_nm, false)
+        self.trace(ray, lambda_nm, false, None).map(|(r, _)| r)
+    }
+
+    /// [`LensPrescription::trace_from_film`] with the stop's opening given by `stop` (a shaped diaphragm, as
+    /// pbrt-v4's aperture images): the ray leaving the front surface and the mask's transmission where it crossed
+    /// the stop.
+    pub fn trace_from_film_through(&self, ray: LensRay, lambda_nm: f64, stop: StopMask<'_>) -> Option<(LensRay, f64)> {
+        self.trace(ray, lambda_nm, false, Some(stop))
     }
 }
+
+/// A shaped aperture stop: its transmission at (x/r, y/r) for a point (x, y) on the stop's plane and r the stop's
+/// radius; it may be non-zero anywhere in the square [−1, 1]², and its circle no longer applies.
+pub type StopMask<'a> = &'a (dyn Fn(f64, f64) -> f64 + Sync);
 
 #[cfg(test)]
 mod tests {
@@ -857,7 +908,7 @@ mod tests {
         let (z_last, z_film) = (lens.vertices_mm()[10], lens.length_mm());
         let mut areas = Vec::new();
         for ring in [(0.0, 0.5), (10.0, 10.5), (20.0, 20.5)] {
-            let b = lens.exit_pupil_bounds(ring, &lambdas, 48).unwrap();
+            let b = lens.exit_pupil_bounds(ring, &lambdas, (8, 48), None).unwrap();
             areas.push((b[1] - b[0]) * (b[3] - b[2]));
             // A finer grid of aims over 1.6 times the rear element from film points in the ring: every ray that gets
             // through was aimed inside the box, and some aimed inside do get through.

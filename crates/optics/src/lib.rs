@@ -55,7 +55,7 @@ pub use ior::{
     Cauchy, ConstantIor, Ior, MaterialConstants, Sellmeier, TabulatedComplexIor, TabulatedIor, LAMBDA_C_NM,
     LAMBDA_D_NM, LAMBDA_F_NM,
 };
-pub use lens::{CoatingLayerSpec, LensFileError, LensMedium, LensPrescription, LensSurface};
+pub use lens::{CoatingLayerSpec, LensFileError, LensMedium, LensPrescription, LensRay, LensSurface, StopMask};
 pub use mie::{
     descartes_rainbow_angle, mie_amplitudes, mie_efficiencies, MieCoefficients, MieEfficiencies, MiePhaseTable,
     MieSpectralTable,

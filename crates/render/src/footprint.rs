@@ -52,7 +52,9 @@ impl Footprints {
         let n = 512;
         for i in 0..n {
             let f = i as f32 / (n - 1) as f32;
-            let ray = camera.generate_ray(Vec2::new(f * w as f32, f * h as f32), Vec2::splat(0.5), 0.0);
+            let Some(ray) = camera.generate_ray(Vec2::new(f * w as f32, f * h as f32), Vec2::splat(0.5), 0.0) else {
+                continue;
+            };
             let Some(neighbours) = camera.ray_differential(ray.origin, ray.direction, 0.0) else { continue };
             let d = to_camera(ray.direction).normalize_or_zero();
             let frame = frame_from_z(d);

@@ -85,7 +85,7 @@ mod tests;
 mod texture;
 
 pub use builder::{build_scene, BuildOptions, BuiltScene};
-pub use camera::Camera;
+pub use camera::{Camera, FOCUS_WAVELENGTH_NM};
 pub use error::RenderError;
 pub use integrator::{
     BdptIntegrator, Integrator, LightPathIntegrator, Needs, PassUnit, PathIntegrator, RenderJob, RenderStats,

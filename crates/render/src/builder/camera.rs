@@ -1,17 +1,93 @@
 //! The camera: pbrt-v4's `Camera "perspective"|"orthographic"` directive with `fov`, `frameaspectratio`,
-//! `screenwindow`, `lensradius` and `focaldistance`, and its motion (`ActiveTransform` before `Camera`). (Its
+//! `screenwindow`, `lensradius` and `focaldistance`, its `"realistic"` camera with `lensfile`, `aperturediameter`,
+//! `focusdistance` and `aperture`, and its motion (`ActiveTransform` before `Camera`). (Its
 //! `shutteropen`/`shutterclose` set the exposure time, read with the film's sensor, and the interval rays' times
 //! are drawn from when something moves.)
 
-use scene::SceneDescription;
+use std::sync::Arc;
+
+use optics::{LensMedium, LensPrescription};
+use scene::{Entity, SceneDescription};
 
 use geometry::AnimatedTransform;
 
 use super::context::{err, unsupported, Result};
-use crate::camera::{Camera, Projection, ScreenWindow};
+use crate::camera::{ApertureMask, Camera, Projection, RealisticLens, RealisticParams, ScreenWindow};
+
+/// pbrt-v4's realistic camera from its parameters, for a film of `res` pixels whose diagonal is `diagonal_mm`.
+fn make_realistic(e: &Entity, res: (u32, u32), diagonal_mm: f64, warnings: &mut Vec<String>) -> Result<Projection> {
+    let p = &e.params;
+    let Some(path) = p.get_filename("lensfile")? else {
+        return err(&e.loc, "camera \"realistic\" needs 'string lensfile' (a lens prescription)");
+    };
+    let at = p.loc_of("lensfile", &e.loc);
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(io) => return err(&at, format!("cannot read lens file {}: {io}", path.display())),
+    };
+    let lens = LensPrescription::parse(&text)
+        .map_err(|le| scene::SceneError::at(at.clone(), format!("{}:{le}", path.display())))?;
+    for (i, s) in lens.surfaces.iter().enumerate() {
+        if s.radius_mm == 0.0 && !s.is_stop && s.medium != LensMedium::Air {
+            warnings.push(format!(
+                "{}:{}: warning: surface {} is flat with glass behind it: Prismatic refracts there, pbrt-v4 would \
+                 take every flat row for the aperture stop",
+                path.display(),
+                s.line,
+                i + 1
+            ));
+        }
+    }
+    let aperture_diameter_mm = p.get_float("aperturediameter", 1.0)?;
+    let focus_distance_m = p.get_float("focusdistance", 10.0)?;
+    let aperture = p.get_string("aperture", "")?;
+    let mask = match aperture.as_str() {
+        "" | "circular" => None,
+        name => match ApertureMask::builtin(name) {
+            Some(m) => Some(m),
+            None => {
+                let at = p.loc_of("aperture", &e.loc);
+                let file = p.get_filename("aperture")?.unwrap_or_default();
+                let (w, h, rgb) = film::read_rgb_encoded(&file, film::ColorEncoding::Srgb).map_err(|ie| {
+                    scene::SceneError::at(
+                        at.clone(),
+                        format!(
+                            "'aperture' \"{name}\" is not \"circular\", \"gaussian\", \"square\", \"pentagon\" \
+                             or \"star\", and not an image that can be read: {ie}"
+                        ),
+                    )
+                })?;
+                let grey: Vec<f32> = rgb.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
+                let Some(m) = ApertureMask::from_image(w as usize, h as usize, &grey) else {
+                    return err(&at, format!("aperture image {} is black: it lets no light through", file.display()));
+                };
+                Some(m)
+            }
+        },
+    };
+    let params = RealisticParams {
+        lens,
+        aperture_diameter_mm,
+        focus_distance_m,
+        film_diagonal_mm: diagonal_mm,
+        resolution: res,
+        mask,
+        wavelength_range_nm: (spectral::LAMBDA_MIN, spectral::LAMBDA_MAX),
+    };
+    let (lens, clamped) = RealisticLens::new(params)
+        .map_err(|m| scene::SceneError::at(e.loc.clone(), format!("camera \"realistic\" ({}): {m}", path.display())))?;
+    if clamped {
+        warnings.push(format!(
+            "{}: warning: 'aperturediameter' {aperture_diameter_mm} mm is larger than the stop's {} mm: clamped",
+            p.loc_of("aperturediameter", &e.loc),
+            lens.prescription().surfaces[lens.prescription().stop().unwrap_or(0)].aperture_mm
+        ));
+    }
+    Ok(Projection::Realistic(Arc::new(lens)))
+}
 
 /// The camera for a film of `res` pixels (whose aspect ratio is the default `frameaspectratio`).
-pub(super) fn make_camera(desc: &SceneDescription, res: (u32, u32)) -> Result<Camera> {
+pub(super) fn make_camera(desc: &SceneDescription, res: (u32, u32), warnings: &mut Vec<String>) -> Result<Camera> {
     let e = &desc.camera.entity;
     let p = &e.params;
     let aspect = p.get_float("frameaspectratio", res.0 as f64 / res.1 as f64)? as f32;
@@ -36,7 +112,12 @@ pub(super) fn make_camera(desc: &SceneDescription, res: (u32, u32)) -> Result<Ca
             Projection::Perspective { tan_half_fov: (fov.to_radians() / 2.0).tan() as f32 }
         }
         "orthographic" => Projection::Orthographic,
-        other => return err(&e.loc, unsupported("camera", other, &["perspective", "orthographic"])),
+        "realistic" => {
+            // The film's diagonal (checked with the film) sizes the sensor behind the lens.
+            let diagonal = desc.film.params.get_float("diagonal", 35.0)?;
+            make_realistic(e, res, diagonal, warnings)?
+        }
+        other => return err(&e.loc, unsupported("camera", other, &["perspective", "orthographic", "realistic"])),
     };
     let cfw = &desc.camera.camera_from_world;
     let camera = Camera::new(projection, cfw, res, window, lens_radius as f32, focal as f32);

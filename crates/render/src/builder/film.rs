@@ -66,7 +66,7 @@ pub(super) fn make_film(
     film.pixel_bounds = pixel_bounds(desc, options, (w, h), warnings)?;
     // pbrt-v4 writes half floats by default; Prismatic writes 32-bit floats unless asked (see the scene-format docs).
     film.write_fp16 = fp.get_bool("savefp16", false)?;
-    // The sensor diagonal (mm) sizes the film only for pbrt-v4's realistic camera, which Prismatic does not have.
+    // The sensor diagonal (mm) sizes the film only for pbrt-v4's realistic camera (read again by the camera).
     let diagonal = fp.get_float("diagonal", 35.0)?;
     if !(diagonal.is_finite() && diagonal > 0.0) {
         return err(

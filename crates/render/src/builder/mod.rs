@@ -91,11 +91,16 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     // Photon mapping renders `iterations` passes (pbrt-v4 ignores the sampler's pixel samples there).
     let spp = options.spp.unwrap_or(integrator.passes().unwrap_or(scene_spp));
 
-    let camera = camera::make_camera(desc, (film.width, film.height))?;
+    let camera = camera::make_camera(desc, (film.width, film.height), &mut warnings)?;
     if integrator.needs().camera_reachable_by_light && !camera.supports_light_tracing() {
         return err(
             &desc.camera.entity.loc,
-            format!("integrator \"{}\" needs a perspective camera (an orthographic camera cannot be reached by light paths)", integrator.name()),
+            format!(
+                "integrator \"{}\" needs a perspective camera: light paths cannot reach an orthographic camera \
+                 (its rays are parallel) or a realistic one (as in pbrt-v4, the lens is not traced from the scene \
+                 side); use \"path\" or \"volpath\"",
+                integrator.name()
+            ),
         );
     }
 

@@ -992,13 +992,19 @@ impl RenderJob for BdptRender<'_> {
         let per_sample = |x: u32, y: u32, s: u32, tracer: &mut Tracer, records: &mut SampleRecords| {
             let mut sampler = Sampler::new(x, y, s, seed);
             let cs = self.camera.sample(scene, x, y, &mut sampler);
+            // The builder refuses cameras whose rays light paths cannot reach, so the ray is shared; a vignetted
+            // one brings nothing.
+            let Some(ray) = cs.shared_ray().copied() else {
+                records.camera(x, SampledSpectrum::zero(), cs.wl, cs.weight, None);
+                return;
+            };
             let mut first_hit = None;
             let mut wl = cs.wl;
             let mut light_sampler = Sampler::new(x, y, s, light_seed);
             let mut connect_sampler = Sampler::new(x, y, s, connect_seed);
             let l = self.integrator.li(
                 tracer,
-                &cs.ray,
+                &ray,
                 &mut wl,
                 [&mut sampler, &mut light_sampler, &mut connect_sampler],
                 surfaces.wanted().then_some(&mut first_hit),

@@ -16,7 +16,7 @@ use spectral::{SampledSpectrum, SampledWavelengths, WavelengthSampler};
 use super::transport::{begin_bounce, Bounce, BounceSamples, PathRay, Tracer};
 use super::RenderJob;
 use crate::bxdf::Bxdf;
-use crate::camera::CameraRay;
+use crate::camera::{CameraRay, CameraRays};
 use crate::sampler::Sampler;
 use crate::sampling::Frame;
 use crate::scene::{RenderScene, SurfaceHit};
@@ -67,6 +67,10 @@ pub(crate) trait Radiance: Copy + Send + Sync {
         sampler: &mut Sampler,
         first_hit: Option<&mut Option<FirstHit>>,
     ) -> SampledSpectrum;
+
+    /// Whether a dispersive event splits the path into one branch per wavelength (else one wavelength is kept at
+    /// random): Prismatic's `"bool splitdispersion"`, which a dispersive camera lens follows as glass does.
+    fn splits_dispersion(&self) -> bool;
 }
 
 /// How far a camera path has come: its scattering events so far and the most it may make (pbrt-v4's `maxdepth`).
@@ -137,19 +141,81 @@ pub(crate) fn begin_camera_bounce(
     CameraBounce::Scatter(bxdf, u, Frame::from_z_and_tangent(hit.ns, hit.dpdu))
 }
 
-/// One camera sample: the path's wavelengths, the film position and filter weight, and the camera ray.
+/// One camera sample: the path's wavelengths, the film position and filter weight, and the camera rays.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct CameraSample {
     /// Wavelengths the path starts with.
     pub wl: SampledWavelengths,
     /// Filter weight f/pdf of the sampled film offset.
     pub weight: f32,
-    /// The ray leaving the lens.
-    pub ray: CameraRay,
-    /// The film position the ray was generated for (raster pixels, y down).
+    /// The rays leaving the lens: one for every wavelength, or one per wavelength through a dispersive lens.
+    pub rays: CameraRays,
+    /// The film position the rays were generated for (raster pixels, y down).
     pub film: Vec2,
-    /// The lens sample the ray was generated with.
+    /// The lens sample the rays were generated with.
     pub lens: Vec2,
+    /// The time the rays are traced at.
+    pub time: f32,
+}
+
+impl CameraSample {
+    /// The ray every wavelength follows; `None` if the lens stopped it or gives each wavelength its own (the
+    /// integrators that connect to the camera refuse such lenses).
+    pub fn shared_ray(&self) -> Option<&CameraRay> {
+        match &self.rays {
+            CameraRays::Shared(r) => r.as_ref(),
+            CameraRays::PerWavelength(_) => None,
+        }
+    }
+
+    /// The first of the sample's rays that left the lens: what the first-hit records describe.
+    pub fn first_ray(&self) -> Option<&CameraRay> {
+        match &self.rays {
+            CameraRays::Shared(r) => r.as_ref(),
+            CameraRays::PerWavelength(rays) => rays.iter().flatten().next(),
+        }
+    }
+}
+
+/// The radiance camera sample `cs` brings to the film through `integrator`, times each ray's camera weight, and the
+/// wavelengths it is at. Through a dispersive lens the path splits at the lens, as at a dispersive refraction: each
+/// wavelength follows its own ray as a branch of its own (at its full density: every wavelength has a branch, none
+/// is selected), so no wavelength is dropped; `first_hit` hears the first branch's first surface. An integrator
+/// that does not split (`"bool splitdispersion" false`) keeps one wavelength chosen at random instead.
+pub(crate) fn camera_sample_radiance<R: Radiance>(
+    integrator: &R,
+    tracer: &mut Tracer,
+    cs: &CameraSample,
+    sampler: &mut Sampler,
+    mut first_hit: Option<&mut Option<FirstHit>>,
+) -> (SampledSpectrum, SampledWavelengths) {
+    match &cs.rays {
+        CameraRays::Shared(None) => (SampledSpectrum::zero(), cs.wl),
+        CameraRays::Shared(Some(ray)) => {
+            let mut wl = cs.wl;
+            let l = finite_or_zero(integrator.li(tracer, ray, &mut wl, sampler, first_hit));
+            (l * ray.weight, wl)
+        }
+        CameraRays::PerWavelength(rays) if !integrator.splits_dispersion() => {
+            // One wavelength kept at random, at its density over the choice (as at a dispersive refraction).
+            let mut wl = cs.wl;
+            let Some(ray) = rays[wl.terminate_secondary(sampler.next_1d())] else {
+                return (SampledSpectrum::zero(), wl);
+            };
+            let l = finite_or_zero(integrator.li(tracer, &ray, &mut wl, sampler, first_hit));
+            (l * ray.weight, wl)
+        }
+        CameraRays::PerWavelength(rays) => {
+            let mut l = SampledSpectrum::zero();
+            for (slot, ray) in rays.iter().enumerate() {
+                let Some(ray) = ray.filter(|_| cs.wl.is_active(slot)) else { continue };
+                let mut wl = cs.wl.branch(slot);
+                let lb = finite_or_zero(integrator.li(tracer, &ray, &mut wl, sampler, first_hit.take()));
+                l[slot] += lb[slot] * ray.weight;
+            }
+            (l, cs.wl)
+        }
+    }
 }
 
 /// Makes camera samples for a film: its pixel filter, importance sampled, and its wavelength strategy.
@@ -169,14 +235,30 @@ impl CameraSampler {
     /// over the shutter) comes between the film offset and the lens, as in pbrt-v4's `GetCameraSample`.
     #[inline]
     pub fn sample(&self, scene: &RenderScene, x: u32, y: u32, sampler: &mut Sampler) -> CameraSample {
-        let wl = self.wavelengths.sample(sampler.next_1d() as f64);
+        self.sample_at(scene, x, y, sampler, None)
+    }
+
+    /// [`CameraSampler::sample`] with the wavelengths `wl` in place of the sample's own (photon mapping's are the
+    /// iteration's), drawing the same dimensions.
+    #[inline]
+    pub fn sample_at(
+        &self,
+        scene: &RenderScene,
+        x: u32,
+        y: u32,
+        sampler: &mut Sampler,
+        wl: Option<SampledWavelengths>,
+    ) -> CameraSample {
+        let own = self.wavelengths.sample(sampler.next_1d() as f64);
+        let wl = wl.unwrap_or(own);
         let [u0, u1] = sampler.next_2d();
         let f = self.filter.sample([u0 as f64, u1 as f64]);
         let offset = Vec2::new(f.offset[0] as f32, f.offset[1] as f32);
         let time = scene.sample_time(sampler);
         let lens = Vec2::from(sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-        CameraSample { wl, weight: f.weight as f32, ray: scene.camera.generate_ray(film, lens, time), film, lens }
+        let rays = scene.camera.generate_rays(film, lens, time, &wl);
+        CameraSample { wl, weight: f.weight as f32, rays, film, lens, time }
     }
 
     /// The wavelength strategy.
@@ -234,6 +316,12 @@ impl SurfaceRecords {
     /// per pixel. Positions, normals and dp/dx, dp/dy are then taken to the film's coordinate system at the
     /// sample's time (pbrt-v4's `CameraFromRender(time)`), dz/dx and dz/dy being the z of the last two.
     pub fn record(self, scene: &RenderScene, cs: &CameraSample, hit: &FirstHit) -> SurfaceRecord {
+        let ray = cs.first_ray().copied().unwrap_or(CameraRay {
+            origin: hit.p,
+            direction: Vec3::Z,
+            time: cs.time,
+            weight: 0.0,
+        });
         let v3 = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
         let d3 = |v: DVec3| v.to_array();
         let coordinates = match self {
@@ -242,13 +330,14 @@ impl SurfaceRecords {
                 return SurfaceRecord { albedo: hit.albedo, wl: cs.wl, normal: v3(hit.normal), geometry: None }
             }
         };
-        let wo = -cs.ray.direction;
+        let wo = -ray.direction;
         let face = |v: Vec3| if v.dot(wo) < 0.0 { -v } else { v };
         let (n, ns) = (face(hit.ng).as_dvec3(), face(hit.normal).as_dvec3());
         let p = hit.p.as_dvec3();
-        let time = cs.ray.time;
+        let time = cs.time;
         let dp = |offset: Vec2| {
-            let r = scene.camera.generate_ray(cs.film + offset, cs.lens, time);
+            // A neighbour the lens stops has no point on the plane: no finite change.
+            let Some(r) = scene.camera.generate_ray(cs.film + offset, cs.lens, time) else { return DVec3::ZERO };
             let (o, d) = (r.origin.as_dvec3(), r.direction.as_dvec3());
             let t = n.dot(p - o) / n.dot(d);
             let q = o + d * t;
@@ -480,10 +569,9 @@ impl<'a, R: Radiance> CameraPaths<'a, R> {
             for s in samples {
                 let mut sampler = Sampler::new(x, y, s, self.seed);
                 let cs = self.camera.sample(self.scene, x, y, &mut sampler);
-                let mut wl = cs.wl;
                 let mut first_hit = None;
                 let fh = surfaces.wanted().then_some(&mut first_hit);
-                let l = finite_or_zero(self.integrator.li(tracer, &cs.ray, &mut wl, &mut sampler, fh));
+                let (l, wl) = camera_sample_radiance(&self.integrator, tracer, &cs, &mut sampler, fh);
                 let weight = cs.weight as f64;
                 row.add_sample(x, &l, &wl, weight);
                 if let Some(h) = first_hit {

@@ -198,6 +198,10 @@ impl PathIntegrator {
 }
 
 impl Radiance for PathIntegrator {
+    fn splits_dispersion(&self) -> bool {
+        self.split_dispersion
+    }
+
     fn li(
         &self,
         tracer: &mut Tracer,

@@ -32,6 +32,7 @@ use super::transport::{sample_direct_light, scatter, BounceSamples, DirectLight,
 use super::volume::{sample_ld, weigh_tracking, ScatterVertex, SpectralMis};
 use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderError, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
+use crate::camera::CameraRays;
 use crate::medium::{sample_t_maj, Collision, PhaseFunction, TrackingRng};
 use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
@@ -400,7 +401,7 @@ impl SppmIntegrator {
                     let mut tracer = Tracer::new(scene);
                     let mut sampler = Sampler::new(x, y, it, seed);
                     // The camera sample's own wavelengths are replaced by the iteration's.
-                    let cs = CameraSample { wl: wl_iter, ..camera_sampler.sample(scene, x, y, &mut sampler) };
+                    let cs = camera_sampler.sample_at(scene, x, y, &mut sampler, Some(wl_iter));
                     let mut wl = wl_iter;
                     let mut first_hit = None;
                     let fh = surfaces.wanted().then_some(&mut first_hit);
@@ -524,9 +525,17 @@ impl SppmIntegrator {
         mut first_hit: Option<&mut Option<FirstHit>>,
     ) -> (Option<VisiblePoint<'s>>, SampledSpectrum) {
         let scene = tracer.scene;
-        let mut ray = PathRay::camera(cs.ray.origin, cs.ray.direction, scene.camera_medium, cs.ray.time);
-        // The camera sample's filter weight, as a camera sample of the other integrators carries it into the film.
-        let mut beta = SampledSpectrum::splat(cs.weight);
+        // Through a dispersive lens each wavelength has its own ray; a camera path of photon mapping has one visible
+        // point, so it keeps one wavelength chosen at random, as at a dispersive refraction.
+        let camera_ray = match cs.rays {
+            CameraRays::Shared(r) => r,
+            CameraRays::PerWavelength(rays) => rays[wl.terminate_secondary(sampler.next_1d())],
+        };
+        let Some(camera_ray) = camera_ray else { return (None, SampledSpectrum::zero()) };
+        let mut ray = PathRay::camera(camera_ray.origin, camera_ray.direction, scene.camera_medium, camera_ray.time);
+        // The camera sample's filter weight, as a camera sample of the other integrators carries it into the film,
+        // times the camera's weight of the ray.
+        let mut beta = SampledSpectrum::splat(cs.weight * camera_ray.weight);
         // The rescaled probabilities of the path's tracking decisions: ones without media, where every division by
         // their mean is a division by exactly 1.
         let mut r_u = SampledSpectrum::splat(1.0);

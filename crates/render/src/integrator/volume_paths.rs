@@ -263,6 +263,10 @@ impl VolumePaths {
 }
 
 impl Radiance for VolumePaths {
+    fn splits_dispersion(&self) -> bool {
+        self.split_dispersion
+    }
+
     fn li(
         &self,
         tracer: &mut Tracer,

@@ -1,11 +1,18 @@
-//! Cameras: pbrt-v4's perspective (with a thin lens) and orthographic projections.
+//! Cameras: pbrt-v4's perspective (with a thin lens), orthographic and realistic (a lens prescription traced per
+//! wavelength, [`realistic`]) projections.
+
+mod realistic;
 
 use std::borrow::Cow;
+use std::sync::Arc;
 
 use geometry::{AnimatedTransform, Transform};
 use glam::{DVec3, Vec2, Vec3};
+use spectral::{SampledWavelengths, N_WAVELENGTHS};
 
 use crate::sampling::sample_uniform_disk_concentric;
+
+pub use realistic::{ApertureMask, RealisticLens, RealisticParams, FOCUS_WAVELENGTH_NM};
 
 /// The screen-space window the film maps to (pbrt's `screenwindow`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -32,7 +39,7 @@ impl ScreenWindow {
 }
 
 /// How the camera projects.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub enum Projection {
     /// Perspective with tan(fov/2) for the unit screen extent.
     Perspective {
@@ -41,6 +48,8 @@ pub enum Projection {
     },
     /// Orthographic: screen coordinates are camera-space lengths.
     Orthographic,
+    /// pbrt-v4's realistic camera: a film behind a lens prescription, rays traced through its surfaces.
+    Realistic(Arc<RealisticLens>),
 }
 
 /// A camera in world (render) space.
@@ -66,6 +75,19 @@ pub struct CameraRay {
     pub direction: Vec3,
     /// The time it is traced at.
     pub time: f32,
+    /// The camera's weight of the ray, multiplying the radiance it brings: 1 for a pinhole, thin lens or
+    /// orthographic camera, pbrt-v4's cos⁴θ · A / z² for a realistic one.
+    pub weight: f32,
+}
+
+/// The rays of one camera sample: one for all its wavelengths, or, through a lens whose glass disperses, one per
+/// wavelength. A missing ray is one the lens stopped (vignetting), which brings no light.
+#[derive(Clone, Copy, Debug)]
+pub enum CameraRays {
+    /// One ray for every wavelength.
+    Shared(Option<CameraRay>),
+    /// A ray per wavelength slot.
+    PerWavelength([Option<CameraRay>; N_WAVELENGTHS]),
 }
 
 impl Camera {
@@ -134,7 +156,9 @@ impl Camera {
     /// The rays through the film position one pixel to the right and one pixel down of the camera ray
     /// (`origin`, `dir`) traced at `time`, from the same lens point (pbrt-v4's `GenerateRayDifferential`): a pinhole's
     /// ray through the neighbouring pixel, a thin lens's ray to the neighbour's point on the plane of focus, an
-    /// orthographic ray shifted by a pixel. `None` for a ray the camera cannot have generated (pointing backwards).
+    /// orthographic ray shifted by a pixel, a realistic camera's rays from the neighbouring film points through the
+    /// same point of its rear element. `None` for a ray the camera cannot have generated (pointing backwards, or
+    /// stopped by the lens).
     pub fn ray_differential(&self, origin: Vec3, dir: Vec3, time: f32) -> Option<[(Vec3, Vec3); 2]> {
         let camera = self.at_time(time);
         let (m, w) = (camera.camera_from_world(), camera.world_from_camera());
@@ -144,8 +168,8 @@ impl Camera {
         let (rx, ry) = (self.resolution.0 as f64, self.resolution.1 as f64);
         // Screen-space extent of one pixel along x and along y (y grows downwards on the film).
         let (px, py) = ((win.x_max - win.x_min) as f64 / rx, -(win.y_max - win.y_min) as f64 / ry);
-        let rays = match self.projection {
-            Projection::Perspective { tan_half_fov } => {
+        let rays = match &self.projection {
+            &Projection::Perspective { tan_half_fov } => {
                 if d.z <= 0.0 {
                     return None;
                 }
@@ -158,6 +182,7 @@ impl Camera {
                 [(o, dx), (o, dy)]
             }
             Projection::Orthographic => [(o + DVec3::new(px, 0.0, 0.0), d), (o + DVec3::new(0.0, py, 0.0), d)],
+            Projection::Realistic(lens) => lens.differential(o, d.normalize())?,
         };
         let world = |(o, d): (DVec3, DVec3)| (w.point(o).as_vec3(), w.vector(d).normalize().as_vec3());
         Some(rays.map(world))
@@ -173,17 +198,47 @@ impl Camera {
         self.world_from_camera.point(DVec3::ZERO).as_vec3()
     }
 
+    /// World-from-camera at `time` (where a moving camera is then).
+    fn world_from_camera_at(&self, time: f32) -> Cow<'_, Transform> {
+        match &self.motion {
+            None => Cow::Borrowed(&self.world_from_camera),
+            Some(m) => Cow::Owned(m.at(time as f64)),
+        }
+    }
+
+    /// The world-space camera ray of the camera-space ray (`origin`, `dir`) at `time`, with the camera's `weight`.
+    fn to_world(w: &Transform, origin: DVec3, dir: DVec3, time: f32, weight: f32) -> CameraRay {
+        let o = w.point(origin).as_vec3();
+        let d = w.vector(dir).normalize().as_vec3();
+        CameraRay { origin: o, direction: d, time, weight }
+    }
+
+    /// True if the camera's rays depend on the wavelength (a realistic camera whose glass disperses): use
+    /// [`Camera::generate_rays`] for them.
+    pub fn is_dispersive(&self) -> bool {
+        match &self.projection {
+            Projection::Perspective { .. } | Projection::Orthographic => false,
+            Projection::Realistic(lens) => lens.is_dispersive(),
+        }
+    }
+
     /// The ray through raster position `film` (pixels, y down) and lens sample `lens ∈ [0,1)²`, at `time` (where
-    /// a moving camera is then).
-    pub fn generate_ray(&self, film: Vec2, lens: Vec2, time: f32) -> CameraRay {
+    /// a moving camera is then). A realistic camera traces it at [`FOCUS_WAVELENGTH_NM`] (its glass may disperse:
+    /// [`Camera::generate_rays`] gives each wavelength its own) and returns `None` where the lens stops it.
+    pub fn generate_ray(&self, film: Vec2, lens: Vec2, time: f32) -> Option<CameraRay> {
         let w = &self.window;
         let sx = w.x_min + film.x / self.resolution.0 as f32 * (w.x_max - w.x_min);
         let sy = w.y_max - film.y / self.resolution.1 as f32 * (w.y_max - w.y_min);
-        let (mut origin, mut dir) = match self.projection {
-            Projection::Perspective { tan_half_fov } => {
+        let (mut origin, mut dir) = match &self.projection {
+            &Projection::Perspective { tan_half_fov } => {
                 (Vec3::ZERO, Vec3::new(sx * tan_half_fov, sy * tan_half_fov, 1.0).normalize())
             }
             Projection::Orthographic => (Vec3::new(sx, sy, 0.0), Vec3::Z),
+            Projection::Realistic(l) => {
+                let exit = l.ray(film, lens, FOCUS_WAVELENGTH_NM)?;
+                let w = self.world_from_camera_at(time);
+                return Some(Self::to_world(&w, exit.origin, exit.direction, time, exit.weight));
+            }
         };
         if self.lens_radius > 0.0 {
             // Thin lens: rays through the lens point converge on the plane of focus (pbrt-v4 §5.2.3).
@@ -193,17 +248,26 @@ impl Camera {
             origin += Vec3::new(p_lens.x, p_lens.y, 0.0);
             dir = (p_focus - origin).normalize();
         }
-        let moved;
-        let world_from_camera = match &self.motion {
-            None => &self.world_from_camera,
-            Some(m) => {
-                moved = m.at(time as f64);
-                &moved
+        let w = self.world_from_camera_at(time);
+        Some(Self::to_world(&w, origin.as_dvec3(), dir.as_dvec3(), time, 1.0))
+    }
+
+    /// The rays of a camera sample at the wavelengths `wl`: [`Camera::generate_ray`]'s, shared by every wavelength,
+    /// unless the camera disperses; then one ray per wavelength, each refracted with its own indices through the
+    /// same film point and the same point of the rear element.
+    pub fn generate_rays(&self, film: Vec2, lens: Vec2, time: f32, wl: &SampledWavelengths) -> CameraRays {
+        match &self.projection {
+            Projection::Realistic(l) if l.is_dispersive() => {
+                let exits = l.rays(film, lens, std::array::from_fn::<f64, N_WAVELENGTHS, _>(|i| wl.lambda(i) as f64));
+                let w = self.world_from_camera_at(time);
+                CameraRays::PerWavelength(
+                    exits.map(|e| e.map(|e| Self::to_world(&w, e.origin, e.direction, time, e.weight))),
+                )
             }
-        };
-        let o = world_from_camera.point(origin.as_dvec3()).as_vec3();
-        let d = world_from_camera.vector(dir.as_dvec3()).normalize().as_vec3();
-        CameraRay { origin: o, direction: d, time }
+            Projection::Perspective { .. } | Projection::Orthographic | Projection::Realistic(_) => {
+                CameraRays::Shared(self.generate_ray(film, lens, time))
+            }
+        }
     }
 }
 
@@ -228,10 +292,11 @@ impl Camera {
     /// Whether the camera has a finite-aperture importance function that light paths can connect to: perspective
     /// cameras (pinhole or thin lens). An orthographic camera's importance is a delta in direction.
     pub fn supports_light_tracing(&self) -> bool {
-        // A full match (not `matches!`): a new projection must say whether light paths can reach it.
+        // A full match (not `matches!`): a new projection must say whether light paths can reach it. A realistic
+        // camera's importance would need the lens traced from the scene side (pbrt-v4 leaves it unimplemented).
         match self.projection {
             Projection::Perspective { .. } => true,
-            Projection::Orthographic => false,
+            Projection::Orthographic | Projection::Realistic(_) => false,
         }
     }
 
@@ -252,7 +317,7 @@ impl Camera {
                 let w = &self.window;
                 (w.x_max - w.x_min) * (w.y_max - w.y_min) * tan_half_fov * tan_half_fov
             }
-            Projection::Orthographic => 0.0,
+            Projection::Orthographic | Projection::Realistic(_) => 0.0,
         }
     }
 
@@ -268,7 +333,8 @@ impl Camera {
     /// Raster position of the camera-space ray from lens point `o` (z = 0) in direction `d`, if it is in front of
     /// the camera and lands on the film.
     fn raster_of(&self, o: Vec3, d: Vec3) -> Option<Vec2> {
-        let Projection::Perspective { tan_half_fov } = self.projection else { return None };
+        let Projection::Perspective { tan_half_fov } = &self.projection else { return None };
+        let tan_half_fov = *tan_half_fov;
         if d.z <= 0.0 {
             return None;
         }
@@ -350,12 +416,12 @@ mod tests {
             1.0,
         );
         // Top edge centre of a 2:1 image: the shorter (vertical) axis spans the fov.
-        let top = cam.generate_ray(Vec2::new(100.0, 0.0), Vec2::ZERO, 0.0).direction;
+        let top = cam.generate_ray(Vec2::new(100.0, 0.0), Vec2::ZERO, 0.0).unwrap().direction;
         assert!((top.y.atan2(top.z).to_degrees() - 30.0).abs() < 1e-4);
-        let centre = cam.generate_ray(Vec2::new(100.0, 50.0), Vec2::ZERO, 0.0).direction;
+        let centre = cam.generate_ray(Vec2::new(100.0, 50.0), Vec2::ZERO, 0.0).unwrap().direction;
         assert!((centre - Vec3::Z).length() < 1e-6);
         // Raster x to the right is world +x for this LookAt (pbrt's left-handed camera space).
-        assert!(cam.generate_ray(Vec2::new(150.0, 50.0), Vec2::ZERO, 0.0).direction.x > 0.0);
+        assert!(cam.generate_ray(Vec2::new(150.0, 50.0), Vec2::ZERO, 0.0).unwrap().direction.x > 0.0);
     }
 
     #[test]
@@ -370,10 +436,10 @@ mod tests {
             5.0,
         );
         let film = Vec2::new(40.0, 20.0);
-        let pinhole = cam.generate_ray(film, Vec2::splat(0.5), 0.0);
+        let pinhole = cam.generate_ray(film, Vec2::splat(0.5), 0.0).unwrap();
         let target = pinhole.origin + pinhole.direction * (5.0 / pinhole.direction.z);
         for lens in [Vec2::new(0.1, 0.9), Vec2::new(0.8, 0.2), Vec2::new(0.0, 0.0)] {
-            let r = cam.generate_ray(film, lens, 0.0);
+            let r = cam.generate_ray(film, lens, 0.0).unwrap();
             let hit = r.origin + r.direction * ((5.0 - r.origin.z) / r.direction.z);
             assert!((hit - target).length() < 1e-4, "{hit} vs {target}");
         }
@@ -401,7 +467,7 @@ mod tests {
                 (Vec2::new(40.1, 30.5), Vec2::new(0.9, 0.1)),
                 (Vec2::new(24.0, 16.0), Vec2::new(0.5, 0.5)),
             ] {
-                let r = cam.generate_ray(film, lens, 0.0);
+                let r = cam.generate_ray(film, lens, 0.0).unwrap();
                 let (we, raster) = cam.we(r.origin, r.direction).expect("on the film");
                 assert!((raster - film).length() < 2e-3, "{raster} vs {film}");
                 assert!(we > 0.0);
@@ -433,7 +499,7 @@ mod tests {
     fn sample_wi_agrees_with_we_and_pdf_we() {
         for lens_radius in [0.0, 0.05] {
             let cam = test_camera(lens_radius);
-            let r = cam.generate_ray(Vec2::new(10.5, 20.25), Vec2::new(0.3, 0.6), 0.0);
+            let r = cam.generate_ray(Vec2::new(10.5, 20.25), Vec2::new(0.3, 0.6), 0.0).unwrap();
             let p_ref = r.origin + 5.0 * r.direction;
             let s = cam.sample_wi(p_ref, Vec2::new(0.3, 0.6)).expect("visible");
             assert!((s.raster - Vec2::new(10.5, 20.25)).length() < 5e-3, "{}", s.raster);
@@ -455,8 +521,8 @@ mod tests {
         let cam_from_world = Transform::look_at(DVec3::new(0.0, 0.0, -10.0), DVec3::ZERO, DVec3::Y).unwrap();
         let cam =
             Camera::new(Projection::Orthographic, &cam_from_world, (10, 10), ScreenWindow::for_aspect(1.0), 0.0, 1.0);
-        let a = cam.generate_ray(Vec2::new(0.0, 0.0), Vec2::ZERO, 0.0);
-        let b = cam.generate_ray(Vec2::new(10.0, 10.0), Vec2::ZERO, 0.0);
+        let a = cam.generate_ray(Vec2::new(0.0, 0.0), Vec2::ZERO, 0.0).unwrap();
+        let b = cam.generate_ray(Vec2::new(10.0, 10.0), Vec2::ZERO, 0.0).unwrap();
         assert!((a.direction - b.direction).length() < 1e-6);
         assert!(((a.origin - b.origin).length() - 8f32.sqrt()).abs() < 1e-5);
     }
