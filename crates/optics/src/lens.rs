@@ -494,8 +494,8 @@ impl LensPrescription {
 
 impl LensPrescription {
     /// The box on the rear element's vertex plane, (x₀, x₁, y₀, y₁) in mm, through which rays from film points
-    /// between `film_radius_mm.0` and `.1` from the axis (on the +x axis) reach the scene at any of `lambdas_nm`
-    /// through the stop's circle or `stop`'s mask: found as pbrt-v4's realistic camera finds it, by tracing rays from
+    /// between `film_radius_mm.0` and `.1` from the axis (on the +x axis) reach the scene at any of `lambdas_nm`:
+    /// found as pbrt-v4's realistic camera finds it, by tracing rays from
     /// `film_points` film points in the ring aimed at a grid of `aims`² points over 1.5 times the rear aperture, then
     /// (where pbrt-v4 takes a million aims) again over that box widened by one grid cell, with `aims`² aims, and
     /// widened by twice the finer cell's diagonal so that rays between grid points are not cut off. Aims inside the
@@ -507,7 +507,6 @@ impl LensPrescription {
         film_radius_mm: (f64, f64),
         lambdas_nm: &[f64],
         (film_points, aims): (usize, usize),
-        stop: Option<StopMask<'_>>,
     ) -> Option<[f64; 4]> {
         let last = self.surfaces.len().checked_sub(1)?;
         let z_last = self.vertices_mm()[last];
@@ -528,7 +527,7 @@ impl LensPrescription {
                         let d = [x - r, y, z_last - z_film];
                         let len = dot(d, d).sqrt();
                         let ray = LensRay { origin: [r, 0.0, z_film], direction: [d[0] / len, d[1] / len, d[2] / len] };
-                        if lambdas_nm.iter().any(|&l| self.trace(ray, l, false, stop).is_some()) {
+                        if lambdas_nm.iter().any(|&l| self.trace(ray, l, false, None).is_some()) {
                             let b = bounds.get_or_insert([x, x, y, y]);
                             *b = [b[0].min(x), b[1].max(x), b[2].min(y), b[3].max(y)];
                         }
@@ -908,7 +907,7 @@ mod tests {
         let (z_last, z_film) = (lens.vertices_mm()[10], lens.length_mm());
         let mut areas = Vec::new();
         for ring in [(0.0, 0.5), (10.0, 10.5), (20.0, 20.5)] {
-            let b = lens.exit_pupil_bounds(ring, &lambdas, (8, 48), None).unwrap();
+            let b = lens.exit_pupil_bounds(ring, &lambdas, (8, 48)).unwrap();
             areas.push((b[1] - b[0]) * (b[3] - b[2]));
             // A finer grid of aims over 1.6 times the rear element from film points in the ring: every ray that gets
             // through was aimed inside the box, and some aimed inside do get through.
