@@ -32,8 +32,10 @@
 use std::fmt;
 
 use crate::catalogue;
+use crate::complex::Complex;
 use crate::error::OpticsError;
 use crate::ior::Ior;
+use crate::thinfilm::{film_stack, film_stack_reversed, FilmLayer};
 
 /// What fills the space behind a surface (towards the film).
 #[derive(Clone, Debug, PartialEq)]
@@ -527,7 +529,7 @@ impl LensPrescription {
                         let d = [x - r, y, z_last - z_film];
                         let len = dot(d, d).sqrt();
                         let ray = LensRay { origin: [r, 0.0, z_film], direction: [d[0] / len, d[1] / len, d[2] / len] };
-                        if lambdas_nm.iter().any(|&l| self.trace(ray, l, false, None).is_some()) {
+                        if lambdas_nm.iter().any(|&l| self.trace(ray, l, false, None, false).is_some()) {
                             let b = bounds.get_or_insert([x, x, y, y]);
                             *b = [b[0].min(x), b[1].max(x), b[2].min(y), b[3].max(y)];
                         }
@@ -614,17 +616,19 @@ impl LensPrescription {
 
     /// Traces `ray` through every surface, front to film when `forward`, film to front otherwise, refracting with
     /// each medium's n(`lambda_nm`) by Snell's law in vector form (as pbrt-v4's `Refract`): the ray leaving the last
-    /// surface crossed and the stop's transmission there (1 for a clear circular stop, else `stop`'s). `None` where
-    /// it misses a surface or its clear aperture, is totally reflected, or the stop's mask is 0 there.
+    /// surface crossed, the stop's transmission there (1 for a clear circular stop, else `stop`'s), and, with
+    /// `fresnel`, the product of the surfaces' transmittances (else 1). `None` where it misses a surface or its
+    /// clear aperture, is totally reflected, or the stop's mask is 0 there.
     fn trace(
         &self,
         mut ray: LensRay,
         lambda_nm: f64,
         forward: bool,
         stop: Option<StopMask<'_>>,
-    ) -> Option<(LensRay, f64)> {
+        fresnel: bool,
+    ) -> Option<(LensRay, f64, f64)> {
         let count = self.surfaces.len();
-        let mut weight = 1.0;
+        let (mut weight, mut transmittance) = (1.0, 1.0);
         // Each surface's vertex, followed along the way rather than collected: no allocation per ray.
         let mut z =
             if forward { 0.0 } else { self.surfaces[..count.saturating_sub(1)].iter().map(|s| s.thickness_mm).sum() };
@@ -658,7 +662,8 @@ impl LensPrescription {
                 continue;
             }
             let (before, after) = (self.index_before(i, lambda_nm), surface.medium.n(lambda_nm));
-            let mu = if forward { before / after } else { after / before };
+            let (n_i, n_t) = if forward { (before, after) } else { (after, before) };
+            let mu = n_i / n_t;
             // t = μd + (μ cos θi − cos θt) m, with m facing against d (Snell's law in vector form).
             let d = ray.direction;
             let cos_i = -dot(m, d);
@@ -666,28 +671,67 @@ impl LensPrescription {
             if sin2_t > 1.0 {
                 return None;
             }
+            if fresnel {
+                transmittance *= self.surface_transmittance(i, forward, (n_i, n_t), cos_i, lambda_nm);
+            }
             let k = mu * cos_i - (1.0 - sin2_t).sqrt();
             ray.direction = [mu * d[0] + k * m[0], mu * d[1] + k * m[1], mu * d[2] + k * m[2]];
         }
-        Some((ray, weight))
+        Some((ray, weight, transmittance))
+    }
+
+    /// The transmittance of surface `i` and its coating, crossed towards the film when `forward`, from index
+    /// `n.0` into `n.1` at incidence cosine `cos_i`: the transfer-matrix method of [`crate::film_stack`] (Fresnel's
+    /// for a bare surface), s and p averaged, as if the light were unpolarised at every surface (the usual estimate
+    /// of a lens's transmission; the exact one would carry the polarisation from surface to surface).
+    fn surface_transmittance(&self, i: usize, forward: bool, n: (f64, f64), cos_i: f64, lambda_nm: f64) -> f64 {
+        let coating = &self.surfaces[i].coating;
+        // Coatings are short: their layers at this wavelength are kept on the stack.
+        const MAX_ON_STACK: usize = 16;
+        let mut on_stack = [FilmLayer::new(Complex::from_real(1.0), 0.0); MAX_ON_STACK];
+        let on_heap: Vec<FilmLayer>;
+        let layers: &[FilmLayer] = if coating.len() <= MAX_ON_STACK {
+            for (slot, c) in on_stack.iter_mut().zip(coating) {
+                *slot = FilmLayer::new(c.ior.complex_value(lambda_nm), c.thickness_nm);
+            }
+            &on_stack[..coating.len()]
+        } else {
+            on_heap = coating.iter().map(|c| FilmLayer::new(c.ior.complex_value(lambda_nm), c.thickness_nm)).collect();
+            &on_heap
+        };
+        let r = if forward {
+            film_stack(n.0, layers, Complex::from_real(n.1), cos_i, lambda_nm)
+        } else {
+            // Layers are listed from the object side; from the film they are met last first.
+            film_stack_reversed(n.0, layers, Complex::from_real(n.1), cos_i, lambda_nm)
+        };
+        r.transmittance()
     }
 
     /// Traces a ray from the object side through every surface towards the film: the ray leaving the last surface.
     pub fn trace_from_object(&self, ray: LensRay, lambda_nm: f64) -> Option<LensRay> {
-        self.trace(ray, lambda_nm, true, None).map(|(r, _)| r)
+        self.trace(ray, lambda_nm, true, None, false).map(|(r, _, _)| r)
     }
 
     /// Traces a ray from the film side back through every surface: the ray leaving the front surface towards the
     /// scene (what a camera does with a ray from a point on its film).
     pub fn trace_from_film(&self, ray: LensRay, lambda_nm: f64) -> Option<LensRay> {
-        self.trace(ray, lambda_nm, false, None).map(|(r, _)| r)
+        self.trace(ray, lambda_nm, false, None, false).map(|(r, _, _)| r)
     }
 
-    /// [`LensPrescription::trace_from_film`] with the stop's opening given by `stop` (a shaped diaphragm, as
-    /// pbrt-v4's aperture images): the ray leaving the front surface and the mask's transmission where it crossed
-    /// the stop.
-    pub fn trace_from_film_through(&self, ray: LensRay, lambda_nm: f64, stop: StopMask<'_>) -> Option<(LensRay, f64)> {
-        self.trace(ray, lambda_nm, false, Some(stop))
+    /// [`LensPrescription::trace_from_film`] with what the lens lets through: the ray leaving the front surface,
+    /// and the fraction of light it carries, the product of the stop's transmission (1 inside its circle, or
+    /// `stop`'s mask for a shaped diaphragm, as pbrt-v4's aperture images) and, with `fresnel`, every surface's
+    /// transmittance with its coating at `lambda_nm` (light is lost to reflection at each surface; pbrt-v4's
+    /// realistic camera leaves this out).
+    pub fn trace_from_film_through(
+        &self,
+        ray: LensRay,
+        lambda_nm: f64,
+        stop: Option<StopMask<'_>>,
+        fresnel: bool,
+    ) -> Option<(LensRay, f64)> {
+        self.trace(ray, lambda_nm, false, stop, fresnel).map(|(r, w, t)| (r, w * t))
     }
 }
 
@@ -893,6 +937,26 @@ mod tests {
         // Too close: an error saying how close it can focus.
         let e = lens.focused(200.0, lambda).unwrap_err();
         assert!(e.contains("too close"), "{e}");
+    }
+
+    #[test]
+    fn an_axial_ray_loses_each_surfaces_fresnel_reflection_and_a_quarter_wave_coating_cuts_it() {
+        // On the axis every surface is met at normal incidence: the bare flat rear loses ((n − 1)/(n + 1))², and the
+        // front, under a layer of index 1.38 whose optical thickness is a quarter of 549.78 nm, loses
+        // ((n₀n_s − n₁²)/(n₀n_s + n₁²))² at that wavelength.
+        let lens = LensPrescription::parse("0 5 0 20\n51.5 3.6 N-BK7 25.4 1.38@99.6\n0 97.6 1 25.4\n").unwrap();
+        let lambda = 4.0 * 1.38 * 99.6;
+        let n = lens.surfaces[1].medium.n(lambda);
+        let axial = LensRay { origin: [0.0, 0.0, lens.length_mm()], direction: [0.0, 0.0, -1.0] };
+        let (_, t) = lens.trace_from_film_through(axial, lambda, None, true).unwrap();
+        let r_rear = ((n - 1.0) / (n + 1.0)).powi(2);
+        let r_front = ((n - 1.38 * 1.38) / (n + 1.38 * 1.38)).powi(2);
+        assert!((t - (1.0 - r_rear) * (1.0 - r_front)).abs() < 1e-9, "{t}");
+        // Without the coating the front loses as much as the rear; without Fresnel nothing is lost.
+        let bare = LensPrescription::parse("0 5 0 20\n51.5 3.6 N-BK7 25.4\n0 97.6 1 25.4\n").unwrap();
+        let (_, t_bare) = bare.trace_from_film_through(axial, lambda, None, true).unwrap();
+        assert!((t_bare - (1.0 - r_rear).powi(2)).abs() < 1e-9 && t_bare < t, "{t_bare}");
+        assert_eq!(lens.trace_from_film_through(axial, lambda, None, false).unwrap().1, 1.0);
     }
 
     #[test]

@@ -165,11 +165,7 @@ fn source_image_radius(source: [f64; 3]) -> f64 {
 /// Renders the spot through `lens_text` and checks each bucket's centroid against the ray trace (within a pixel)
 /// and its rms radius against the trace's with the known blurs added (within 10%); returns the rendered and traced
 /// spots.
-fn spots_match_the_ray_trace(
-    lens_text: &str,
-    name: &str,
-    source: [f64; 3],
-) -> (Vec<Spot>, Vec<(DVec2, f64)>) {
+fn spots_match_the_ray_trace(lens_text: &str, name: &str, source: [f64; 3]) -> (Vec<Spot>, Vec<(DVec2, f64)>) {
     let dir = temp_dir("realistic", name);
     let file = dir.join("lens.dat");
     std::fs::write(&file, lens_text).unwrap();

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use geometry::{AnimatedTransform, Transform};
 use glam::{DVec3, Vec2, Vec3};
-use spectral::{SampledWavelengths, N_WAVELENGTHS};
+use spectral::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
 
 use crate::sampling::sample_uniform_disk_concentric;
 
@@ -86,6 +86,9 @@ pub struct CameraRay {
 pub enum CameraRays {
     /// One ray for every wavelength.
     Shared(Option<CameraRay>),
+    /// One ray for every wavelength, its weight further multiplied per wavelength (a lens whose coatings filter the
+    /// light but whose glass does not disperse).
+    Filtered(Option<CameraRay>, SampledSpectrum),
     /// A ray per wavelength slot.
     PerWavelength([Option<CameraRay>; N_WAVELENGTHS]),
 }
@@ -257,12 +260,19 @@ impl Camera {
     /// same film point and the same point of the rear element.
     pub fn generate_rays(&self, film: Vec2, lens: Vec2, time: f32, wl: &SampledWavelengths) -> CameraRays {
         match &self.projection {
-            Projection::Realistic(l) if l.is_dispersive() => {
+            Projection::Realistic(l) if l.is_dispersive() || l.filters_wavelengths() => {
                 let exits = l.rays(film, lens, std::array::from_fn::<f64, N_WAVELENGTHS, _>(|i| wl.lambda(i) as f64));
                 let w = self.world_from_camera_at(time);
-                CameraRays::PerWavelength(
-                    exits.map(|e| e.map(|e| Self::to_world(&w, e.origin, e.direction, time, e.weight))),
-                )
+                let rays = exits.map(|e| e.map(|e| Self::to_world(&w, e.origin, e.direction, time, e.weight)));
+                if l.is_dispersive() {
+                    return CameraRays::PerWavelength(rays);
+                }
+                // One path for all: the first ray that got through, each wavelength's weight relative to its.
+                let Some(first) = rays.iter().flatten().next().copied() else {
+                    return CameraRays::Filtered(None, SampledSpectrum::zero());
+                };
+                let relative = SampledSpectrum(rays.map(|r| r.map_or(0.0, |r| r.weight / first.weight)));
+                CameraRays::Filtered(Some(first), relative)
             }
             Projection::Perspective { .. } | Projection::Orthographic | Projection::Realistic(_) => {
                 CameraRays::Shared(self.generate_ray(film, lens, time))

@@ -173,6 +173,10 @@ pub struct RealisticLens {
     /// A shaped diaphragm, if any.
     mask: Option<ApertureMask>,
     dispersive: bool,
+    /// Whether the rays' weights depend on the wavelength though their paths do not (coatings, constant indices).
+    filters: bool,
+    /// Whether each surface's Fresnel (and coating) transmittance weighs the rays.
+    fresnel: bool,
 }
 
 /// A ray leaving the lens, in camera space (metres), with its weight: pbrt-v4's cos⁴θ · A_box / z_rear² times the
@@ -204,6 +208,9 @@ pub struct RealisticParams {
     pub mask: Option<ApertureMask>,
     /// The wavelengths the exit pupil must let through, nm.
     pub wavelength_range_nm: (f64, f64),
+    /// Whether the light lost to reflection at each surface (per wavelength and angle, through its coating) is
+    /// taken out of the rays (Prismatic's `"bool lenstransmission"`; pbrt-v4's camera loses none).
+    pub fresnel: bool,
 }
 
 impl RealisticLens {
@@ -225,6 +232,9 @@ impl RealisticLens {
         }
         let lens = lens.focused(p.focus_distance_m * 1000.0, FOCUS_WAVELENGTH_NM)?;
         let dispersive = lens.surfaces.iter().any(|s| s.medium.is_dispersive());
+        // With the surfaces' transmittance, coatings (interference) make even a lens of constant indices a filter
+        // that depends on the wavelength: one ray, a weight per wavelength.
+        let filters = p.fresnel && lens.surfaces.iter().any(|s| !s.coating.is_empty());
         // pbrt-v4's physical extent: the diagonal split by the full resolution's aspect ratio.
         let aspect = p.resolution.1 as f64 / p.resolution.0 as f64;
         let width = (p.film_diagonal_mm * p.film_diagonal_mm / (1.0 + aspect * aspect)).sqrt();
@@ -273,6 +283,8 @@ impl RealisticLens {
                 film_mm,
                 mask,
                 dispersive,
+                filters,
+                fresnel: p.fresnel,
             },
             clamped,
         ))
@@ -281,6 +293,12 @@ impl RealisticLens {
     /// True if some element's index depends on the wavelength: each wavelength then has its own camera ray.
     pub fn is_dispersive(&self) -> bool {
         self.dispersive
+    }
+
+    /// True if the rays' weights depend on the wavelength (coatings counted through `"bool lenstransmission"`)
+    /// though their paths do not (no glass disperses).
+    pub fn filters_wavelengths(&self) -> bool {
+        self.filters && !self.dispersive
     }
 
     /// The lens as focused and stopped down.
@@ -318,9 +336,12 @@ impl RealisticLens {
 
     /// The film ray traced out through the lens at `lambda_nm`, in camera space.
     fn exit(&self, ray: LensRay, weight: f64, lambda_nm: f64) -> Option<LensExit> {
-        let (out, transmission) = match &self.mask {
-            None => (self.lens.trace_from_film(ray, lambda_nm)?, 1.0),
-            Some(m) => self.lens.trace_from_film_through(ray, lambda_nm, &|x, y| m.at(x, y))?,
+        let (out, transmission) = match (&self.mask, self.fresnel) {
+            (None, false) => (self.lens.trace_from_film(ray, lambda_nm)?, 1.0),
+            (None, true) => self.lens.trace_from_film_through(ray, lambda_nm, None, true)?,
+            (Some(m), fresnel) => {
+                self.lens.trace_from_film_through(ray, lambda_nm, Some(&|x, y| m.at(x, y)), fresnel)?
+            }
         };
         Some(LensExit {
             origin: self.to_camera_point(out.origin),
@@ -417,6 +438,7 @@ mod tests {
             resolution: (300, 200),
             mask,
             wavelength_range_nm: (360.0, 830.0),
+            fresnel: false,
         })
         .map(|(lens, _)| lens)
     }
@@ -445,6 +467,47 @@ mod tests {
         assert_eq!(spread.0, 0.0);
         // The flint and crown of a double Gauss still bend 450 and 650 nm apart by a few arc-minutes at f/2.
         assert!(spread.1 > 1e-4, "{}", spread.1);
+    }
+
+    #[test]
+    fn coatings_filter_the_light_per_wavelength_without_bending_it() {
+        // pbrt-v4's double Gauss with a quarter-wave layer for 550 nm on its first surface, surfaces' Fresnel counted.
+        let coated = DGAUSS_PBRT.replacen("25.2\n", "25.2 1.38@99.64\n", 1);
+        let lens = RealisticLens::new(RealisticParams {
+            lens: LensPrescription::parse(&coated).unwrap(),
+            aperture_diameter_mm: 8.0,
+            focus_distance_m: 2.0,
+            film_diagonal_mm: 35.0,
+            resolution: (300, 200),
+            mask: None,
+            wavelength_range_nm: (360.0, 830.0),
+            fresnel: true,
+        })
+        .unwrap()
+        .0;
+        assert!(lens.filters_wavelengths() && !lens.is_dispersive());
+        let plain = camera(DGAUSS_PBRT, 8.0, 2.0, None).unwrap();
+        let [a, b] = lens.rays(Vec2::new(150.0, 100.0), Vec2::splat(0.5), [550.0, 400.0]);
+        let (a, b) = (a.unwrap(), b.unwrap());
+        assert_eq!((a.origin, a.direction), (b.origin, b.direction));
+        // The axial ray meets every surface head on: each bare one passes 1 − ((n − n′)/(n + n′))², the coated
+        // first one 1 − ((n_s − n₁²)/(n_s + n₁²))² at the coating's design wavelength 4·1.38·99.64 = 550.0 nm;
+        // away from it (400 nm) the coating helps less.
+        let index = [1.0, 1.67, 1.0, 1.67, 1.699, 1.0, 1.0, 1.603, 1.658, 1.0, 1.717, 1.0];
+        let refracting = [0, 1, 2, 3, 4, 6, 7, 8, 9, 10];
+        let mut expected = 1.0;
+        for &i in &refracting {
+            let (n, m) = (index[i], index[i + 1]);
+            expected *= if i == 0 {
+                1.0 - ((m - 1.38f64.powi(2)) / (m + 1.38f64.powi(2))).powi(2)
+            } else {
+                1.0 - ((n - m) / (n + m)).powi(2)
+            };
+        }
+        let bare = plain.ray(Vec2::new(150.0, 100.0), Vec2::splat(0.5), 550.0).unwrap().weight;
+        let (ta, tb) = ((a.weight / bare) as f64, (b.weight / bare) as f64);
+        assert!((ta - expected).abs() < 1e-5, "{ta} vs {expected}");
+        assert!(tb < ta - 5e-3, "{tb} vs {ta}");
     }
 
     #[test]

@@ -164,14 +164,14 @@ impl CameraSample {
     pub fn shared_ray(&self) -> Option<&CameraRay> {
         match &self.rays {
             CameraRays::Shared(r) => r.as_ref(),
-            CameraRays::PerWavelength(_) => None,
+            CameraRays::Filtered(..) | CameraRays::PerWavelength(_) => None,
         }
     }
 
     /// The first of the sample's rays that left the lens: what the first-hit records describe.
     pub fn first_ray(&self) -> Option<&CameraRay> {
         match &self.rays {
-            CameraRays::Shared(r) => r.as_ref(),
+            CameraRays::Shared(r) | CameraRays::Filtered(r, _) => r.as_ref(),
             CameraRays::PerWavelength(rays) => rays.iter().flatten().next(),
         }
     }
@@ -190,11 +190,16 @@ pub(crate) fn camera_sample_radiance<R: Radiance>(
     mut first_hit: Option<&mut Option<FirstHit>>,
 ) -> (SampledSpectrum, SampledWavelengths) {
     match &cs.rays {
-        CameraRays::Shared(None) => (SampledSpectrum::zero(), cs.wl),
+        CameraRays::Shared(None) | CameraRays::Filtered(None, _) => (SampledSpectrum::zero(), cs.wl),
         CameraRays::Shared(Some(ray)) => {
             let mut wl = cs.wl;
             let l = finite_or_zero(integrator.li(tracer, ray, &mut wl, sampler, first_hit));
             (l * ray.weight, wl)
+        }
+        CameraRays::Filtered(Some(ray), filter) => {
+            let mut wl = cs.wl;
+            let l = finite_or_zero(integrator.li(tracer, ray, &mut wl, sampler, first_hit));
+            (l * *filter * ray.weight, wl)
         }
         CameraRays::PerWavelength(rays) if !integrator.splits_dispersion() => {
             // One wavelength kept at random, at its density over the choice (as at a dispersive refraction).

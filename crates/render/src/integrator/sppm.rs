@@ -527,15 +527,18 @@ impl SppmIntegrator {
         let scene = tracer.scene;
         // Through a dispersive lens each wavelength has its own ray; a camera path of photon mapping has one visible
         // point, so it keeps one wavelength chosen at random, as at a dispersive refraction.
-        let camera_ray = match cs.rays {
-            CameraRays::Shared(r) => r,
-            CameraRays::PerWavelength(rays) => rays[wl.terminate_secondary(sampler.next_1d())],
+        let (camera_ray, filter) = match cs.rays {
+            CameraRays::Shared(r) => (r, SampledSpectrum::splat(1.0)),
+            CameraRays::Filtered(r, filter) => (r, filter),
+            CameraRays::PerWavelength(rays) => {
+                (rays[wl.terminate_secondary(sampler.next_1d())], SampledSpectrum::splat(1.0))
+            }
         };
         let Some(camera_ray) = camera_ray else { return (None, SampledSpectrum::zero()) };
         let mut ray = PathRay::camera(camera_ray.origin, camera_ray.direction, scene.camera_medium, camera_ray.time);
         // The camera sample's filter weight, as a camera sample of the other integrators carries it into the film,
         // times the camera's weight of the ray.
-        let mut beta = SampledSpectrum::splat(cs.weight * camera_ray.weight);
+        let mut beta = filter * (cs.weight * camera_ray.weight);
         // The rescaled probabilities of the path's tracking decisions: ones without media, where every division by
         // their mean is a division by exactly 1.
         let mut r_u = SampledSpectrum::splat(1.0);
