@@ -621,14 +621,30 @@ impl LensPrescription {
     /// clear aperture, is totally reflected, or the stop's mask is 0 there.
     fn trace(
         &self,
-        mut ray: LensRay,
+        ray: LensRay,
         lambda_nm: f64,
         forward: bool,
         stop: Option<StopMask<'_>>,
         fresnel: bool,
     ) -> Option<(LensRay, f64, f64)> {
+        let [out] = self.trace_many(ray, [lambda_nm], forward, stop, fresnel);
+        out
+    }
+
+    /// [`LensPrescription::trace`] of one ray at each of `lambdas_nm`, surface by surface for all of them at once:
+    /// a ray's way through a lens is one long chain of square roots and divisions, and tracing the wavelengths side
+    /// by side lets the processor overlap their chains.
+    #[inline(always)]
+    fn trace_many<const N: usize>(
+        &self,
+        ray: LensRay,
+        lambdas_nm: [f64; N],
+        forward: bool,
+        stop: Option<StopMask<'_>>,
+        fresnel: bool,
+    ) -> [Option<(LensRay, f64, f64)>; N] {
         let count = self.surfaces.len();
-        let (mut weight, mut transmittance) = (1.0, 1.0);
+        let mut state: [Option<(LensRay, f64, f64)>; N] = [Some((ray, 1.0, 1.0)); N];
         // Each surface's vertex, followed along the way rather than collected: no allocation per ray.
         let mut z =
             if forward { 0.0 } else { self.surfaces[..count.saturating_sub(1)].iter().map(|s| s.thickness_mm).sum() };
@@ -637,47 +653,71 @@ impl LensPrescription {
             if !forward && step > 0 {
                 z -= self.surfaces[i].thickness_mm;
             }
-            let (p, m) = self.hit(i, z, &ray)?;
-            let surface = &self.surfaces[i];
+            for (slot, &lambda_nm) in state.iter_mut().zip(&lambdas_nm) {
+                if let Some(s) = slot {
+                    if !self.cross(i, z, forward, stop, fresnel, lambda_nm, s) {
+                        *slot = None;
+                    }
+                }
+            }
             if forward {
-                z += surface.thickness_mm;
+                z += self.surfaces[i].thickness_mm;
             }
-            let radius = 0.5 * surface.aperture_mm;
-            match stop {
-                // pbrt-v4's aperture image replaces the stop's circle: its value over the square [−r, r]².
-                Some(mask) if surface.is_stop => {
-                    weight = mask(p[0] / radius, p[1] / radius);
-                    if weight <= 0.0 {
-                        return None;
-                    }
-                }
-                _ => {
-                    if p[0] * p[0] + p[1] * p[1] > radius * radius {
-                        return None;
-                    }
-                }
-            }
-            ray.origin = p;
-            if surface.is_stop {
-                continue;
-            }
-            let (before, after) = (self.index_before(i, lambda_nm), surface.medium.n(lambda_nm));
-            let (n_i, n_t) = if forward { (before, after) } else { (after, before) };
-            let mu = n_i / n_t;
-            // t = μd + (μ cos θi − cos θt) m, with m facing against d (Snell's law in vector form).
-            let d = ray.direction;
-            let cos_i = -dot(m, d);
-            let sin2_t = mu * mu * (1.0 - cos_i * cos_i);
-            if sin2_t > 1.0 {
-                return None;
-            }
-            if fresnel {
-                transmittance *= self.surface_transmittance(i, forward, (n_i, n_t), cos_i, lambda_nm);
-            }
-            let k = mu * cos_i - (1.0 - sin2_t).sqrt();
-            ray.direction = [mu * d[0] + k * m[0], mu * d[1] + k * m[1], mu * d[2] + k * m[2]];
         }
-        Some((ray, weight, transmittance))
+        state
+    }
+
+    /// One ray (with its stop weight and transmittance so far) across surface `i`, whose vertex is at `z`; false
+    /// if the surface stops it (see [`LensPrescription::trace`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn cross(
+        &self,
+        i: usize,
+        z: f64,
+        forward: bool,
+        stop: Option<StopMask<'_>>,
+        fresnel: bool,
+        lambda_nm: f64,
+        (ray, weight, transmittance): &mut (LensRay, f64, f64),
+    ) -> bool {
+        let Some((p, m)) = self.hit(i, z, ray) else { return false };
+        let surface = &self.surfaces[i];
+        let radius = 0.5 * surface.aperture_mm;
+        match stop {
+            // pbrt-v4's aperture image replaces the stop's circle: its value over the square [−r, r]².
+            Some(mask) if surface.is_stop => {
+                *weight = mask(p[0] / radius, p[1] / radius);
+                if *weight <= 0.0 {
+                    return false;
+                }
+            }
+            _ => {
+                if p[0] * p[0] + p[1] * p[1] > radius * radius {
+                    return false;
+                }
+            }
+        }
+        ray.origin = p;
+        if surface.is_stop {
+            return true;
+        }
+        let (before, after) = (self.index_before(i, lambda_nm), surface.medium.n(lambda_nm));
+        let (n_i, n_t) = if forward { (before, after) } else { (after, before) };
+        let mu = n_i / n_t;
+        // t = μd + (μ cos θi − cos θt) m, with m facing against d (Snell's law in vector form).
+        let d = ray.direction;
+        let cos_i = -dot(m, d);
+        let sin2_t = mu * mu * (1.0 - cos_i * cos_i);
+        if sin2_t > 1.0 {
+            return false;
+        }
+        if fresnel {
+            *transmittance *= self.surface_transmittance(i, forward, (n_i, n_t), cos_i, lambda_nm);
+        }
+        let k = mu * cos_i - (1.0 - sin2_t).sqrt();
+        ray.direction = [mu * d[0] + k * m[0], mu * d[1] + k * m[1], mu * d[2] + k * m[2]];
+        true
     }
 
     /// The transmittance of surface `i` and its coating, crossed towards the film when `forward`, from index
@@ -732,6 +772,18 @@ impl LensPrescription {
         fresnel: bool,
     ) -> Option<(LensRay, f64)> {
         self.trace(ray, lambda_nm, false, stop, fresnel).map(|(r, w, t)| (r, w * t))
+    }
+
+    /// [`LensPrescription::trace_from_film_through`] at each of `lambdas_nm` (one ray from the film, refracted by
+    /// each wavelength's indices), traced side by side: cheaper than one trace after another.
+    pub fn trace_from_film_many<const N: usize>(
+        &self,
+        ray: LensRay,
+        lambdas_nm: [f64; N],
+        stop: Option<StopMask<'_>>,
+        fresnel: bool,
+    ) -> [Option<(LensRay, f64)>; N] {
+        self.trace_many(ray, lambdas_nm, false, stop, fresnel).map(|o| o.map(|(r, w, t)| (r, w * t)))
     }
 }
 

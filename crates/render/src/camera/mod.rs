@@ -229,6 +229,11 @@ impl Camera {
     /// a moving camera is then). A realistic camera traces it at [`FOCUS_WAVELENGTH_NM`] (its glass may disperse:
     /// [`Camera::generate_rays`] gives each wavelength its own) and returns `None` where the lens stops it.
     pub fn generate_ray(&self, film: Vec2, lens: Vec2, time: f32) -> Option<CameraRay> {
+        self.generate_ray_at(film, lens, time, FOCUS_WAVELENGTH_NM)
+    }
+
+    /// [`Camera::generate_ray`] for light of wavelength `lambda_nm` (which only a realistic camera's glass sees).
+    pub fn generate_ray_at(&self, film: Vec2, lens: Vec2, time: f32, lambda_nm: f64) -> Option<CameraRay> {
         let w = &self.window;
         let sx = w.x_min + film.x / self.resolution.0 as f32 * (w.x_max - w.x_min);
         let sy = w.y_max - film.y / self.resolution.1 as f32 * (w.y_max - w.y_min);
@@ -238,7 +243,7 @@ impl Camera {
             }
             Projection::Orthographic => (Vec3::new(sx, sy, 0.0), Vec3::Z),
             Projection::Realistic(l) => {
-                let exit = l.ray(film, lens, FOCUS_WAVELENGTH_NM)?;
+                let exit = l.ray(film, lens, lambda_nm)?;
                 let w = self.world_from_camera_at(time);
                 return Some(Self::to_world(&w, exit.origin, exit.direction, time, exit.weight));
             }

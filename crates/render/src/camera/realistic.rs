@@ -334,19 +334,16 @@ impl RealisticLens {
         Some((LensRay { origin: p, direction }, cos_theta.powi(4) * area / (z_rear * z_rear)))
     }
 
-    /// The film ray traced out through the lens at `lambda_nm`, in camera space.
-    fn exit(&self, ray: LensRay, weight: f64, lambda_nm: f64) -> Option<LensExit> {
-        let (out, transmission) = match (&self.mask, self.fresnel) {
-            (None, false) => (self.lens.trace_from_film(ray, lambda_nm)?, 1.0),
-            (None, true) => self.lens.trace_from_film_through(ray, lambda_nm, None, true)?,
-            (Some(m), fresnel) => {
-                self.lens.trace_from_film_through(ray, lambda_nm, Some(&|x, y| m.at(x, y)), fresnel)?
-            }
-        };
-        Some(LensExit {
-            origin: self.to_camera_point(out.origin),
-            direction: self.to_camera_vector(out.direction).normalize(),
-            weight: (weight * transmission) as f32,
+    /// The film ray traced out through the lens at each of `lambdas_nm` (side by side), in camera space.
+    fn exits<const N: usize>(&self, ray: LensRay, weight: f64, lambdas_nm: [f64; N]) -> [Option<LensExit>; N] {
+        let mask = self.mask.as_ref().map(|m| move |x: f64, y: f64| m.at(x, y));
+        let stop = mask.as_ref().map(|f| f as optics::StopMask<'_>);
+        self.lens.trace_from_film_many(ray, lambdas_nm, stop, self.fresnel).map(|out| {
+            out.map(|(out, transmission)| LensExit {
+                origin: self.to_camera_point(out.origin),
+                direction: self.to_camera_vector(out.direction).normalize(),
+                weight: (weight * transmission) as f32,
+            })
         })
     }
 
@@ -354,7 +351,8 @@ impl RealisticLens {
     /// `RealisticCamera::GenerateRay`); `None` if the lens stops it.
     pub fn ray(&self, film: Vec2, u: Vec2, lambda_nm: f64) -> Option<LensExit> {
         let (ray, weight) = self.film_ray(film, u)?;
-        self.exit(ray, weight, lambda_nm)
+        let [exit] = self.exits(ray, weight, [lambda_nm]);
+        exit
     }
 
     /// The camera rays of raster position `film` and lens sample `u` at each of `lambdas_nm`: one film ray (the
@@ -362,7 +360,7 @@ impl RealisticLens {
     pub fn rays<const N: usize>(&self, film: Vec2, u: Vec2, lambdas_nm: [f64; N]) -> [Option<LensExit>; N] {
         match self.film_ray(film, u) {
             None => [None; N],
-            Some((ray, weight)) => lambdas_nm.map(|l| self.exit(ray, weight, l)),
+            Some((ray, weight)) => self.exits(ray, weight, lambdas_nm),
         }
     }
 

@@ -180,8 +180,9 @@ impl CameraSample {
 /// The radiance camera sample `cs` brings to the film through `integrator`, times each ray's camera weight, and the
 /// wavelengths it is at. Through a dispersive lens the path splits at the lens, as at a dispersive refraction: each
 /// wavelength follows its own ray as a branch of its own (at its full density: every wavelength has a branch, none
-/// is selected), so no wavelength is dropped; `first_hit` hears the first branch's first surface. An integrator
-/// that does not split (`"bool splitdispersion" false`) keeps one wavelength chosen at random instead.
+/// is selected), so no wavelength is dropped; `first_hit` hears the first branch's first surface. (For an
+/// integrator that does not split, `"bool splitdispersion" false`, the camera sampler keeps one wavelength and its
+/// ray instead: [`CameraSampler::keeping_one_wavelength_through_dispersion`].)
 pub(crate) fn camera_sample_radiance<R: Radiance>(
     integrator: &R,
     tracer: &mut Tracer,
@@ -201,15 +202,6 @@ pub(crate) fn camera_sample_radiance<R: Radiance>(
             let l = finite_or_zero(integrator.li(tracer, ray, &mut wl, sampler, first_hit));
             (l * *filter * ray.weight, wl)
         }
-        CameraRays::PerWavelength(rays) if !integrator.splits_dispersion() => {
-            // One wavelength kept at random, at its density over the choice (as at a dispersive refraction).
-            let mut wl = cs.wl;
-            let Some(ray) = rays[wl.terminate_secondary(sampler.next_1d())] else {
-                return (SampledSpectrum::zero(), wl);
-            };
-            let l = finite_or_zero(integrator.li(tracer, &ray, &mut wl, sampler, first_hit));
-            (l * ray.weight, wl)
-        }
         CameraRays::PerWavelength(rays) => {
             let mut l = SampledSpectrum::zero();
             for (slot, ray) in rays.iter().enumerate() {
@@ -227,12 +219,27 @@ pub(crate) fn camera_sample_radiance<R: Radiance>(
 pub(crate) struct CameraSampler {
     filter: FilterSampler,
     wavelengths: WavelengthSampler,
+    /// Through a dispersive lens, keep one wavelength chosen at random (and trace its ray only) instead of giving
+    /// every wavelength its ray.
+    one_wavelength_through_dispersion: bool,
 }
 
 impl CameraSampler {
     /// The camera sampler of `film`.
     pub fn new(film: &Film) -> Result<Self, FilmError> {
-        Ok(Self { filter: FilterSampler::new(&film.spec().filter)?, wavelengths: film.wavelengths().clone() })
+        Ok(Self {
+            filter: FilterSampler::new(&film.spec().filter)?,
+            wavelengths: film.wavelengths().clone(),
+            one_wavelength_through_dispersion: false,
+        })
+    }
+
+    /// This sampler keeping, through a dispersive lens, one wavelength chosen at random with its density over the
+    /// choice (as at a dispersive refraction), and tracing that wavelength's ray only, when `one` (an integrator
+    /// whose `"bool splitdispersion"` is false).
+    pub fn keeping_one_wavelength_through_dispersion(mut self, one: bool) -> Self {
+        self.one_wavelength_through_dispersion = one;
+        self
     }
 
     /// The camera sample of pixel (`x`, `y`), drawing the first five dimensions of `sampler`: wavelengths (1),
@@ -255,14 +262,19 @@ impl CameraSampler {
         wl: Option<SampledWavelengths>,
     ) -> CameraSample {
         let own = self.wavelengths.sample(sampler.next_1d() as f64);
-        let wl = wl.unwrap_or(own);
+        let mut wl = wl.unwrap_or(own);
         let [u0, u1] = sampler.next_2d();
         let f = self.filter.sample([u0 as f64, u1 as f64]);
         let offset = Vec2::new(f.offset[0] as f32, f.offset[1] as f32);
         let time = scene.sample_time(sampler);
         let lens = Vec2::from(sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-        let rays = scene.camera.generate_rays(film, lens, time, &wl);
+        let rays = if self.one_wavelength_through_dispersion && scene.camera.is_dispersive() {
+            let slot = wl.terminate_secondary(sampler.next_1d());
+            CameraRays::Shared(scene.camera.generate_ray_at(film, lens, time, wl.lambda(slot) as f64))
+        } else {
+            scene.camera.generate_rays(film, lens, time, &wl)
+        };
         CameraSample { wl, weight: f.weight as f32, rays, film, lens, time }
     }
 
@@ -562,7 +574,9 @@ pub(crate) struct CameraPaths<'a, R: Radiance> {
 impl<'a, R: Radiance> CameraPaths<'a, R> {
     /// Camera paths of `integrator` through `scene` into films like `film`.
     pub fn new(integrator: R, scene: &'a RenderScene, film: &Film, seed: u32) -> Result<Self, FilmError> {
-        Ok(Self { integrator, scene, camera: CameraSampler::new(film)?, seed })
+        let camera =
+            CameraSampler::new(film)?.keeping_one_wavelength_through_dispersion(!integrator.splits_dispersion());
+        Ok(Self { integrator, scene, camera, seed })
     }
 
     /// Renders samples `samples` of every pixel into `film`, with albedo and normal AOVs and the geometry buffer if
