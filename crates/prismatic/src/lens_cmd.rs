@@ -196,5 +196,19 @@ mod tests {
         assert!((d(&dgauss).efl_mm - 50.0).abs() < 0.5 && (d(&dgauss).f_number - 2.0).abs() < 0.05, "{:?}", d(&dgauss));
         assert!(d(&dgauss).focus_behind_film_mm.abs() < 0.05);
         assert!((d(&singlet).efl_mm - 100.0).abs() < 0.5);
+        // The fluorite-crown apochromat: F and C focus together, and g (435.83 nm) lands within f/5000 of them, less
+        // than a fifth of the achromat's g − F shift scaled to the same focal length.
+        let apo = read("apochromat-200mm.dat");
+        let g_minus_f = |lens: &LensPrescription| {
+            lens.paraxial(435.8343).unwrap().bfl_mm - lens.paraxial(LAMBDA_F_NM).unwrap().bfl_mm
+        };
+        let f = d(&apo).efl_mm;
+        assert!((f - 206.4).abs() < 0.5 && colour(&apo).abs() < 1e-3, "{f} {}", colour(&apo));
+        let scaled = g_minus_f(&achromat) * f / d(&achromat).efl_mm;
+        assert!(
+            g_minus_f(&apo).abs() < f / 5000.0 && g_minus_f(&apo).abs() < scaled.abs() / 5.0,
+            "{} vs {scaled}",
+            g_minus_f(&apo)
+        );
     }
 }
