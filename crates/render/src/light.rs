@@ -1,4 +1,5 @@
-//! Light sources: point, spot, distant, uniform and image infinite lights, and diffuse area lights.
+//! Light sources: point, spot, distant (a direction, or a disc of directions such as the sun's), uniform and image
+//! infinite lights, and diffuse area lights.
 //!
 //! Emission spectra arrive already scaled to pbrt-v4's photometric convention (see `scene_build`): a light
 //! spectrum is divided by its luminance before `scale` applies, so `"rgb L" [1 1 1]` is one nit.
@@ -118,6 +119,23 @@ pub enum Light {
         /// Radius of the scene's bounding sphere (for power).
         scene_radius: f32,
     },
+    /// A light at infinity of finite angular size: uniform radiance `l` from a disc of directions (a cone of
+    /// half-angle θ_max about `frame.z`, towards the light), such as the sun's 0.53°. Prismatic's `"float angle"` on
+    /// a distant light, whose irradiance it keeps: `l` is the distant light's radiance over π sin²θ_max.
+    DistantDisc {
+        /// Frame whose z points towards the disc's centre.
+        frame: Frame,
+        /// Radiance of the disc (scaled).
+        l: Spectrum,
+        /// 1 − cos θ_max, kept apart from cos θ_max: for the sun it is 1.07e-5, which 1 − (cos θ_max as f32) would
+        /// give only to a few per cent.
+        one_minus_cos: f32,
+        /// sin²θ_max, for the test of a direction against the disc's rim (by the cross product, exact near the
+        /// centre where the dot product is 1 to within rounding).
+        sin2_max: f32,
+        /// Radius of the scene's bounding sphere (for power).
+        scene_radius: f32,
+    },
     /// Constant radiance from every direction.
     UniformInfinite {
         /// Radiance (scaled).
@@ -185,9 +203,25 @@ impl Light {
     pub fn is_infinite(&self) -> bool {
         // A full match (not `matches!`): a new light must say whether escaping rays see it.
         match self {
-            Light::UniformInfinite { .. } | Light::ImageInfinite { .. } => true,
+            Light::UniformInfinite { .. } | Light::ImageInfinite { .. } | Light::DistantDisc { .. } => true,
             Light::Point { .. } | Light::Spot { .. } | Light::Distant { .. } | Light::DiffuseArea { .. } => false,
         }
+    }
+
+    /// For a light at infinity of finite size, whether unit direction `w` (towards the light) falls on its disc.
+    fn disc_contains(frame: &Frame, sin2_max: f32, w: Vec3) -> bool {
+        w.dot(frame.z) > 0.0 && w.cross(frame.z).length_squared() <= sin2_max
+    }
+
+    /// A direction in the cone of `1 − cos θ_max` = `one_minus_cos` about `frame.z`, uniform in solid angle, and its
+    /// density 1/(2π(1 − cos θ_max)).
+    fn sample_disc(frame: &Frame, one_minus_cos: f32, u: Vec2) -> (Vec3, f32) {
+        // cos θ = 1 − u(1 − cos θ_max); sin θ from 1 − cos θ directly, precise for small cones.
+        let a = u.x * one_minus_cos;
+        let sin_t = (a * (2.0 - a)).max(0.0).sqrt();
+        let phi = 2.0 * PI * u.y;
+        let w = frame.from_local(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), 1.0 - a));
+        (w, 1.0 / (2.0 * PI * one_minus_cos))
     }
 
     /// Samples incident light at `ctx` with `u`.
@@ -234,6 +268,18 @@ impl Light {
                 delta: true,
                 n: Vec3::ZERO,
             }),
+            Light::DistantDisc { frame, l, one_minus_cos, .. } => {
+                let (wi, pdf) = Self::sample_disc(frame, *one_minus_cos, u);
+                Some(LightLiSample {
+                    l: l.sample(wl),
+                    wi,
+                    pdf,
+                    dist: f32::INFINITY,
+                    p: Vec3::ZERO,
+                    delta: false,
+                    n: Vec3::ZERO,
+                })
+            }
             Light::UniformInfinite { l, .. } => {
                 let wi = sample_uniform_sphere(u);
                 Some(LightLiSample {
@@ -341,6 +387,11 @@ impl Light {
                 let (o, d, pdf_pos) = from_infinity(*w);
                 LightLeSample { o, d, l: l.sample(wl), surface: None, pdf_pos, pdf_dir: 1.0 }
             }
+            Light::DistantDisc { frame, l, one_minus_cos, .. } => {
+                let (w, pdf_dir) = Self::sample_disc(frame, *one_minus_cos, u_dir);
+                let (o, d, pdf_pos) = from_infinity(w);
+                LightLeSample { o, d, l: l.sample(wl), surface: None, pdf_pos, pdf_dir }
+            }
             Light::UniformInfinite { l, .. } => {
                 let w = sample_uniform_sphere(u_dir);
                 let (o, d, pdf_pos) = from_infinity(w);
@@ -395,6 +446,7 @@ impl Light {
             Light::Point { .. } | Light::Spot { .. } | Light::DiffuseArea { invisible: true, .. } => true,
             Light::DiffuseArea { invisible: false, .. }
             | Light::Distant { .. }
+            | Light::DistantDisc { .. }
             | Light::UniformInfinite { .. }
             | Light::ImageInfinite { .. } => false,
         }
@@ -408,6 +460,7 @@ impl Light {
             Light::Point { .. }
             | Light::Spot { .. }
             | Light::DiffuseArea { .. }
+            | Light::DistantDisc { .. }
             | Light::UniformInfinite { .. }
             | Light::ImageInfinite { .. } => false,
         }
@@ -426,7 +479,9 @@ impl Light {
                 (0.0, if inside { 1.0 / (2.0 * PI * (1.0 - cos_falloff_end)) } else { 0.0 })
             }
             Light::Distant { .. } => (disk, 0.0),
-            Light::UniformInfinite { .. } | Light::ImageInfinite { .. } => (disk, self.pdf_li_infinite(-w)),
+            Light::UniformInfinite { .. } | Light::ImageInfinite { .. } | Light::DistantDisc { .. } => {
+                (disk, self.pdf_li_infinite(-w))
+            }
             Light::DiffuseArea { shape, element, two_sided, .. } => {
                 let area = shape.area(*element as usize);
                 let pos = if area > 0.0 { 1.0 / area } else { 0.0 };
@@ -448,6 +503,7 @@ impl Light {
             Light::Point { .. }
             | Light::Spot { .. }
             | Light::Distant { .. }
+            | Light::DistantDisc { .. }
             | Light::UniformInfinite { .. }
             | Light::ImageInfinite { .. } => 0.0,
         }
@@ -457,6 +513,13 @@ impl Light {
     pub fn pdf_li_infinite(&self, w: Vec3) -> f32 {
         match self {
             Light::UniformInfinite { .. } => 1.0 / (4.0 * PI),
+            Light::DistantDisc { frame, one_minus_cos, sin2_max, .. } => {
+                if Self::disc_contains(frame, *sin2_max, w) {
+                    1.0 / (2.0 * PI * one_minus_cos)
+                } else {
+                    0.0
+                }
+            }
             Light::ImageInfinite { map, .. } => {
                 let local = map.frame.to_local(w);
                 let (uv, jac) = map.uv(local);
@@ -479,6 +542,7 @@ impl Light {
             Light::Point { .. }
             | Light::Spot { .. }
             | Light::Distant { .. }
+            | Light::DistantDisc { .. }
             | Light::UniformInfinite { .. }
             | Light::ImageInfinite { .. } => SampledSpectrum::zero(),
         }
@@ -488,6 +552,13 @@ impl Light {
     pub fn le(&self, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Light::UniformInfinite { l, .. } => l.sample(wl),
+            Light::DistantDisc { frame, l, sin2_max, .. } => {
+                if Self::disc_contains(frame, *sin2_max, w) {
+                    l.sample(wl)
+                } else {
+                    SampledSpectrum::zero()
+                }
+            }
             Light::ImageInfinite { map, scale, .. } => {
                 let (uv, _) = map.uv(map.frame.to_local(w));
                 map.lookup(uv, wl) * *scale
@@ -508,6 +579,10 @@ impl Light {
                 2.0 * pi * y(i) * (1.0 - 0.5 * ((cos_falloff_start + cos_falloff_end) as f64))
             }
             Light::Distant { l, scene_radius, .. } => pi * (*scene_radius as f64).powi(2) * y(l),
+            // The disc's irradiance π sin²θ_max · L through the scene's cross-section.
+            Light::DistantDisc { l, sin2_max, scene_radius, .. } => {
+                pi * (*scene_radius as f64).powi(2) * pi * *sin2_max as f64 * y(l)
+            }
             Light::UniformInfinite { l, scene_radius } => 4.0 * pi * pi * (*scene_radius as f64).powi(2) * y(l),
             Light::ImageInfinite { map, scale, scene_radius } => {
                 4.0 * pi * pi * (*scene_radius as f64).powi(2) * (*scale as f64) * map.average_luminance() as f64

@@ -122,7 +122,32 @@ fn light(le: &scene::LightEntity, scene_radius: f32, warnings: &mut Vec<String>)
                 .ok_or_else(|| SceneError::at(e.loc.clone(), "distant light 'from' equals 'to'"))?;
             let e_v = p.get_float("illuminance", -1.0)?;
             let k = if e_v > 0.0 { e_v } else { 1.0 };
-            Light::Distant { w, l: normalise_emission(&e.loc, l, scale * k)?, scene_radius }
+            // Prismatic's extension: the light's angular diameter in degrees (the sun's is about 0.53); 0 is pbrt-v4's
+            // single direction. The disc keeps the irradiance: its radiance is L / (π sin²θ_max).
+            let angle = p.get_float("angle", 0.0)?;
+            if !(angle.is_finite() && (0.0..180.0).contains(&angle)) {
+                return err(
+                    &p.loc_of("angle", &e.loc),
+                    format!("'angle' (the light's angular diameter) must be in [0, 180) degrees, got {angle}"),
+                );
+            }
+            let l = normalise_emission(&e.loc, l, scale * k)?;
+            if angle == 0.0 {
+                Light::Distant { w, l, scene_radius }
+            } else {
+                let half = (0.5 * angle).to_radians();
+                let sin2_max = half.sin().powi(2);
+                // 1 − cos θ = 2 sin²(θ/2), without cancellation.
+                let one_minus_cos = 2.0 * (0.5 * half).sin().powi(2);
+                let l = l.scaled(1.0 / (std::f64::consts::PI * sin2_max));
+                Light::DistantDisc {
+                    frame: Frame::from_z(w),
+                    l,
+                    one_minus_cos: one_minus_cos as f32,
+                    sin2_max: sin2_max as f32,
+                    scene_radius,
+                }
+            }
         }
         "infinite" => {
             let e_v = p.get_float("illuminance", -1.0)?;

@@ -493,6 +493,7 @@ fn sample_light_end(light: &Light, x0: Vec3, u: Vec2) -> Option<(Vec3, Option<Ve
         // are left to path tracing).
         Light::DiffuseArea { alpha: Some(_), .. }
         | Light::Distant { .. }
+        | Light::DistantDisc { .. }
         | Light::UniformInfinite { .. }
         | Light::ImageInfinite { .. } => None,
     }
@@ -515,6 +516,7 @@ fn light_end_supported(light: &Light, x0: Vec3, y: Vec3) -> bool {
         Light::Point { .. }
         | Light::Spot { .. }
         | Light::Distant { .. }
+        | Light::DistantDisc { .. }
         | Light::UniformInfinite { .. }
         | Light::ImageInfinite { .. }
         | Light::DiffuseArea { alpha: Some(_), .. } => false,
