@@ -350,3 +350,12 @@ AttributeEnd
         }
     }
 }
+
+#[test]
+fn a_projective_cameras_parameters_are_unused_by_a_realistic_one() {
+    // pbrt-v4's realistic camera reads no field of view, screen window or thin lens: given, they are reported.
+    let built = camera_scene("unused", SINGLET, "\"float fov\" 40 \"float lensradius\" 0.1", "path").unwrap();
+    for name in ["fov", "lensradius"] {
+        assert!(built.warnings.iter().any(|w| w.contains("unused") && w.contains(name)), "{:?}", built.warnings);
+    }
+}

@@ -95,19 +95,26 @@ fn make_realistic(e: &Entity, res: (u32, u32), diagonal_mm: f64, warnings: &mut 
 pub(super) fn make_camera(desc: &SceneDescription, res: (u32, u32), warnings: &mut Vec<String>) -> Result<Camera> {
     let e = &desc.camera.entity;
     let p = &e.params;
-    let aspect = p.get_float("frameaspectratio", res.0 as f64 / res.1 as f64)? as f32;
-    let window = match p.get_floats("screenwindow") {
-        Some(s) if s.len() == 4 => {
-            ScreenWindow { x_min: s[0] as f32, x_max: s[1] as f32, y_min: s[2] as f32, y_max: s[3] as f32 }
+    // The screen window and thin lens belong to pbrt-v4's projective cameras; a realistic camera does not read them
+    // (so, given, they are reported unused).
+    let (window, lens_radius, focal) = if e.name == "realistic" {
+        (ScreenWindow::for_aspect(res.0 as f32 / res.1 as f32), 0.0, 1.0)
+    } else {
+        let aspect = p.get_float("frameaspectratio", res.0 as f64 / res.1 as f64)? as f32;
+        let window = match p.get_floats("screenwindow") {
+            Some(s) if s.len() == 4 => {
+                ScreenWindow { x_min: s[0] as f32, x_max: s[1] as f32, y_min: s[2] as f32, y_max: s[3] as f32 }
+            }
+            Some(s) => return err(&e.loc, format!("'screenwindow' needs 4 values, got {}", s.len())),
+            None => ScreenWindow::for_aspect(aspect),
+        };
+        let lens_radius = p.get_float("lensradius", 0.0)?;
+        let focal = p.get_float("focaldistance", 1e6)?;
+        if lens_radius < 0.0 || focal.is_nan() || focal <= 0.0 {
+            return err(&e.loc, "'lensradius' must be ≥ 0 and 'focaldistance' > 0");
         }
-        Some(s) => return err(&e.loc, format!("'screenwindow' needs 4 values, got {}", s.len())),
-        None => ScreenWindow::for_aspect(aspect),
+        (window, lens_radius, focal)
     };
-    let lens_radius = p.get_float("lensradius", 0.0)?;
-    let focal = p.get_float("focaldistance", 1e6)?;
-    if lens_radius < 0.0 || focal.is_nan() || focal <= 0.0 {
-        return err(&e.loc, "'lensradius' must be ≥ 0 and 'focaldistance' > 0");
-    }
     let projection = match e.name.as_str() {
         "perspective" => {
             let fov = p.get_float("fov", 90.0)?;
