@@ -134,5 +134,28 @@ impl Drop for Scratch {
 /// The lens-file reader (pbrt-v4's lens files with Prismatic's glass names, Abbe pairs and coatings), on the bytes as
 /// text (invalid UTF-8 replaced, as a reader of a text file would see it).
 pub fn lens(data: &[u8]) {
-    report("lens", optics::LensPrescription::parse(&String::from_utf8_lossy(data)));
+    let parsed = optics::LensPrescription::parse(&String::from_utf8_lossy(data));
+    if let Ok(lens) = &parsed {
+        // What `prismatic lens` and the realistic camera then do with it (with small grids: the limit is 1 s an
+        // input): first-order figures, focusing, exit-pupil boxes, and rays out through the surfaces with their
+        // coatings' transmittance, at the ends and middle of the spectrum.
+        let lambdas = [360.0, 587.5618, 830.0];
+        for &l in &lambdas {
+            let _ = lens.paraxial(l);
+            let _ = lens.cardinal_points(l);
+            let _ = lens.lateral_colour(486.1327, 656.2725, l, 10.0);
+        }
+        let lens = lens.focused(2000.0, 587.5618).unwrap_or_else(|_| lens.clone());
+        for ring in [(0.0, 0.5), (10.0, 10.5)] {
+            if let Some(b) = lens.exit_pupil_bounds(ring, &lambdas, (2, 8)) {
+                let z = lens.length_mm();
+                let rear = z - lens.surfaces.last().map_or(0.0, |s| s.thickness_mm);
+                let aim = [0.5 * (b[0] + b[1]) - ring.0, 0.5 * (b[2] + b[3]), rear - z];
+                let n = (aim[0] * aim[0] + aim[1] * aim[1] + aim[2] * aim[2]).sqrt();
+                let ray = optics::LensRay { origin: [ring.0, 0.0, z], direction: aim.map(|v| v / n) };
+                let _ = lens.trace_from_film_many(ray, lambdas, Some(&|x: f64, y: f64| 1.0 - x * x - y * y), true);
+            }
+        }
+    }
+    report("lens", parsed);
 }
