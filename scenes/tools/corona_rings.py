@@ -29,23 +29,18 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("scene", nargs="?", default=os.path.join(ROOT, "scenes", "corona.pbrt"))
-    ap.add_argument("--spp", type=int, default=32)
-    ap.add_argument("--prismatic", default=os.path.join(ROOT, "target", "release", "prismatic"))
-    args = ap.parse_args()
-
-    text = open(args.scene).read()
+def ring_profiles(scene_path, spp, prismatic):
+    """Renders `scene_path` on a spectral film of 20 nm buckets from 420 to 680 nm and returns the scene's text, the
+    ring centres (degrees from the image's centre, 0.05 degrees apart) and, per bucket, (λ, mean over each ring)."""
+    text = open(scene_path).read()
     fov = float(re.search(r'"float fov"\s+([0-9.]+)', text).group(1))
-    radius_um = float(re.search(r'"float radius"\s+([0-9.]+)', text).group(1))
-    text = re.sub(r'Film "rgb"', 'Film "spectral" "integer nbuckets" 13 "float lambdamin" 420 "float lambdamax" 680', text)
+    spectral = re.sub(r'Film "rgb"', 'Film "spectral" "integer nbuckets" 13 "float lambdamin" 420 "float lambdamax" 680', text)
     with tempfile.TemporaryDirectory() as tmp:
-        scene = os.path.join(os.path.dirname(os.path.abspath(args.scene)), ".corona_rings.pbrt")
-        out = os.path.join(tmp, "corona.exr")
+        scene = os.path.join(os.path.dirname(os.path.abspath(scene_path)), ".ring_profiles.pbrt")
+        out = os.path.join(tmp, "rings.exr")
         try:
-            open(scene, "w").write(text)
-            subprocess.run([args.prismatic, "render", scene, "-o", out, "--spp", str(args.spp), "--quiet"], check=True)
+            open(scene, "w").write(spectral)
+            subprocess.run([prismatic, "render", scene, "-o", out, "--spp", str(spp), "--quiet"], check=True)
         finally:
             if os.path.exists(scene):
                 os.remove(scene)
@@ -66,19 +61,32 @@ def main():
         n = ring.max() + 1
         centres = (np.arange(n) + 0.5) * step
         counts = np.bincount(ring.ravel(), minlength=n)
-        print(f"rings of {os.path.relpath(args.scene, ROOT)} ({args.spp} spp), degrees from the moon, per 20 nm bucket;")
-        print(f"Airy's for droplets of {radius_um:g} um: first minimum sin = 1.22 l/(2a), first bright ring 1.635 l/(2a)")
-        print(f"{'λ (nm)':>8} {'minimum':>9} {'Airy':>7} {'ring':>7} {'Airy':>7}")
+        profiles = []
         for lam, name in buckets:
             img = np.asarray(channels[name].pixels, dtype=np.float64)
             profile = np.bincount(ring.ravel(), weights=img.ravel(), minlength=n) / np.maximum(counts, 1)
             # Smoothed over five rings (0.25 degrees) against the noise, so that the first local extremum is a ring.
-            smooth = np.convolve(profile, np.ones(5) / 5.0, mode="same")
-            minimum = extremum(smooth, centres, 2.0, 6.0, np.argmin)
-            bright = extremum(smooth, centres, minimum + 0.2, 8.0, np.argmax)
-            airy_min = math.degrees(math.asin(1.22 * lam * 1e-3 / (2.0 * radius_um)))
-            airy_ring = math.degrees(math.asin(1.635 * lam * 1e-3 / (2.0 * radius_um)))
-            print(f"{lam:8.1f} {minimum:9.2f} {airy_min:7.2f} {bright:7.2f} {airy_ring:7.2f}")
+            profiles.append((lam, np.convolve(profile, np.ones(5) / 5.0, mode="same")))
+    return text, centres, profiles
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scene", nargs="?", default=os.path.join(ROOT, "scenes", "corona.pbrt"))
+    ap.add_argument("--spp", type=int, default=32)
+    ap.add_argument("--prismatic", default=os.path.join(ROOT, "target", "release", "prismatic"))
+    args = ap.parse_args()
+    text, centres, profiles = ring_profiles(args.scene, args.spp, args.prismatic)
+    radius_um = float(re.search(r'"float radius"\s+([0-9.]+)', text).group(1))
+    print(f"rings of {os.path.relpath(args.scene, ROOT)} ({args.spp} spp), degrees from the moon, per 20 nm bucket;")
+    print(f"Airy's for droplets of {radius_um:g} um: first minimum sin = 1.22 l/(2a), first bright ring 1.635 l/(2a)")
+    print(f"{'λ (nm)':>8} {'minimum':>9} {'Airy':>7} {'ring':>7} {'Airy':>7}")
+    for lam, smooth in profiles:
+        minimum = extremum(smooth, centres, 2.0, 6.0, np.argmin)
+        bright = extremum(smooth, centres, minimum + 0.2, 8.0, np.argmax)
+        airy_min = math.degrees(math.asin(1.22 * lam * 1e-3 / (2.0 * radius_um)))
+        airy_ring = math.degrees(math.asin(1.635 * lam * 1e-3 / (2.0 * radius_um)))
+        print(f"{lam:8.1f} {minimum:9.2f} {airy_min:7.2f} {bright:7.2f} {airy_ring:7.2f}")
 
 
 def extremum(profile, centres, lo, hi, pick):
