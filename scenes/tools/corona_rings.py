@@ -18,55 +18,34 @@ import argparse
 import math
 import os
 import re
-import subprocess
 import sys
-import tempfile
 
 import numpy as np
-import OpenEXR
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from spectral_render import PRISMATIC, ROOT, render_buckets  # noqa: E402
 
 
 def ring_profiles(scene_path, spp, prismatic):
     """Renders `scene_path` on a spectral film of 20 nm buckets from 420 to 680 nm and returns the scene's text, the
-    ring centres (degrees from the image's centre, 0.05 degrees apart) and, per bucket, (λ, mean over each ring)."""
+    ring centres (degrees from the image's centre, 0.05 degrees apart) and, per bucket, (λ, mean over each ring,
+    smoothed over five rings, 0.25 degrees, against the noise, so that the first local extremum is a ring)."""
     text = open(scene_path).read()
     fov = float(re.search(r'"float fov"\s+([0-9.]+)', text).group(1))
-    spectral = re.sub(r'Film "rgb"', 'Film "spectral" "integer nbuckets" 13 "float lambdamin" 420 "float lambdamax" 680', text)
-    with tempfile.TemporaryDirectory() as tmp:
-        scene = os.path.join(os.path.dirname(os.path.abspath(scene_path)), ".ring_profiles.pbrt")
-        out = os.path.join(tmp, "rings.exr")
-        try:
-            open(scene, "w").write(spectral)
-            subprocess.run([prismatic, "render", scene, "-o", out, "--spp", str(spp), "--quiet"], check=True)
-        finally:
-            if os.path.exists(scene):
-                os.remove(scene)
-        exr = OpenEXR.File(out)
-        channels = exr.channels()
-        buckets = sorted(
-            # Channel names are S0.<λ>nm with a decimal comma (the spectral EXR convention, Fichet et al. 2021).
-            (float(re.match(r"S0\.([0-9]+)", name).group(1)), name)
-            for name in channels
-            if name.startswith("S0.")
-        )
-        h, w = channels[buckets[0][1]].pixels.shape
-        yy, xx = np.mgrid[0:h, 0:w]
-        dist = np.hypot(xx + 0.5 - w / 2.0, yy + 0.5 - h / 2.0) / (w / 2.0)
-        angle = np.degrees(np.arctan(dist * math.tan(math.radians(fov / 2.0))))
-        step = 0.05
-        ring = np.floor(angle / step).astype(int)
-        n = ring.max() + 1
-        centres = (np.arange(n) + 0.5) * step
-        counts = np.bincount(ring.ravel(), minlength=n)
-        profiles = []
-        for lam, name in buckets:
-            img = np.asarray(channels[name].pixels, dtype=np.float64)
-            profile = np.bincount(ring.ravel(), weights=img.ravel(), minlength=n) / np.maximum(counts, 1)
-            # Smoothed over five rings (0.25 degrees) against the noise, so that the first local extremum is a ring.
-            profiles.append((lam, np.convolve(profile, np.ones(5) / 5.0, mode="same")))
+    images = render_buckets(scene_path, text, spp, prismatic, (13, 420, 680))
+    h, w = images[0][1].shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    dist = np.hypot(xx + 0.5 - w / 2.0, yy + 0.5 - h / 2.0) / (w / 2.0)
+    angle = np.degrees(np.arctan(dist * math.tan(math.radians(fov / 2.0))))
+    step = 0.05
+    ring = np.floor(angle / step).astype(int)
+    n = ring.max() + 1
+    centres = (np.arange(n) + 0.5) * step
+    counts = np.bincount(ring.ravel(), minlength=n)
+    profiles = []
+    for lam, img in images:
+        profile = np.bincount(ring.ravel(), weights=img.ravel(), minlength=n) / np.maximum(counts, 1)
+        profiles.append((lam, np.convolve(profile, np.ones(5) / 5.0, mode="same")))
     return text, centres, profiles
 
 
@@ -74,7 +53,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("scene", nargs="?", default=os.path.join(ROOT, "scenes", "corona.pbrt"))
     ap.add_argument("--spp", type=int, default=32)
-    ap.add_argument("--prismatic", default=os.path.join(ROOT, "target", "release", "prismatic"))
+    ap.add_argument("--prismatic", default=PRISMATIC)
     args = ap.parse_args()
     text, centres, profiles = ring_profiles(args.scene, args.spp, args.prismatic)
     radius_um = float(re.search(r'"float radius"\s+([0-9.]+)', text).group(1))

@@ -18,7 +18,8 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from corona_rings import ROOT, extremum, ring_profiles  # noqa: E402
+from corona_rings import extremum, ring_profiles  # noqa: E402
+from spectral_render import PRISMATIC, ROOT  # noqa: E402
 
 
 def mie_rings(radius_um, spread, lam_nm, width_nm=20.0):
@@ -49,7 +50,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("scene", nargs="?", default=os.path.join(ROOT, "scenes", "glory.pbrt"))
     ap.add_argument("--spp", type=int, default=32)
-    ap.add_argument("--prismatic", default=os.path.join(ROOT, "target", "release", "prismatic"))
+    ap.add_argument("--prismatic", default=PRISMATIC)
     args = ap.parse_args()
     text, centres, profiles = ring_profiles(args.scene, args.spp, args.prismatic)
     radius_um = float(re.search(r'"float radius"\s+([0-9.]+)', text).group(1))

@@ -19,15 +19,12 @@ import argparse
 import math
 import os
 import re
-import subprocess
 import sys
-import tempfile
 
 import numpy as np
-import OpenEXR
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from spectral_render import PRISMATIC, ROOT, render_buckets  # noqa: E402
 
 # The geometry of scenes/rainbow.pbrt: camera pitched atan(0.25) = 14.04 degrees up (LookAt 0 1.7 0 to 0 1.95 1),
 # sun 8 degrees high (distant light from (0, sin 8°, -cos 8°)); the field of view is read from the scene.
@@ -39,42 +36,23 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("scene", nargs="?", default=os.path.join(ROOT, "scenes", "rainbow.pbrt"))
     ap.add_argument("--spp", type=int, default=32)
-    ap.add_argument("--prismatic", default=os.path.join(ROOT, "target", "release", "prismatic"))
+    ap.add_argument("--prismatic", default=PRISMATIC)
     args = ap.parse_args()
 
     text = open(args.scene).read()
     fov = float(re.search(r'"float fov"\s+([0-9.]+)', text).group(1))
-    text = re.sub(r'Film "rgb"', 'Film "spectral" "integer nbuckets" 15 "float lambdamin" 400 "float lambdamax" 700', text)
     text = re.sub(r'"integer maxdepth"\s+\d+', '"integer maxdepth" 1', text)
-    with tempfile.TemporaryDirectory() as tmp:
-        scene = os.path.join(os.path.dirname(os.path.abspath(args.scene)), ".rainbow_angles.pbrt")
-        out = os.path.join(tmp, "bows.exr")
-        try:
-            open(scene, "w").write(text)
-            subprocess.run([args.prismatic, "render", scene, "-o", out, "--spp", str(args.spp), "--quiet"], check=True)
-        finally:
-            if os.path.exists(scene):
-                os.remove(scene)
-        exr = OpenEXR.File(out)
-        channels = exr.channels()
-        buckets = sorted(
-            # Channel names are S0.<λ>nm with a decimal comma (the spectral EXR convention, Fichet et al. 2021).
-            (float(re.match(r"S0\.([0-9]+)", name).group(1)), name)
-            for name in channels
-            if name.startswith("S0.")
-        )
-        first = channels[buckets[0][1]].pixels
-        h, w = first.shape
-        rows = np.arange(h)
-        half = math.tan(math.radians(fov / 2.0))
-        angle = PITCH_DEG + np.degrees(np.arctan((h / 2.0 - rows - 0.5) / (h / 2.0) * half)) + SUN_ELEVATION_DEG
-        print(f"rendered bows of {os.path.relpath(args.scene, ROOT)} (single scattering, {args.spp} spp), degrees")
-        print("from the antisolar point, brightest row per 20 nm bucket:")
-        print(f"{'λ (nm)':>10} {'primary':>10} {'secondary':>10}")
-        for lam, name in buckets:
-            img = np.asarray(channels[name].pixels, dtype=np.float64)
-            profile = img[:, w // 2 - 10 : w // 2 + 11].mean(axis=1)
-            print(f"{lam:10.1f} {peak(profile, angle, 36, 46):10.2f} {peak(profile, angle, 48, 58):10.2f}")
+    images = render_buckets(args.scene, text, args.spp, args.prismatic, (15, 400, 700))
+    h, w = images[0][1].shape
+    rows = np.arange(h)
+    half = math.tan(math.radians(fov / 2.0))
+    angle = PITCH_DEG + np.degrees(np.arctan((h / 2.0 - rows - 0.5) / (h / 2.0) * half)) + SUN_ELEVATION_DEG
+    print(f"rendered bows of {os.path.relpath(args.scene, ROOT)} (single scattering, {args.spp} spp), degrees")
+    print("from the antisolar point, brightest row per 20 nm bucket:")
+    print(f"{'λ (nm)':>10} {'primary':>10} {'secondary':>10}")
+    for lam, img in images:
+        profile = img[:, w // 2 - 10 : w // 2 + 11].mean(axis=1)
+        print(f"{lam:10.1f} {peak(profile, angle, 36, 46):10.2f} {peak(profile, angle, 48, 58):10.2f}")
 
 
 def peak(profile, angle, lo, hi):

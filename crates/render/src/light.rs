@@ -41,6 +41,14 @@ pub struct LightLiSample {
     pub n: Vec3,
 }
 
+impl LightLiSample {
+    /// A sample of a light at infinity: radiance `l` from unit direction `wi` with density `pdf` (1 for a delta
+    /// direction, `delta`).
+    fn at_infinity(l: SampledSpectrum, wi: Vec3, pdf: f32, delta: bool) -> Self {
+        Self { l, wi, pdf, dist: f32::INFINITY, p: Vec3::ZERO, delta, n: Vec3::ZERO }
+    }
+}
+
 /// A ray of light leaving a light source, for light tracing and photon mapping.
 #[derive(Clone, Copy, Debug)]
 pub struct LightLeSample {
@@ -259,38 +267,13 @@ impl Light {
                     n: Vec3::ZERO,
                 })
             }
-            Light::Distant { w, l, .. } => Some(LightLiSample {
-                l: l.sample(wl),
-                wi: *w,
-                pdf: 1.0,
-                dist: f32::INFINITY,
-                p: Vec3::ZERO,
-                delta: true,
-                n: Vec3::ZERO,
-            }),
+            Light::Distant { w, l, .. } => Some(LightLiSample::at_infinity(l.sample(wl), *w, 1.0, true)),
             Light::DistantDisc { frame, l, one_minus_cos, .. } => {
                 let (wi, pdf) = Self::sample_disc(frame, *one_minus_cos, u);
-                Some(LightLiSample {
-                    l: l.sample(wl),
-                    wi,
-                    pdf,
-                    dist: f32::INFINITY,
-                    p: Vec3::ZERO,
-                    delta: false,
-                    n: Vec3::ZERO,
-                })
+                Some(LightLiSample::at_infinity(l.sample(wl), wi, pdf, false))
             }
             Light::UniformInfinite { l, .. } => {
-                let wi = sample_uniform_sphere(u);
-                Some(LightLiSample {
-                    l: l.sample(wl),
-                    wi,
-                    pdf: 1.0 / (4.0 * PI),
-                    dist: f32::INFINITY,
-                    p: Vec3::ZERO,
-                    delta: false,
-                    n: Vec3::ZERO,
-                })
+                Some(LightLiSample::at_infinity(l.sample(wl), sample_uniform_sphere(u), 1.0 / (4.0 * PI), false))
             }
             Light::ImageInfinite { map, scale, .. } => {
                 let s = map.distribution.sample([u.x as f64, u.y as f64]);
@@ -298,15 +281,7 @@ impl Light {
                 let (w_local, jac) = map.direction(uv)?;
                 let pdf = s.pdf as f32 / jac;
                 let wi = map.frame.from_local(w_local);
-                (pdf > 0.0).then(|| LightLiSample {
-                    l: map.lookup(uv, wl) * *scale,
-                    wi,
-                    pdf,
-                    dist: f32::INFINITY,
-                    p: Vec3::ZERO,
-                    delta: false,
-                    n: Vec3::ZERO,
-                })
+                (pdf > 0.0).then(|| LightLiSample::at_infinity(map.lookup(uv, wl) * *scale, wi, pdf, false))
             }
             Light::DiffuseArea { shape, element, l, two_sided, alpha, invisible } => {
                 // Only an alpha texture needs the point's uv: without one, the sample skips it.
