@@ -150,9 +150,7 @@ pub fn lens(data: &[u8]) {
             if let Some(b) = lens.exit_pupil_bounds(ring, &lambdas, (2, 8)) {
                 let z = lens.length_mm();
                 let rear = z - lens.surfaces.last().map_or(0.0, |s| s.thickness_mm);
-                let aim = [0.5 * (b[0] + b[1]) - ring.0, 0.5 * (b[2] + b[3]), rear - z];
-                let n = (aim[0] * aim[0] + aim[1] * aim[1] + aim[2] * aim[2]).sqrt();
-                let ray = optics::LensRay { origin: [ring.0, 0.0, z], direction: aim.map(|v| v / n) };
+                let ray = optics::LensRay::towards([ring.0, 0.0, z], [0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]), rear]);
                 let _ = lens.trace_from_film_many(ray, lambdas, Some(&|x: f64, y: f64| 1.0 - x * x - y * y), true);
             }
         }

@@ -526,9 +526,7 @@ impl LensPrescription {
                         if bounds.is_some_and(|b| x >= b[0] && x <= b[1] && y >= b[2] && y <= b[3]) {
                             continue;
                         }
-                        let d = [x - r, y, z_last - z_film];
-                        let len = dot(d, d).sqrt();
-                        let ray = LensRay { origin: [r, 0.0, z_film], direction: [d[0] / len, d[1] / len, d[2] / len] };
+                        let ray = LensRay::towards([r, 0.0, z_film], [x, y, z_last]);
                         if lambdas_nm.iter().any(|&l| self.trace(ray, l, false, None, false).is_some()) {
                             let b = bounds.get_or_insert([x, x, y, y]);
                             *b = [b[0].min(x), b[1].max(x), b[2].min(y), b[3].max(y)];
@@ -557,6 +555,15 @@ pub struct LensRay {
     pub origin: [f64; 3],
     /// Its unit direction.
     pub direction: [f64; 3],
+}
+
+impl LensRay {
+    /// The ray from `origin` towards the point `target` (which must differ from it).
+    pub fn towards(origin: [f64; 3], target: [f64; 3]) -> Self {
+        let d = [target[0] - origin[0], target[1] - origin[1], target[2] - origin[2]];
+        let len = dot(d, d).sqrt();
+        Self { origin, direction: [d[0] / len, d[1] / len, d[2] / len] }
+    }
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {

@@ -81,11 +81,10 @@ fn make_realistic(e: &Entity, res: (u32, u32), diagonal_mm: f64, warnings: &mut 
     };
     let (lens, clamped) = RealisticLens::new(params)
         .map_err(|m| scene::SceneError::at(e.loc.clone(), format!("camera \"realistic\" ({}): {m}", path.display())))?;
-    if clamped {
+    if let Some(stop_mm) = clamped {
         warnings.push(format!(
-            "{}: warning: 'aperturediameter' {aperture_diameter_mm} mm is larger than the stop's {} mm: clamped",
+            "{}: warning: 'aperturediameter' {aperture_diameter_mm} mm is larger than the stop's {stop_mm} mm: clamped",
             p.loc_of("aperturediameter", &e.loc),
-            lens.prescription().surfaces[lens.prescription().stop().unwrap_or(0)].aperture_mm
         ));
     }
     Ok(Projection::Realistic(Arc::new(lens)))

@@ -86,8 +86,8 @@ pub struct CameraRay {
 pub enum CameraRays {
     /// One ray for every wavelength.
     Shared(Option<CameraRay>),
-    /// One ray for every wavelength, its weight further multiplied per wavelength (a lens whose coatings filter the
-    /// light but whose glass does not disperse).
+    /// One ray for every wavelength (of weight 1) and the camera's weight per wavelength (a lens whose coatings
+    /// filter the light but whose glass does not disperse).
     Filtered(Option<CameraRay>, SampledSpectrum),
     /// A ray per wavelength slot.
     PerWavelength([Option<CameraRay>; N_WAVELENGTHS]),
@@ -272,12 +272,10 @@ impl Camera {
                 if l.is_dispersive() {
                     return CameraRays::PerWavelength(rays);
                 }
-                // One path for all: the first ray that got through, each wavelength's weight relative to its.
-                let Some(first) = rays.iter().flatten().next().copied() else {
-                    return CameraRays::Filtered(None, SampledSpectrum::zero());
-                };
-                let relative = SampledSpectrum(rays.map(|r| r.map_or(0.0, |r| r.weight / first.weight)));
-                CameraRays::Filtered(Some(first), relative)
+                // One path for all along the first ray that got through, the weights kept per wavelength.
+                let weights = SampledSpectrum(rays.map(|r| r.map_or(0.0, |r| r.weight)));
+                let first = rays.iter().flatten().next().map(|r| CameraRay { weight: 1.0, ..*r });
+                CameraRays::Filtered(first, weights)
             }
             Projection::Perspective { .. } | Projection::Orthographic | Projection::Realistic(_) => {
                 CameraRays::Shared(self.generate_ray(film, lens, time))

@@ -174,7 +174,8 @@ pub struct RealisticLens {
     /// A shaped diaphragm, if any.
     mask: Option<ApertureMask>,
     dispersive: bool,
-    /// Whether the rays' weights depend on the wavelength though their paths do not (coatings, constant indices).
+    /// Whether the rays' weights depend on the wavelength though their paths do not (coatings counted, no glass
+    /// that disperses).
     filters: bool,
     /// Whether each surface's Fresnel (and coating) transmittance weighs the rays.
     fresnel: bool,
@@ -215,18 +216,18 @@ pub struct RealisticParams {
 }
 
 impl RealisticLens {
-    /// Stops the lens down to `aperture_diameter_mm` (pbrt-v4 clamps a larger one to the stop's diameter; the
-    /// returned flag says it did), moves its film so that the plane `focus_distance_m` in front of the film is
+    /// Stops the lens down to `aperture_diameter_mm` (pbrt-v4 clamps a larger one to the stop's diameter, which is
+    /// then returned beside the lens), moves its film so that the plane `focus_distance_m` in front of the film is
     /// sharp (at [`FOCUS_WAVELENGTH_NM`]), and finds the exit pupil's box over each film ring. Errors say why no
     /// image can form: no stop, a focus too close, or a lens through which no ray from the film gets out.
-    pub fn new(p: RealisticParams) -> Result<(Self, bool), String> {
+    pub fn new(p: RealisticParams) -> Result<(Self, Option<f64>), String> {
         let mut lens = p.lens;
         let stop = lens.stop().ok_or("the lens file has no aperture stop (a row with radius 0 and index 0)")?;
         let stop_mm = lens.surfaces[stop].aperture_mm;
         if !(p.aperture_diameter_mm.is_finite() && p.aperture_diameter_mm > 0.0) {
             return Err(format!("'aperturediameter' must be a positive length in mm, got {}", p.aperture_diameter_mm));
         }
-        let clamped = p.aperture_diameter_mm > stop_mm;
+        let clamped = (p.aperture_diameter_mm > stop_mm).then_some(stop_mm);
         lens.surfaces[stop].aperture_mm = p.aperture_diameter_mm.min(stop_mm);
         if !(p.focus_distance_m.is_finite() && p.focus_distance_m > 0.0) {
             return Err(format!("'focusdistance' must be a positive distance, got {}", p.focus_distance_m));
@@ -235,7 +236,7 @@ impl RealisticLens {
         let dispersive = lens.surfaces.iter().any(|s| s.medium.is_dispersive());
         // With the surfaces' transmittance, coatings (interference) make even a lens of constant indices a filter
         // that depends on the wavelength: one ray, a weight per wavelength.
-        let filters = p.fresnel && lens.surfaces.iter().any(|s| !s.coating.is_empty());
+        let filters = p.fresnel && !dispersive && lens.surfaces.iter().any(|s| !s.coating.is_empty());
         // pbrt-v4's physical extent: the diagonal split by the full resolution's aspect ratio.
         let aspect = p.resolution.1 as f64 / p.resolution.0 as f64;
         let width = (p.film_diagonal_mm * p.film_diagonal_mm / (1.0 + aspect * aspect)).sqrt();
@@ -299,7 +300,7 @@ impl RealisticLens {
     /// True if the rays' weights depend on the wavelength (coatings counted through `"bool lenstransmission"`)
     /// though their paths do not (no glass disperses).
     pub fn filters_wavelengths(&self) -> bool {
-        self.filters && !self.dispersive
+        self.filters
     }
 
     /// The lens as focused and stopped down.
@@ -325,14 +326,11 @@ impl RealisticLens {
         let b = self.pupils[ring]?;
         let (lx, ly) = (b[0] + (b[1] - b[0]) * u.x as f64, b[2] + (b[3] - b[2]) * u.y as f64);
         let (sin, cos) = if r > 0.0 { (p[1] / r, p[0] / r) } else { (0.0, 1.0) };
-        let rear = [cos * lx - sin * ly, sin * lx + cos * ly, self.rear_vertex_mm];
-        let d = [rear[0] - p[0], rear[1] - p[1], rear[2] - p[2]];
-        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        let direction = [d[0] / len, d[1] / len, d[2] / len];
-        let cos_theta = direction[2].abs();
+        let ray = LensRay::towards(p, [cos * lx - sin * ly, sin * lx + cos * ly, self.rear_vertex_mm]);
+        let cos_theta = ray.direction[2].abs();
         let z_rear = self.film_mm - self.rear_vertex_mm;
         let area = (b[1] - b[0]) * (b[3] - b[2]);
-        Some((LensRay { origin: p, direction }, cos_theta.powi(4) * area / (z_rear * z_rear)))
+        Some((ray, cos_theta.powi(4) * area / (z_rear * z_rear)))
     }
 
     /// The film ray traced out through the lens at each of `lambdas_nm` (side by side), in camera space.
@@ -386,10 +384,7 @@ impl RealisticLens {
         let px = 2.0 * self.film_half_mm[0] / self.resolution.0 as f64;
         let py = 2.0 * self.film_half_mm[1] / self.resolution.1 as f64;
         let neighbour = |shift: [f64; 2]| -> Option<(DVec3, DVec3)> {
-            let p = [film[0] + shift[0], film[1] + shift[1], film[2]];
-            let d = [rear[0] - p[0], rear[1] - p[1], rear[2] - p[2]];
-            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let ray = LensRay { origin: p, direction: [d[0] / len, d[1] / len, d[2] / len] };
+            let ray = LensRay::towards([film[0] + shift[0], film[1] + shift[1], film[2]], rear);
             let out = self.lens.trace_from_film(ray, FOCUS_WAVELENGTH_NM)?;
             Some((self.to_camera_point(out.origin), self.to_camera_vector(out.direction).normalize()))
         };

@@ -190,18 +190,9 @@ pub(crate) fn camera_sample_radiance<R: Radiance>(
     sampler: &mut Sampler,
     mut first_hit: Option<&mut Option<FirstHit>>,
 ) -> (SampledSpectrum, SampledWavelengths) {
-    match &cs.rays {
-        CameraRays::Shared(None) | CameraRays::Filtered(None, _) => (SampledSpectrum::zero(), cs.wl),
-        CameraRays::Shared(Some(ray)) => {
-            let mut wl = cs.wl;
-            let l = finite_or_zero(integrator.li(tracer, ray, &mut wl, sampler, first_hit));
-            (l * ray.weight, wl)
-        }
-        CameraRays::Filtered(Some(ray), filter) => {
-            let mut wl = cs.wl;
-            let l = finite_or_zero(integrator.li(tracer, ray, &mut wl, sampler, first_hit));
-            (l * *filter * ray.weight, wl)
-        }
+    let (ray, filter) = match &cs.rays {
+        CameraRays::Shared(ray) => (ray, SampledSpectrum::splat(1.0)),
+        CameraRays::Filtered(ray, filter) => (ray, *filter),
         CameraRays::PerWavelength(rays) => {
             let mut l = SampledSpectrum::zero();
             for (slot, ray) in rays.iter().enumerate() {
@@ -210,9 +201,13 @@ pub(crate) fn camera_sample_radiance<R: Radiance>(
                 let lb = finite_or_zero(integrator.li(tracer, &ray, &mut wl, sampler, first_hit.take()));
                 l[slot] += lb[slot] * ray.weight;
             }
-            (l, cs.wl)
+            return (l, cs.wl);
         }
-    }
+    };
+    let Some(ray) = ray else { return (SampledSpectrum::zero(), cs.wl) };
+    let mut wl = cs.wl;
+    let l = finite_or_zero(integrator.li(tracer, ray, &mut wl, sampler, first_hit));
+    (l * filter * ray.weight, wl)
 }
 
 /// Makes camera samples for a film: its pixel filter, importance sampled, and its wavelength strategy.
@@ -333,6 +328,7 @@ impl SurfaceRecords {
     /// per pixel. Positions, normals and dp/dx, dp/dy are then taken to the film's coordinate system at the
     /// sample's time (pbrt-v4's `CameraFromRender(time)`), dz/dx and dz/dy being the z of the last two.
     pub fn record(self, scene: &RenderScene, cs: &CameraSample, hit: &FirstHit) -> SurfaceRecord {
+        // A first hit was found by one of the sample's rays; the stand-in only keeps this function total.
         let ray = cs.first_ray().copied().unwrap_or(CameraRay {
             origin: hit.p,
             direction: Vec3::Z,

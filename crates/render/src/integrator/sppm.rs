@@ -125,7 +125,9 @@ impl SppmState {
             height: h,
             nbuckets: nb,
             conversion: film.conversion().clone(),
-            camera: CameraSampler::new(film)?,
+            // A camera path has one visible point: through a dispersive lens it keeps one wavelength, chosen at
+            // random (as at a dispersive refraction), and only that wavelength's ray is traced.
+            camera: CameraSampler::new(film)?.keeping_one_wavelength_through_dispersion(true),
             pixels: vec![
                 PixelState {
                     radius: integrator.initial_radius as f64,
@@ -400,9 +402,10 @@ impl SppmIntegrator {
                     let (x, y) = (state.origin.0 + (i % w as u64) as u32, state.origin.1 + (i / w as u64) as u32);
                     let mut tracer = Tracer::new(scene);
                     let mut sampler = Sampler::new(x, y, it, seed);
-                    // The camera sample's own wavelengths are replaced by the iteration's.
+                    // The camera sample's own wavelengths are replaced by the iteration's (and reduced to one
+                    // through a dispersive lens).
                     let cs = camera_sampler.sample_at(scene, x, y, &mut sampler, Some(wl_iter));
-                    let mut wl = wl_iter;
+                    let mut wl = cs.wl;
                     let mut first_hit = None;
                     let fh = surfaces.wanted().then_some(&mut first_hit);
                     let (vp, ld) = self.camera_path(&mut tracer, &cs, media, &mut wl, &mut sampler, fh);
@@ -525,8 +528,8 @@ impl SppmIntegrator {
         mut first_hit: Option<&mut Option<FirstHit>>,
     ) -> (Option<VisiblePoint<'s>>, SampledSpectrum) {
         let scene = tracer.scene;
-        // Through a dispersive lens each wavelength has its own ray; a camera path of photon mapping has one visible
-        // point, so it keeps one wavelength chosen at random, as at a dispersive refraction.
+        // A camera path of photon mapping has one visible point: the camera sampler keeps one wavelength through a
+        // dispersive lens, and a sample with a ray per wavelength would keep one here the same way.
         let (camera_ray, filter) = match cs.rays {
             CameraRays::Shared(r) => (r, SampledSpectrum::splat(1.0)),
             CameraRays::Filtered(r, filter) => (r, filter),
