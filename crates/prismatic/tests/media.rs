@@ -135,10 +135,7 @@ fn unscattered_light_through_mie_droplets_follows_their_cross_sections() {
     ));
     let built = build(&scene, "mie.pbrt");
     let table =
-        optics::mie::MieSpectralTable::from_particle("water", 5.0, 0.0, &optics::mie::default_mie_wavelengths())
-            .unwrap()
-            .with_forward_cutoff(3.0)
-            .unwrap();
+        optics::mie::MieSpectralTable::from_particle("water", 5.0, 0.0).unwrap().with_forward_cutoff(3.0).unwrap();
     let sigma_t = |l: f64| {
         let (c_sca, c_abs) = table.cross_sections(l);
         n * (c_abs + (1.0 - table.forward_cut_fraction(l)) * c_sca)

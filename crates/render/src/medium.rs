@@ -91,15 +91,15 @@ impl PhaseFunction {
                 // draw from its lobe; the density is the mean of the active slots' lobes (the balance heuristic), so
                 // a bow that only one wavelength puts at this angle is still sampled in proportion to its share.
                 let k = wl.active_count().max(1);
-                let scaled = f64::from(u_pick) * k as f64;
-                let pick = (scaled as usize).min(k - 1);
+                let pick = ((u_pick * k as f32) as usize).min(k - 1);
                 let slot = (0..N_WAVELENGTHS).filter(|&i| wl.is_active(i)).nth(pick).unwrap_or(0);
-                let u_table = (scaled - pick as f64).clamp(0.0, 1.0 - f64::EPSILON);
-                let cos = table.sample_phase(f64::from(wl.lambda(slot)), u_table, f64::from(u.x));
-                let wi = direction_about(d_in, cos, u.y);
-                let p = mie_p(table, cos, wl);
-                let pdf = mie_mixture_pdf(&p, wl);
-                (pdf > 0.0 && pdf.is_finite()).then_some(PhaseSample { wi, p, pdf })
+                table.with_wavelengths(lambdas(wl), |w| {
+                    let cos = table.sample_of(w[slot], f64::from(u.x));
+                    let wi = direction_about(d_in, cos, u.y);
+                    let p = SampledSpectrum(std::array::from_fn(|i| table.phase_of(w[i], cos) as f32));
+                    let pdf = mie_mixture_pdf(&p, wl);
+                    (pdf > 0.0 && pdf.is_finite()).then_some(PhaseSample { wi, p, pdf })
+                })
             }
         }
     }
@@ -125,10 +125,84 @@ fn direction_about(axis: Vec3, cos: f64, u_phi: f32) -> Vec3 {
     Frame::from_z(axis).from_local(local).normalize()
 }
 
+/// The carried wavelengths in f64, as the Mie optics are looked up by.
+#[inline]
+fn lambdas(wl: &SampledWavelengths) -> [f64; N_WAVELENGTHS] {
+    std::array::from_fn(|i| f64::from(wl.lambda(i)))
+}
+
 /// The Mie phase function at scattering cosine `cos`, at each carried wavelength.
 #[inline]
 fn mie_p(table: &MieSpectralTable, cos: f64, wl: &SampledWavelengths) -> SampledSpectrum {
-    SampledSpectrum(std::array::from_fn(|i| table.eval_phase(f64::from(wl.lambda(i)), cos) as f32))
+    table.with_wavelengths(lambdas(wl), |w| SampledSpectrum(std::array::from_fn(|i| table.phase_of(w[i], cos) as f32)))
+}
+
+/// A homogeneous medium's absorption or scattering coefficient: a spectrum, or the particle density times the
+/// Mie cross section computed at each carried wavelength.
+#[derive(Clone, Debug)]
+pub enum Coefficient {
+    /// A coefficient given as a spectrum, per unit length.
+    Spectrum(Spectrum),
+    /// σs = N·C_sca(λ)·(1 − F(λ)) of particles `density` N per m³ (F the fraction inside the forward cut-off, which
+    /// counts as no scattering).
+    MieScattering {
+        /// The particles' optics.
+        table: Arc<MieSpectralTable>,
+        /// Particles per m³.
+        density: f64,
+    },
+    /// σa = N·C_abs(λ) of particles `density` N per m³.
+    MieAbsorption {
+        /// The particles' optics.
+        table: Arc<MieSpectralTable>,
+        /// Particles per m³.
+        density: f64,
+    },
+}
+
+impl Coefficient {
+    /// The coefficient at each carried wavelength.
+    #[inline]
+    pub fn sample(&self, wl: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Coefficient::Spectrum(s) => s.sample(wl),
+            Coefficient::MieScattering { table, density } => table.with_wavelengths(lambdas(wl), |w| {
+                SampledSpectrum(std::array::from_fn(|i| (density * w[i].c_sca * (1.0 - w[i].cut_fraction)) as f32))
+            }),
+            Coefficient::MieAbsorption { table, density } => table.with_wavelengths(lambdas(wl), |w| {
+                SampledSpectrum(std::array::from_fn(|i| (density * w[i].c_abs) as f32))
+            }),
+        }
+    }
+
+    /// The coefficient at one wavelength, nm (what tests compare with closed forms).
+    #[cfg(test)]
+    pub fn eval(&self, lambda_nm: f64) -> f64 {
+        match self {
+            Coefficient::Spectrum(s) => s.eval(lambda_nm),
+            Coefficient::MieScattering { table, density } => {
+                table.with_wavelengths([lambda_nm], |[w]| density * w.c_sca * (1.0 - w.cut_fraction))
+            }
+            Coefficient::MieAbsorption { table, density } => {
+                table.with_wavelengths([lambda_nm], |[w]| density * w.c_abs)
+            }
+        }
+    }
+
+    /// Whether the coefficient is 0 at every wavelength (particles always scatter, and absorb unless k = 0, which
+    /// is taken as "may absorb").
+    pub fn is_zero(&self) -> bool {
+        match self {
+            Coefficient::Spectrum(s) => s.max_value() <= 0.0,
+            Coefficient::MieScattering { .. } | Coefficient::MieAbsorption { .. } => false,
+        }
+    }
+}
+
+impl From<Spectrum> for Coefficient {
+    fn from(s: Spectrum) -> Self {
+        Coefficient::Spectrum(s)
+    }
 }
 
 /// The density of the one-sample mixture [`PhaseFunction::sample`] draws Mie directions from: the mean of the
@@ -193,9 +267,9 @@ impl MediumPoint<'_> {
 #[derive(Clone, Debug)]
 pub struct HomogeneousMedium {
     /// Absorption coefficient, per unit length.
-    pub sigma_a: Spectrum,
+    pub sigma_a: Coefficient,
     /// Scattering coefficient, per unit length.
-    pub sigma_s: Spectrum,
+    pub sigma_s: Coefficient,
     /// Emitted radiance (already scaled), if the medium glows.
     pub le: Option<Spectrum>,
     /// Phase function.
@@ -295,7 +369,7 @@ impl Medium {
     /// True if the medium only absorbs (no scattering, no emission): Beer–Lambert is exact along any ray.
     pub fn is_absorbing_only(&self) -> bool {
         match self {
-            Medium::Homogeneous(h) => h.sigma_s.max_value() <= 0.0 && h.le.is_none(),
+            Medium::Homogeneous(h) => h.sigma_s.is_zero() && h.le.is_none(),
             Medium::Grid(_) => false,
         }
     }
@@ -337,6 +411,14 @@ impl Medium {
                 (h.sigma_a.sample(wl) + h.sigma_s.sample(wl)).map(|s| if s > 0.0 { (-s * d).exp() } else { 1.0 })
             }
             Medium::Grid(_) => SampledSpectrum::splat(1.0),
+        }
+    }
+
+    /// The Mie particles' optics, if the medium is a cloud of them.
+    pub fn mie_optics(&self) -> Option<&Arc<MieSpectralTable>> {
+        match self.phase() {
+            PhaseFunction::Mie(table) => Some(table),
+            PhaseFunction::HenyeyGreenstein(_) => None,
         }
     }
 
@@ -596,8 +678,7 @@ mod tests {
     /// and the bows' positions.
     #[test]
     fn mie_sampling_follows_the_mixture_of_the_carried_wavelengths() {
-        let lambdas: Vec<f64> = (0..13).map(|i| 420.0 + 20.0 * i as f64).collect();
-        let table = Arc::new(MieSpectralTable::from_particle("water", 10.0, 0.0, &lambdas).unwrap());
+        let table = Arc::new(MieSpectralTable::from_particle("water", 10.0, 0.0).unwrap());
         let phase = PhaseFunction::Mie(table);
         let d = Vec3::new(0.2, 0.9, -0.3).normalize();
         let bins = 180usize;
@@ -679,8 +760,8 @@ mod tests {
     fn collisions_follow_the_exponential_distribution() {
         let wl = SampledWavelengths::new([450.0, 500.0, 550.0, 600.0], [1.0; 4]);
         let m = Medium::Homogeneous(HomogeneousMedium {
-            sigma_a: Spectrum::Constant(0.5),
-            sigma_s: Spectrum::Constant(1.0),
+            sigma_a: Spectrum::Constant(0.5).into(),
+            sigma_s: Spectrum::Constant(1.0).into(),
             le: None,
             phase: PhaseFunction::HenyeyGreenstein(0.0),
         });

@@ -76,6 +76,8 @@ mod sobol {
 #[derive(Clone, Debug)]
 pub struct Sampler {
     seed: u32,
+    /// The sample index this sampler was made for (the pass).
+    pass: u32,
     index: u32,
     /// The index as the Sobol sequence of this seed shuffles it (see the `sobol` module).
     shuffled: u32,
@@ -93,12 +95,19 @@ impl Sampler {
         let (seed, index) = (hash_words(&[x, y, seed, block]), sample_index % SOBOL_SAMPLES);
         Self {
             seed,
+            pass: sample_index,
             index,
             shuffled: sobol::shuffled_index(index, seed),
             dimension: 0,
             block: [0.0; 4],
             block_set: u32::MAX,
         }
+    }
+
+    /// The sample index (the pass) this sampler draws for.
+    #[inline]
+    pub fn sample_index(&self) -> u32 {
+        self.pass
     }
 
     /// The next uniform number in [0, 1).

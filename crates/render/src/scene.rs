@@ -1,8 +1,11 @@
 //! The render-ready scene: geometry behind a small trait (with [`SceneGeometry`], the BVH-backed implementation
 //! every ray goes through), materials, lights with a power-based light sampler, media and the camera.
 
+use std::sync::Arc;
+
 use geometry::{GeometryScene, SurfaceDerivatives};
 use glam::{Vec2, Vec3};
+use optics::mie::MieSpectralTable;
 use spectral::Distribution1D;
 
 use crate::bump::NormalPerturbation;
@@ -290,6 +293,8 @@ pub struct RenderScene {
     pub(crate) light_media: Vec<LightMedium>,
     /// Whether some medium of `media` scatters or glows (asked once per path).
     scattering_media: bool,
+    /// The optics of the scene's Mie particles, computed at the wavelengths carried (each once).
+    mie_optics: Vec<Arc<MieSpectralTable>>,
     /// The camera.
     pub(crate) camera: Camera,
     /// A sphere (centre, radius > 0) enclosing the geometry: where lights at infinity emit light paths from.
@@ -336,8 +341,15 @@ impl RenderScene {
         let (c, r) = geometry.bounding_sphere();
         let bounding_sphere = if r > 0.0 && r.is_finite() && c.is_finite() { (c, r) } else { (Vec3::ZERO, 1.0) };
         let scattering_media = media.iter().any(|m| !m.is_absorbing_only());
+        let mut mie_optics: Vec<Arc<MieSpectralTable>> = Vec::new();
+        for t in media.iter().filter_map(|m| m.mie_optics()) {
+            if !mie_optics.iter().any(|u| Arc::ptr_eq(u, t)) {
+                mie_optics.push(t.clone());
+            }
+        }
         Self {
             scattering_media,
+            mie_optics,
             geometry,
             materials,
             normal_perturbations: vec![],
@@ -382,6 +394,32 @@ impl RenderScene {
     /// start, since a shadow ray may track through a chromatic medium before the path enters one).
     pub(crate) fn has_scattering_media(&self) -> bool {
         self.scattering_media
+    }
+
+    /// Whether the pixels of a pass share its wavelengths: in a scene with Mie particles, whose optics are
+    /// computed at every wavelength carried, so that a pass needs them at four wavelengths, not at four per pixel.
+    pub(crate) fn shares_pass_wavelengths(&self) -> bool {
+        !self.mie_optics.is_empty()
+    }
+
+    /// The work of computing the scene's wavelength-dependent optics at one wavelength, in the units of
+    /// [`MieSpectralTable::work_per_wavelength`].
+    pub(crate) fn work_per_wavelength(&self) -> f64 {
+        self.mie_optics.iter().map(|t| t.work_per_wavelength()).sum()
+    }
+
+    /// Computes what depends on the wavelength at `lambdas_nm` ahead of the passes that carry them (in parallel).
+    pub(crate) fn prepare_wavelengths(&self, lambdas_nm: &[f64]) {
+        for t in &self.mie_optics {
+            t.prepare(lambdas_nm);
+        }
+    }
+
+    /// Lets go of what [`RenderScene::prepare_wavelengths`] (or a lookup) computed, once its passes are done.
+    pub(crate) fn release_wavelengths(&self) {
+        for t in &self.mie_optics {
+            t.release();
+        }
     }
 
     /// The medium a light path leaving light `light` along `d` starts in (from a point whose geometric normal is

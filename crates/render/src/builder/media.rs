@@ -6,13 +6,13 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use glam::{Affine3A, Mat4};
-use optics::mie::{default_mie_wavelengths, MieSpectralTable};
+use optics::mie::MieSpectralTable;
 use scene::{Loc, MediumEntity, SceneDescription, SceneError, SpectrumKind};
 use spectral::rgb_uplift::RgbUnboundedSpectrum;
 use spectral::Spectrum;
 
 use super::context::{err, normalise_emission, unsupported, Media, Result, MEASURED_MEDIA};
-use crate::medium::{DensityGrid, GridMedium, HomogeneousMedium, Medium, PhaseFunction};
+use crate::medium::{Coefficient, DensityGrid, GridMedium, HomogeneousMedium, Medium, PhaseFunction};
 
 /// Reads every named medium.
 pub(super) fn build(desc: &SceneDescription) -> Result<Media> {
@@ -105,11 +105,11 @@ fn homogeneous(m: &MediumEntity) -> Result<HomogeneousMedium> {
         (rgb(preset.sigma_a).map_err(bad)?, rgb(preset.sigma_prime_s).map_err(bad)?)
     };
     let le = emission(m, scale(m, "Lescale")?)?;
-    Ok(HomogeneousMedium { sigma_a: sigma_a.scaled(s), sigma_s: sigma_s.scaled(s), le, phase: phase(m)? })
+    Ok(HomogeneousMedium { sigma_a: sigma_a.scaled(s).into(), sigma_s: sigma_s.scaled(s).into(), le, phase: phase(m)? })
 }
 
-/// Mie tables already built for this scene, by (particle, radius, spread, forward cut-off): media that differ only in
-/// density share one table (a 250 µm drop's takes ~6 MB and the time in BENCHMARKS.md, "Build and setup times").
+/// Mie optics already made for this scene, by (particle, radius, spread, forward cut-off): media that differ only in
+/// density share one cache of per-wavelength tables.
 type MieTables = HashMap<(String, u64, u64, u64), Arc<MieSpectralTable>>;
 
 /// Prismatic's `mie` medium: a cloud of spheres of a catalogue material (`particle`) with number-mean radius
@@ -151,8 +151,7 @@ fn mie(m: &MediumEntity, tables: &mut MieTables) -> Result<HomogeneousMedium> {
     let table = match tables.get(&key) {
         Some(t) => t.clone(),
         None => {
-            let lambdas = default_mie_wavelengths();
-            let table = MieSpectralTable::from_particle(&particle, radius, spread, &lambdas).map_err(|e| {
+            let table = MieSpectralTable::from_particle(&particle, radius, spread).map_err(|e| {
                 // An unknown name is the particle's fault; a size parameter out of range is the radius's.
                 let name = if optics::catalogue::lookup(&particle).is_err() { "particle" } else { "radius" };
                 SceneError::at(loc(m, name), format!("\"mie\" medium, '{name}': {e}"))
@@ -165,24 +164,16 @@ fn mie(m: &MediumEntity, tables: &mut MieTables) -> Result<HomogeneousMedium> {
             t
         }
     };
-    let lambdas = table.wavelengths().to_vec();
-    let (sigma_s, sigma_a): (Vec<f64>, Vec<f64>) = lambdas
-        .iter()
-        .map(|&l| {
-            // Scattering within the forward cut-off counts as none (δ-approximation): σs loses that fraction.
-            let (c_sca, c_abs) = table.cross_sections(l);
-            (density * c_sca * (1.0 - table.forward_cut_fraction(l)), density * c_abs)
-        })
-        .unzip();
-    let spectrum = |name: &str, v: Vec<f64>| -> Result<Spectrum> {
-        let s =
-            Spectrum::piecewise_linear(lambdas.clone(), v).map_err(|e| SceneError::at(loc(m, name), format!("{e}")))?;
-        check_coefficient(m, "density", &s)?;
-        Ok(s)
-    };
+    // f32 optical depths: σt·distance must stay representable. Q_ext stays below ~4.5 (it tends to 2 for large
+    // drops), so 5π·r² with the largest radius bounds the cross section.
+    let r_max = radius * (1.0 + 4.0 * spread) * 1e-6;
+    let bound = density * 5.0 * std::f64::consts::PI * r_max * r_max;
+    if !(bound.is_finite() && bound <= 1e30) {
+        return err(&loc(m, "density"), format!("'density' {density} makes σt far too large to represent"));
+    }
     Ok(HomogeneousMedium {
-        sigma_a: spectrum("density", sigma_a)?,
-        sigma_s: spectrum("density", sigma_s)?,
+        sigma_a: Coefficient::MieAbsorption { table: table.clone(), density },
+        sigma_s: Coefficient::MieScattering { table: table.clone(), density },
         le: None,
         phase: PhaseFunction::Mie(table),
     })

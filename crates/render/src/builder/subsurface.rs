@@ -77,8 +77,8 @@ pub(super) fn subsurface(e: &Entity, roughness: Roughness) -> Result<(Material, 
         coating: Default::default(),
     };
     let medium = HomogeneousMedium {
-        sigma_a: sigma_a.scaled(scale),
-        sigma_s: sigma_s.scaled(scale),
+        sigma_a: sigma_a.scaled(scale).into(),
+        sigma_s: sigma_s.scaled(scale).into(),
         le: None,
         phase: PhaseFunction::HenyeyGreenstein(g as f32),
     };

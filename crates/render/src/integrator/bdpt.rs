@@ -971,7 +971,12 @@ impl Integrate for BdptIntegrator {
         film: &Film,
         seed: u32,
     ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
-        Ok(Box::new(BdptRender { integrator: self, scene, camera: CameraSampler::new(film)?, seed }))
+        Ok(Box::new(BdptRender {
+            integrator: self,
+            scene,
+            camera: CameraSampler::new(film)?.sharing_pass_wavelengths(scene, film, seed),
+            seed,
+        }))
     }
 }
 
@@ -1015,7 +1020,8 @@ impl RenderJob for BdptRender<'_> {
             let surface = first_hit.map(|h| surfaces.record(scene, &cs, &h));
             records.camera(x, finite_or_zero(l), wl, cs.weight, surface);
         };
-        render_splatting(film, scene, passes, progress, &per_sample)
+        self.camera
+            .in_wavelength_chunks(scene, passes, |chunk| render_splatting(film, scene, chunk, progress, &per_sample))
     }
 
     fn finish(self: Box<Self>, _film: &mut Film) {}

@@ -17,7 +17,7 @@ use super::transport::{begin_bounce, Bounce, BounceSamples, PathRay, Tracer};
 use super::RenderJob;
 use crate::bxdf::Bxdf;
 use crate::camera::{CameraRay, CameraRays};
-use crate::sampler::Sampler;
+use crate::sampler::{hash_words, Sampler};
 use crate::sampling::Frame;
 use crate::scene::{RenderScene, SurfaceHit};
 
@@ -210,6 +210,31 @@ pub(crate) fn camera_sample_radiance<R: Radiance>(
     (l * filter * ray.weight, wl)
 }
 
+/// Salt of the random shift of each pass's shared wavelengths.
+const PASS_WAVELENGTH_SEED_SALT: u32 = 0x7061_7373;
+
+/// How many wavelength sets a chunk of passes holds: their optics stay cached until the chunk is done (for 250 µm
+/// rain, 64 tables of about 120 kB).
+const WAVELENGTH_CHUNK_SETS: u32 = 16;
+
+/// The work of one pixel sample in the units of [`RenderScene::work_per_wavelength`] (a rainbow's: 4.4 µs of CPU
+/// against 2.2 ns per unit for its drops' tables), and the share of a render the tables may take: passes share
+/// a wavelength set until its four tables cost at most that share of the passes' pixel samples.
+const WORK_PER_PIXEL_SAMPLE: f64 = 2000.0;
+const WAVELENGTH_WORK_SHARE: f64 = 0.1;
+
+/// The most passes one wavelength set serves.
+const MAX_PASSES_PER_WAVELENGTH_SET: u32 = 64;
+
+/// How a scene's passes share wavelengths (see [`CameraSampler::wavelengths_of`]).
+#[derive(Clone, Copy, Debug)]
+struct PassWavelengths {
+    /// Seed of the sets' random shifts.
+    seed: u32,
+    /// Passes per wavelength set.
+    passes_per_set: u32,
+}
+
 /// Makes camera samples for a film: its pixel filter, importance sampled, and its wavelength strategy.
 pub(crate) struct CameraSampler {
     filter: FilterSampler,
@@ -217,6 +242,8 @@ pub(crate) struct CameraSampler {
     /// Through a dispersive lens, keep one wavelength chosen at random (and trace its ray only) instead of giving
     /// every wavelength its ray.
     one_wavelength_through_dispersion: bool,
+    /// In a scene whose optics are computed per wavelength, how passes share wavelengths.
+    pass_wavelengths: Option<PassWavelengths>,
 }
 
 impl CameraSampler {
@@ -226,7 +253,75 @@ impl CameraSampler {
             filter: FilterSampler::new(&film.spec().filter)?,
             wavelengths: film.wavelengths().clone(),
             one_wavelength_through_dispersion: false,
+            pass_wavelengths: None,
         })
+    }
+
+    /// This sampler sharing each pass's wavelengths between pixels if `scene` asks for it
+    /// ([`RenderScene::shares_pass_wavelengths`]), for renders of `film` with `seed` (see
+    /// [`CameraSampler::wavelengths_of`]). Several passes share a set where its optics would otherwise cost more
+    /// than a tenth of the passes' work, judged from the scene and the full image's pixel count (not the machine,
+    /// the crop or the shard, so that images agree).
+    pub fn sharing_pass_wavelengths(mut self, scene: &RenderScene, film: &Film, seed: u32) -> Self {
+        self.pass_wavelengths = scene.shares_pass_wavelengths().then(|| {
+            let pixels = f64::from(film.width()) * f64::from(film.height());
+            let set_work = 4.0 * scene.work_per_wavelength();
+            let passes = (set_work / (WAVELENGTH_WORK_SHARE * WORK_PER_PIXEL_SAMPLE * pixels.max(1.0))).ceil();
+            PassWavelengths {
+                seed: hash_words(&[seed, PASS_WAVELENGTH_SEED_SALT]),
+                passes_per_set: passes.clamp(1.0, f64::from(MAX_PASSES_PER_WAVELENGTH_SET)) as u32,
+            }
+        });
+        self
+    }
+
+    /// The wavelengths of a path of pass `pass` from its own uniform number `u`.
+    ///
+    /// Where the scene shares pass wavelengths, every path of a set of passes carries the same four (in hero order
+    /// from `u`): the primary sample (q + ξ)/4 of the strategy, q = ⌊4u⌋ and ξ the set's shift, which is uniform
+    /// over [0, 1) for every set (Owen-scrambled van der Corput over the sets, as photon mapping's iterations), so
+    /// each pass is unbiased on its own and the sets together stratify the spectrum. Pixels then see the same
+    /// wavelengths within a pass (no colour noise between neighbours, a tint that changes from set to set) and the
+    /// Mie optics are computed at four wavelengths per set instead of four per path.
+    #[inline]
+    pub fn wavelengths_of(&self, pass: u32, u: f32) -> SampledWavelengths {
+        match self.pass_wavelengths {
+            None => self.wavelengths.sample(f64::from(u)),
+            Some(p) => self.wavelengths.sample(set_primary_sample(pass / p.passes_per_set, p.seed, u)),
+        }
+    }
+
+    /// Renders `samples` with `render` chunk by chunk, computing each chunk's wavelength-dependent optics before
+    /// and letting them go after, where the scene shares pass wavelengths; in one call otherwise. A pixel's
+    /// samples are added in the same order either way.
+    pub fn in_wavelength_chunks(
+        &self,
+        scene: &RenderScene,
+        samples: Range<u32>,
+        mut render: impl FnMut(Range<u32>) -> RenderStats,
+    ) -> RenderStats {
+        let Some(p) = self.pass_wavelengths else { return render(samples) };
+        let chunk = p.passes_per_set * WAVELENGTH_CHUNK_SETS;
+        let mut total = RenderStats::default();
+        let mut s0 = samples.start;
+        while s0 < samples.end {
+            // Chunks end on set boundaries, so that no set is computed twice.
+            let s1 = ((s0 / chunk).saturating_add(1)).saturating_mul(chunk).min(samples.end);
+            let mut lambdas: Vec<f64> = Vec::new();
+            for set in s0 / p.passes_per_set..=(s1 - 1) / p.passes_per_set {
+                for q in 0..4 {
+                    let wl = self.wavelengths.sample(set_primary_sample(set, p.seed, (q as f32 + 0.5) / 4.0));
+                    lambdas.extend((0..spectral::N_WAVELENGTHS).map(|i| f64::from(wl.lambda(i))));
+                }
+            }
+            scene.prepare_wavelengths(&lambdas);
+            let stats = render(s0..s1);
+            scene.release_wavelengths();
+            total.samples += stats.samples;
+            total.rays += stats.rays;
+            s0 = s1;
+        }
+        total
     }
 
     /// This sampler keeping, through a dispersive lens, one wavelength chosen at random with its density over the
@@ -256,7 +351,8 @@ impl CameraSampler {
         sampler: &mut Sampler,
         wl: Option<SampledWavelengths>,
     ) -> CameraSample {
-        let own = self.wavelengths.sample(sampler.next_1d() as f64);
+        let u_wl = sampler.next_1d();
+        let own = self.wavelengths_of(sampler.sample_index(), u_wl);
         let mut wl = wl.unwrap_or(own);
         let [u0, u1] = sampler.next_2d();
         let f = self.filter.sample([u0 as f64, u1 as f64]);
@@ -272,11 +368,14 @@ impl CameraSampler {
         };
         CameraSample { wl, weight: f.weight as f32, rays, film, lens, time }
     }
+}
 
-    /// The wavelength strategy.
-    pub fn wavelengths(&self) -> &WavelengthSampler {
-        &self.wavelengths
-    }
+/// The primary sample of wavelength set `set` picked by `u`: (⌊4u⌋ + ξ)/4, ξ the set's shift.
+#[inline]
+fn set_primary_sample(set: u32, seed: u32, u: f32) -> f64 {
+    let xi = f64::from(sobol_burley::sample(set, 0, seed));
+    let q = (f64::from(u) * 4.0).floor().clamp(0.0, 3.0);
+    ((q + xi) / 4.0).min(1.0 - f64::EPSILON)
 }
 
 /// What a film keeps of each camera sample's first visible surface: nothing, the AOVs (albedo and world-space
@@ -570,14 +669,21 @@ pub(crate) struct CameraPaths<'a, R: Radiance> {
 impl<'a, R: Radiance> CameraPaths<'a, R> {
     /// Camera paths of `integrator` through `scene` into films like `film`.
     pub fn new(integrator: R, scene: &'a RenderScene, film: &Film, seed: u32) -> Result<Self, FilmError> {
-        let camera =
-            CameraSampler::new(film)?.keeping_one_wavelength_through_dispersion(!integrator.splits_dispersion());
+        let camera = CameraSampler::new(film)?
+            .keeping_one_wavelength_through_dispersion(!integrator.splits_dispersion())
+            .sharing_pass_wavelengths(scene, film, seed);
         Ok(Self { integrator, scene, camera, seed })
     }
 
     /// Renders samples `samples` of every pixel into `film`, with albedo and normal AOVs and the geometry buffer if
     /// the film keeps them.
     pub fn render(&self, film: &mut Film, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
+        self.camera.in_wavelength_chunks(self.scene, samples, |chunk| self.render_in_one(film, chunk, progress))
+    }
+
+    /// [`CameraPaths::render`] in one go, for a caller that prepares the wavelengths of `samples` itself
+    /// ([`CameraSampler::in_wavelength_chunks`]).
+    pub fn render_in_one(&self, film: &mut Film, samples: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
         let surfaces = SurfaceRecords::of(film);
         render_rows(film, self.scene, samples, progress, &|row, x, samples, tracer| {
             let y = row.y();

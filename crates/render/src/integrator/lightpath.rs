@@ -106,23 +106,27 @@ struct LightPaths<'a> {
 
 impl RenderJob for LightPaths<'_> {
     fn run(&mut self, film: &mut Film, passes: Range<u32>, progress: &(dyn Fn(u64) + Sync)) -> RenderStats {
-        let mut stats = self.camera.render(film, passes.clone(), &|_| {});
         let (scene, seed) = (self.camera.scene, self.camera.seed);
-        let wavelengths = self.camera.camera.wavelengths();
+        let camera = &self.camera;
+        let wavelengths = &camera.camera;
         let light_seed = hash_words(&[seed, LIGHT_PATH_SEED_SALT]);
         let per_sample = |x: u32, y: u32, s: u32, tracer: &mut Tracer, records: &mut SampleRecords| {
             let mut sampler = Sampler::new(x, y, s, light_seed);
-            let mut wl = wavelengths.sample(sampler.next_1d() as f64);
+            // The pass's wavelengths, as the camera paths of the same pass carry them where a pass shares them.
+            let mut wl = wavelengths.wavelengths_of(s, sampler.next_1d());
             // A light path's time, uniform over the shutter as a camera ray's is (a dimension of its own sampler,
             // drawn only when something moves); the whole path and its connections to the lens use it.
             let time = scene.sample_time(&mut sampler);
             let splat = |raster, l, wl: &SampledWavelengths| records.splat(raster, l, *wl);
             self.integrator.trace(tracer, time, &mut wl, &mut sampler, splat);
         };
-        let light = render_splatting(film, scene, passes, progress, &per_sample);
-        stats.rays += light.rays;
-        stats.samples = light.samples;
-        stats
+        camera.camera.in_wavelength_chunks(scene, passes, |chunk| {
+            let mut stats = camera.render_in_one(film, chunk.clone(), &|_| {});
+            let light = render_splatting(film, scene, chunk, progress, &per_sample);
+            stats.rays += light.rays;
+            stats.samples = light.samples;
+            stats
+        })
     }
 
     fn finish(self: Box<Self>, _film: &mut Film) {}

@@ -194,8 +194,8 @@ fn room(extras: Extras) -> RenderScene {
     }
     let media = if extras.fog || extras.fog_around_light {
         let fog = Medium::Homogeneous(HomogeneousMedium {
-            sigma_a: Spectrum::Constant(0.02),
-            sigma_s: Spectrum::piecewise_linear(vec![400.0, 700.0], vec![1.2, 0.3]).unwrap(),
+            sigma_a: Spectrum::Constant(0.02).into(),
+            sigma_s: Spectrum::piecewise_linear(vec![400.0, 700.0], vec![1.2, 0.3]).unwrap().into(),
             le: None,
             phase: PhaseFunction::HenyeyGreenstein(0.3),
         });
