@@ -359,3 +359,65 @@ MediumInterface "" "m""#,
     let film = render(&built, WavelengthStrategy::Hero, 1, 1);
     assert_eq!(film.pixel_xyz(1, 1).y, 0.0);
 }
+
+/// A small fog of 10 µm drops under a distant light, on a spectral film of 47 buckets 10 nm wide.
+fn mie_fog_scene(medium_type: &str, spp: u32) -> String {
+    let medium = if medium_type == "mie" {
+        r#""string type" "mie" "string particle" "water" "float radius" 10 "float density" 2e8"#
+    } else {
+        r#""string type" "homogeneous" "spectrum sigma_a" [ 360 0.02 830 0.05 ] "spectrum sigma_s" [ 360 0.2 830 0.1 ] "float g" 0.8"#
+    };
+    format!(
+        r#"LookAt 0 0 0  0 0 1  0 1 0
+Camera "perspective" "float fov" 40
+Film "spectral" "integer xresolution" 12 "integer yresolution" 8 "integer nbuckets" 47
+    "float lambdamin" 360 "float lambdamax" 830 "string filename" "fog.exr"
+Sampler "zsobol" "integer pixelsamples" {spp}
+Integrator "volpath" "integer maxdepth" 4
+WorldBegin
+LightSource "distant" "point3 from" [ 0.3 1 -1 ] "point3 to" [ 0 0 0 ] "spectrum L" [ 360 1 830 1 ]
+LightSource "infinite" "rgb L" [ 0.2 0.2 0.2 ]
+MakeNamedMedium "fog" {medium}
+MediumInterface "fog" ""
+Material "interface"
+Shape "sphere" "float radius" 20
+"#
+    )
+}
+
+/// In a scene with Mie drops, every pixel of a pass carries the same four wavelengths (so that the drops' optics
+/// are computed four times per pass, not four times per pixel): after one pass every pixel's light falls in the
+/// same few buckets. With a Henyey–Greenstein fog, pixels draw their own wavelengths. Renders split into parts, and
+/// with one thread or two, are the same bit for bit.
+#[test]
+fn a_pass_through_mie_drops_shares_its_wavelengths_between_pixels() {
+    let buckets_lit = |film: &Film, x: u32, y: u32| -> Vec<usize> {
+        film.pixel_spectrum(x, y).iter().enumerate().filter(|(_, v)| **v != 0.0).map(|(k, _)| k).collect()
+    };
+    for (kind, shared) in [("mie", true), ("homogeneous", false)] {
+        let built = build(&mie_fog_scene(kind, 1), "fog.pbrt");
+        let film = render(&built, WavelengthStrategy::Hero, 1, 3);
+        let first = buckets_lit(&film, 0, 0);
+        let all_alike = (0..8).all(|y| (0..12).all(|x| buckets_lit(&film, x, y) == first));
+        assert!(!first.is_empty() && first.len() <= 4, "{kind}: pixel (0, 0) lit buckets {first:?}");
+        assert_eq!(all_alike, shared, "{kind}: do all pixels share pixel (0, 0)'s buckets {first:?}?");
+    }
+    // 1100 passes: for so few pixels 64 passes share a set and 16 sets make a chunk, so the parts cut a set
+    // (passes 0..7), span several, and cross the chunks' boundary at 1024.
+    let spp = 1100;
+    let built = build(&mie_fog_scene("mie", spp), "fog.pbrt");
+    let pool = |n: usize| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+    let whole = pool(2).install(|| render(&built, WavelengthStrategy::Hero, spp, 5));
+    let one_thread = pool(1).install(|| render(&built, WavelengthStrategy::Hero, spp, 5));
+    let mut parts = Film::new(built.film.clone()).unwrap();
+    for range in [0..7, 7..1030, 1030..spp] {
+        built.integrator.render(&built.scene, &mut parts, range, 5, &|_| {}).unwrap();
+    }
+    for y in 0..8 {
+        for x in 0..12 {
+            let s = whole.pixel_spectrum(x, y);
+            assert_eq!(s, one_thread.pixel_spectrum(x, y), "pixel ({x}, {y}): one thread against two");
+            assert_eq!(s, parts.pixel_spectrum(x, y), "pixel ({x}, {y}): in three parts against in one");
+        }
+    }
+}
