@@ -780,9 +780,9 @@ pub fn particle_index(name: &str) -> Result<impl Fn(f64) -> Complex + Send + Syn
 /// 0–180°, 16 wavelengths), linear interpolation between tables 10 nm apart is off by 104 % (median; up to 211 %)
 /// for 40 µm drops, and still by 6 % (up to 40 %) with tables every 0.05 in size parameter (4000 tables), with
 /// C_sca off by up to 2e-3. A renderer
-/// carries only a few wavelengths at a time: [`prepare`](Self::prepare) computes them ahead (in parallel),
-/// lookups find them in a per-thread front cache without locking, and [`release`](Self::release) lets the
-/// wavelengths of finished passes go. The renderer shares each pass's wavelengths between all pixels, so a pass
+/// carries only a few wavelengths at a time: [`prepare`](Self::prepare) computes them ahead (in parallel) and lets
+/// the others go, lookups find them in a per-thread front cache without locking, and [`release`](Self::release)
+/// forgets them all. The renderer shares each pass's wavelengths between all pixels, so a pass
 /// needs four tables.
 ///
 /// Wavelengths outside 360–830 nm get the table at the nearer end. Cost of one wavelength: BENCHMARKS.md, "Build
@@ -953,8 +953,12 @@ impl MieSpectralTable {
     }
 
     /// Computes the optics at each of `lambdas_nm` not yet cached, in parallel, so that the lookups that follow
-    /// find them.
+    /// find them; lets go of every other wavelength cached.
     pub fn prepare(&self, lambdas_nm: &[f64]) {
+        {
+            let keep: std::collections::HashSet<u64> = lambdas_nm.iter().map(|l| l.to_bits()).collect();
+            self.cache.lock().unwrap_or_else(|e| e.into_inner()).retain(|bits, _| keep.contains(bits));
+        }
         let mut todo: Vec<(f64, Arc<OnceLock<Arc<MieWavelength>>>)> = Vec::new();
         for &l in lambdas_nm {
             let cell = self.cell(l);
@@ -965,6 +969,11 @@ impl MieSpectralTable {
         todo.par_iter().for_each(|(l, cell)| {
             cell.get_or_init(|| Arc::new(self.compute(*l)));
         });
+    }
+
+    /// How many wavelengths the shared cache holds (computed or being computed).
+    pub fn cached_wavelengths(&self) -> usize {
+        self.cache.lock().unwrap_or_else(|e| e.into_inner()).len()
     }
 
     /// Forgets the cached wavelengths (those still in a thread's front cache stay there until pushed out).

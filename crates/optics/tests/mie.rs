@@ -453,10 +453,16 @@ fn spectral_table_caches_prepares_and_releases() {
     let t = MieSpectralTable::from_particle("water", 5.0, 0.0).unwrap();
     let pass = [421.3, 511.7, 574.9, 643.2];
     t.prepare(&pass);
+    assert_eq!(t.cached_wavelengths(), 4);
+    // Preparing the next pass keeps what it shares with this one and lets the rest go (renders come in many calls).
+    t.prepare(&[pass[2], pass[3], 700.5]);
+    assert_eq!(t.cached_wavelengths(), 3);
+    t.prepare(&pass);
     // What is prepared, computed on demand, and computed after a release are the same numbers.
     let first: Vec<(f64, f64)> = pass.iter().map(|&l| t.cross_sections(l)).collect();
     let on_demand = MieSpectralTable::from_particle("water", 5.0, 0.0).unwrap();
     t.release();
+    assert_eq!(t.cached_wavelengths(), 0);
     for (i, &l) in pass.iter().enumerate() {
         assert_eq!(on_demand.cross_sections(l), first[i]);
         assert_eq!(t.cross_sections(l), first[i]);

@@ -408,17 +408,11 @@ impl RenderScene {
         self.mie_optics.iter().map(|t| t.work_per_wavelength()).sum()
     }
 
-    /// Computes what depends on the wavelength at `lambdas_nm` ahead of the passes that carry them (in parallel).
+    /// Computes what depends on the wavelength at `lambdas_nm` ahead of the passes that carry them (in parallel),
+    /// and lets go of what was computed for other wavelengths.
     pub(crate) fn prepare_wavelengths(&self, lambdas_nm: &[f64]) {
         for t in &self.mie_optics {
             t.prepare(lambdas_nm);
-        }
-    }
-
-    /// Lets go of what [`RenderScene::prepare_wavelengths`] (or a lookup) computed, once its passes are done.
-    pub(crate) fn release_wavelengths(&self) {
-        for t in &self.mie_optics {
-            t.release();
         }
     }
 

@@ -292,8 +292,10 @@ impl CameraSampler {
     }
 
     /// Renders `samples` with `render` chunk by chunk, computing each chunk's wavelength-dependent optics before
-    /// and letting them go after, where the scene shares pass wavelengths; in one call otherwise. A pixel's
-    /// samples are added in the same order either way.
+    /// (and letting go of the previous chunk's), where the scene shares pass wavelengths; in one call otherwise. A
+    /// pixel's samples are added in the same order either way. The last chunk's optics stay cached for the next
+    /// call, which often continues the same chunk (renders with progress, checkpoints or a time limit come in many
+    /// calls of a few passes).
     pub fn in_wavelength_chunks(
         &self,
         scene: &RenderScene,
@@ -316,7 +318,6 @@ impl CameraSampler {
             }
             scene.prepare_wavelengths(&lambdas);
             let stats = render(s0..s1);
-            scene.release_wavelengths();
             total.samples += stats.samples;
             total.rays += stats.rays;
             s0 = s1;

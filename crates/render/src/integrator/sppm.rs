@@ -393,7 +393,8 @@ impl SppmIntegrator {
             // One wavelength set per iteration, stratified over iterations (van der Corput, Owen-scrambled).
             let u_wl = sobol_burley::sample(it, 0, hash_words(&[seed, WAVELENGTH_SEED_SALT]));
             let wl_iter = state.conversion.wavelengths().sample(u_wl as f64);
-            // The iteration's wavelengths are all its paths carry: Mie optics are computed for them up front.
+            // The iteration's wavelengths are all its paths carry: Mie optics are computed for them up front (and
+            // the previous iteration's let go).
             if scene.shares_pass_wavelengths() {
                 scene.prepare_wavelengths(
                     &(0..spectral::N_WAVELENGTHS).map(|i| f64::from(wl_iter.lambda(i))).collect::<Vec<_>>(),
@@ -513,7 +514,6 @@ impl SppmIntegrator {
             state.photons += photons;
             stats.samples += npix;
             progress(npix - npix / 2);
-            scene.release_wavelengths();
         }
         stats
     }
