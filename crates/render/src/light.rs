@@ -544,6 +544,20 @@ impl Light {
         }
     }
 
+    /// The direction towards a light at infinity that arrives from one direction or a small disc of them (a sun),
+    /// if this is one.
+    pub fn sun_direction(&self) -> Option<Vec3> {
+        match self {
+            Light::Distant { w, .. } => Some(*w),
+            Light::DistantDisc { frame, .. } => Some(frame.z),
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::DiffuseArea { .. }
+            | Light::UniformInfinite { .. }
+            | Light::ImageInfinite { .. } => None,
+        }
+    }
+
     /// Emitted power, reduced to a luminance-weighted scalar for the power-based light sampler.
     pub fn power(&self) -> f64 {
         let y = |s: &Spectrum| spectral::Observer::Cie1931.spectrum_to_xyz(s).y;

@@ -295,6 +295,9 @@ pub struct RenderScene {
     scattering_media: bool,
     /// The optics of the scene's Mie particles, computed at the wavelengths carried (each once).
     mie_optics: Vec<Arc<MieSpectralTable>>,
+    /// Towards the most powerful light at infinity of one direction or a small disc (the sun), in a scene with Mie
+    /// particles: `volpath` guides some scattering directions towards it.
+    sun: Option<Vec3>,
     /// The camera.
     pub(crate) camera: Camera,
     /// A sphere (centre, radius > 0) enclosing the geometry: where lights at infinity emit light paths from.
@@ -347,9 +350,21 @@ impl RenderScene {
                 mie_optics.push(t.clone());
             }
         }
+        let sun = if mie_optics.is_empty() {
+            None
+        } else {
+            lights
+                .iter()
+                .zip(&power)
+                .filter_map(|(l, &p)| l.sun_direction().map(|w| (w, p)))
+                .filter(|(w, p)| *p > 0.0 && w.is_finite())
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(w, _)| w.normalize())
+        };
         Self {
             scattering_media,
             mie_optics,
+            sun,
             geometry,
             materials,
             normal_perturbations: vec![],
@@ -400,6 +415,11 @@ impl RenderScene {
     /// computed at every wavelength carried, so that a pass needs them at four wavelengths, not at four per pixel.
     pub(crate) fn shares_pass_wavelengths(&self) -> bool {
         !self.mie_optics.is_empty()
+    }
+
+    /// The direction `volpath` guides scattering in Mie media towards (see [`RenderScene`]'s `sun`).
+    pub(crate) fn sun(&self) -> Option<Vec3> {
+        self.sun
     }
 
     /// The work of computing the scene's wavelength-dependent optics at one wavelength, in the units of

@@ -147,6 +147,16 @@ impl IntegratorParams<'_> {
         SceneError::at(self.entity.loc.clone(), message.to_owned()).into()
     }
 
+    /// A float parameter in [0, `max`], or `default`.
+    pub fn fraction(&self, name: &str, default: f64, max: f64) -> Result<f32, RenderError> {
+        let v = self.entity.params.get_float(name, default)?;
+        if !(0.0..=max).contains(&v) {
+            let message = format!("'{name}' must lie in [0, {max}], got {v}");
+            return Err(SceneError::at(self.loc_of(name), message).into());
+        }
+        Ok(v as f32)
+    }
+
     /// A positive integer parameter (at most 2²⁰), or `default`.
     pub fn count(&self, name: &str, default: i64) -> Result<u32, RenderError> {
         Ok(self.entity.params.get_count(name, default, &self.entity.loc)? as u32)

@@ -603,7 +603,8 @@ impl SppmIntegrator {
                 if let Some((p, sigma_s)) = scattered {
                     let phase = medium.phase();
                     let u = BounceSamples::draw(sampler);
-                    let v = ScatterVertex::Medium { p, d_in: d, phase, medium: Some(m), time: ray.time };
+                    let v =
+                        ScatterVertex::Medium { p, d_in: d, phase, medium: Some(m), time: ray.time, sun_guide: 0.0 };
                     ld += beta * sample_ld(tracer, v, wl, &u, &mis, r_u, DirectLight::LightSamplingOnly);
                     let weight = (beta / mis.average(r_u)).safe_div(sigma_s);
                     let vp = VisiblePoint { p, at: VisibleAt::Medium { phase, d_in: d }, beta: weight, wl: *wl };

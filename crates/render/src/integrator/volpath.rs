@@ -25,6 +25,9 @@ pub struct VolPathIntegrator {
     pub split_dispersion: bool,
     /// pbrt-v4's `"bool regularize"` (default false), as `path`'s.
     pub regularize: bool,
+    /// The share of scattering directions in Mie media drawn towards the scene's sun, by the phase function centred
+    /// on it (Prismatic's `"float sunguide"`, in [0, 0.9], default 0.25; 0 draws by the phase function only).
+    pub sun_guide: f32,
 }
 
 impl Integrate for VolPathIntegrator {
@@ -33,6 +36,7 @@ impl Integrate for VolPathIntegrator {
             max_depth: params.max_depth()?,
             split_dispersion: params.entity.params.get_bool("splitdispersion", true)?,
             regularize: params.regularize()?,
+            sun_guide: params.fraction("sunguide", 0.25, 0.9)?,
         })
     }
 
@@ -46,6 +50,7 @@ impl Integrate for VolPathIntegrator {
             max_depth: self.max_depth,
             split_dispersion: self.split_dispersion,
             regularize: self.regularize,
+            sun_guide: self.sun_guide,
         };
         Ok(Box::new(CameraPaths::new(paths, scene, film, seed)?))
     }

@@ -15,7 +15,7 @@ use super::drive::{begin_camera_bounce, CameraBounce, Depth, FirstHit, Radiance}
 use super::transport::{
     russian_roulette, scatter, BounceSamples, DirectLight, PathRay, Scattered, SurfaceVertex, Tracer,
 };
-use super::volume::{sample_ld, weigh_tracking, ScatterVertex, SpectralMis};
+use super::volume::{sample_ld, sample_medium_direction, weigh_tracking, ScatterVertex, SpectralMis};
 use crate::bxdf::{DispersiveSplit, TransportMode};
 use crate::camera::CameraRay;
 use crate::medium::{sample_t_maj, Collision, TrackingRng};
@@ -31,6 +31,8 @@ pub(crate) struct VolumePaths {
     pub split_dispersion: bool,
     /// Whether near-specular BSDFs are widened after the first non-specular scattering (`"bool regularize"`).
     pub regularize: bool,
+    /// The share of scattering directions in Mie media drawn towards the sun (`"float sunguide"`).
+    pub sun_guide: f32,
 }
 
 /// A volumetric path between two events: what a split at a dispersive refraction copies into each branch.
@@ -129,9 +131,18 @@ impl VolumePaths {
                             }
                             let u = BounceSamples::draw(sampler);
                             let time = st.ray.time;
-                            let v = ScatterVertex::Medium { p, d_in: rd, phase: mp.phase, medium: Some(m), time };
+                            let v = ScatterVertex::Medium {
+                                p,
+                                d_in: rd,
+                                phase: mp.phase,
+                                medium: Some(m),
+                                time,
+                                sun_guide: self.sun_guide,
+                            };
                             l += st.beta * sample_ld(tracer, v, wl, &u, &st.mis, st.r_u, DirectLight::Mis);
-                            let Some(ps) = mp.phase.sample(rd, u.dir, u.lobe, wl) else {
+                            let Some(ps) =
+                                sample_medium_direction(tracer.scene, mp.phase, rd, u.dir, u.lobe, wl, self.sun_guide)
+                            else {
                                 terminated = true;
                                 return false;
                             };

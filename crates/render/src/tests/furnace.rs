@@ -236,7 +236,16 @@ fn diffuse_transmission_sphere_in_a_furnace_looks_r_plus_t_squared_over_one_minu
             256,
             0.0,
         ),
-        (Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true, regularize: false }), 256, 0.0),
+        (
+            Integrator::VolPath(VolPathIntegrator {
+                max_depth,
+                split_dispersion: true,
+                regularize: false,
+                sun_guide: 0.5,
+            }),
+            256,
+            0.0,
+        ),
         (Integrator::LightPath(LightPathIntegrator { max_depth }), 4096, 0.0),
         (Integrator::Bdpt(BdptIntegrator { max_depth, regularize: false }), 256, 0.0),
         (Integrator::Sppm(sppm), 256, 0.02),

@@ -493,7 +493,16 @@ fn a_white_measured_sphere_in_a_furnace_shows_the_model_albedo_in_every_integrat
             64,
             0.0,
         ),
-        (Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true, regularize: false }), 64, 0.0),
+        (
+            Integrator::VolPath(VolPathIntegrator {
+                max_depth,
+                split_dispersion: true,
+                regularize: false,
+                sun_guide: 0.5,
+            }),
+            64,
+            0.0,
+        ),
         (Integrator::LightPath(LightPathIntegrator { max_depth }), 8192, 0.0),
         (Integrator::Bdpt(BdptIntegrator { max_depth, regularize: false }), 64, 0.0),
         (Integrator::Sppm(sppm), 256, 0.02),
