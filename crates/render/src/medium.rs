@@ -724,12 +724,7 @@ mod tests {
             let chi2 = |probs: &[f64]| -> f64 {
                 let total: f64 = probs.iter().sum();
                 assert!((total - 1.0).abs() < 2e-3, "the density integrates to {total}");
-                counts
-                    .iter()
-                    .zip(probs)
-                    .filter(|(_, &p)| p * n as f64 > 5.0)
-                    .map(|(&c, &p)| (c as f64 - p * n as f64).powi(2) / (p * n as f64))
-                    .sum()
+                crate::tests::support::chi_square_of_counts(&counts, probs, n, 5.0)
             };
             let right = chi2(&expected(&|w| phase.pdf(d, w, &wl)));
             // 180 bins (fewer after dropping the empty ones): the 0.999 quantile of chi-square with 179 dof is 243.

@@ -339,6 +339,7 @@ mod tests {
 
     use super::{medium_direction_pdf, sample_medium_direction};
     use crate::medium::TrackingRng;
+    use crate::tests::support::chi_square_of_counts;
     use crate::{build_scene, BuildOptions};
 
     /// Directions drawn with the sun guide: the density reported is the mixture's at the direction drawn, the value
@@ -398,20 +399,12 @@ Shape "sphere" "float radius" 10
                 })
                 .collect()
         };
-        let chi2 = |probs: &[f64]| -> f64 {
-            counts
-                .iter()
-                .zip(probs)
-                .filter(|(_, &p)| p * n as f64 > 20.0)
-                .map(|(&c, &p)| (c as f64 - p * n as f64).powi(2) / (p * n as f64))
-                .sum()
-        };
+        let chi2 = |probs: &[f64]| chi_square_of_counts(&counts, probs, n, 20.0);
         let mixture = expected(&|w| medium_direction_pdf(scene, phase, d_in, w, &wl, alpha));
         let plain = expected(&|w| phase.pdf(d_in, w, &wl));
         let total: f64 = mixture.iter().sum();
         assert!((total - 1.0).abs() < 0.02, "the mixture integrates to {total}");
         let (right, wrong) = (chi2(&mixture), chi2(&plain));
-        eprintln!("χ² against the mixture {right:.1}, against the phase function alone {wrong:.1}");
         // 90 bins: χ² of a right density stays below ~150 (mean 89, sd 13, plus the quadrature's error).
         assert!(right < 150.0, "χ² against the mixture {right}");
         assert!(wrong > 1000.0, "χ² against the phase function alone {wrong}");

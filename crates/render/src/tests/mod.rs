@@ -10,4 +10,4 @@ mod layered_geometry;
 mod measured;
 mod media_rule;
 mod regularize;
-mod support;
+pub(crate) mod support;

@@ -12,3 +12,14 @@ pub(crate) fn mean_y(built: &crate::BuiltScene, seed: u32, rows: std::ops::Range
     let sum: f64 = rows.flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| film.pixel_xyz(x, y).y).sum();
     sum / n as f64
 }
+
+/// Pearson's χ² of histogram `counts` of `n` draws against bin probabilities `probs`, over the bins expecting more
+/// than `min_expected` draws.
+pub(crate) fn chi_square_of_counts(counts: &[u32], probs: &[f64], n: u32, min_expected: f64) -> f64 {
+    counts
+        .iter()
+        .zip(probs)
+        .filter(|(_, &p)| p * n as f64 > min_expected)
+        .map(|(&c, &p)| (c as f64 - p * n as f64).powi(2) / (p * n as f64))
+        .sum()
+}
