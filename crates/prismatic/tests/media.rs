@@ -386,9 +386,10 @@ Shape "sphere" "float radius" 20
     )
 }
 
-/// In a scene with Mie drops, every pixel of a pass carries the same four wavelengths (so that the drops' optics
-/// are computed four times per pass, not four times per pixel): after one pass every pixel's light falls in the
-/// same few buckets. With a Henyey–Greenstein fog, pixels draw their own wavelengths. Renders split into parts, and
+/// In a scene with Mie drops, the pixels of a pass share a small set of wavelengths (so that the drops' optics are
+/// computed a few times per pass, not four times per pixel): after one pass of a small image every pixel's light
+/// falls in the same few buckets; a large image affords more hero quadruples per pass. With a Henyey–Greenstein
+/// fog, pixels draw their own wavelengths. Renders split into parts, and
 /// with one thread or two, are the same bit for bit.
 #[test]
 fn a_pass_through_mie_drops_shares_its_wavelengths_between_pixels() {
@@ -403,6 +404,22 @@ fn a_pass_through_mie_drops_shares_its_wavelengths_between_pixels() {
         assert!(!first.is_empty() && first.len() <= 4, "{kind}: pixel (0, 0) lit buckets {first:?}");
         assert_eq!(all_alike, shared, "{kind}: do all pixels share pixel (0, 0)'s buckets {first:?}?");
     }
+    // An image of 300×300 pixels affords four hero quadruples per pass for these drops: each pixel's light still
+    // falls in at most four buckets, the image's in more than four and at most sixteen.
+    let big = mie_fog_scene("mie", 1, "").replace(
+        r#""integer xresolution" 12 "integer yresolution" 8"#,
+        r#""integer xresolution" 300 "integer yresolution" 300"#,
+    );
+    let film = render(&build(&big, "fog.pbrt"), WavelengthStrategy::Hero, 1, 3);
+    let mut all = std::collections::BTreeSet::new();
+    for y in (0..300).step_by(7) {
+        for x in (0..300).step_by(7) {
+            let lit = buckets_lit(&film, x, y);
+            assert!(lit.len() <= 4, "pixel ({x}, {y}) lit buckets {lit:?}");
+            all.extend(lit);
+        }
+    }
+    assert!(all.len() > 4 && all.len() <= 16, "the image's lit buckets {all:?}");
     // 1100 passes: for so few pixels 64 passes share a set and 16 sets make a chunk, so the parts cut a set
     // (passes 0..7), span several, and cross the chunks' boundary at 1024.
     let spp = 1100;

@@ -213,9 +213,9 @@ pub(crate) fn camera_sample_radiance<R: Radiance>(
 /// Salt of the random shift of each pass's shared wavelengths.
 const PASS_WAVELENGTH_SEED_SALT: u32 = 0x7061_7373;
 
-/// How many wavelength sets a chunk of passes holds: their optics stay cached until the chunk is done (for 250 µm
-/// rain, 64 tables of about 120 kB).
-const WAVELENGTH_CHUNK_SETS: u32 = 16;
+/// How many wavelengths a chunk of passes holds: their optics stay cached until the next chunk (for 250 µm rain, 64
+/// tables of about 120 kB).
+const WAVELENGTH_CHUNK_WAVELENGTHS: u32 = 64;
 
 /// The work of one pixel sample in the units of [`RenderScene::work_per_wavelength`] (a rainbow's: 4.4 µs of CPU
 /// against 2.2 ns per unit for its drops' tables), and the share of a render the tables may take: passes share
@@ -223,8 +223,9 @@ const WAVELENGTH_CHUNK_SETS: u32 = 16;
 const WORK_PER_PIXEL_SAMPLE: f64 = 2000.0;
 const WAVELENGTH_WORK_SHARE: f64 = 0.1;
 
-/// The most passes one wavelength set serves.
+/// The most passes one wavelength set serves, and the most hero quadruples a set holds.
 const MAX_PASSES_PER_WAVELENGTH_SET: u32 = 64;
+const MAX_QUADRUPLES_PER_WAVELENGTH_SET: u32 = 16;
 
 /// How a scene's passes share wavelengths (see [`CameraSampler::wavelengths_of`]).
 #[derive(Clone, Copy, Debug)]
@@ -233,6 +234,8 @@ struct PassWavelengths {
     seed: u32,
     /// Passes per wavelength set.
     passes_per_set: u32,
+    /// Hero quadruples per set: each path takes one of them at random.
+    quadruples: u32,
 }
 
 /// Makes camera samples for a film: its pixel filter, importance sampled, and its wavelength strategy.
@@ -259,35 +262,39 @@ impl CameraSampler {
 
     /// This sampler sharing each pass's wavelengths between pixels if `scene` asks for it
     /// ([`RenderScene::shares_pass_wavelengths`]), for renders of `film` with `seed` (see
-    /// [`CameraSampler::wavelengths_of`]). Several passes share a set where its optics would otherwise cost more
-    /// than a tenth of the passes' work, judged from the scene and the full image's pixel count (not the machine,
-    /// the crop or the shard, so that images agree).
+    /// [`CameraSampler::wavelengths_of`]). The optics of a set's wavelengths may cost a tenth of the work of the
+    /// passes it serves, judged from the scene and the full image's pixel count (not the machine, the crop or the
+    /// shard, so that images agree): where four wavelengths cost more, several passes share a set; where they cost
+    /// less, a set holds several hero quadruples (more wavelengths over the render, so finer spectra).
     pub fn sharing_pass_wavelengths(mut self, scene: &RenderScene, film: &Film, seed: u32) -> Self {
         self.pass_wavelengths = scene.shares_pass_wavelengths().then(|| {
             let pixels = f64::from(film.width()) * f64::from(film.height());
-            let set_work = 4.0 * scene.work_per_wavelength();
-            let passes = (set_work / (WAVELENGTH_WORK_SHARE * WORK_PER_PIXEL_SAMPLE * pixels.max(1.0))).ceil();
-            PassWavelengths {
-                seed: hash_words(&[seed, PASS_WAVELENGTH_SEED_SALT]),
-                passes_per_set: passes.clamp(1.0, f64::from(MAX_PASSES_PER_WAVELENGTH_SET)) as u32,
-            }
+            let quadruple_work = 4.0 * scene.work_per_wavelength();
+            let affordable = WAVELENGTH_WORK_SHARE * WORK_PER_PIXEL_SAMPLE * pixels.max(1.0) / quadruple_work;
+            let (passes_per_set, quadruples) = if affordable >= 1.0 {
+                (1, affordable.floor().min(f64::from(MAX_QUADRUPLES_PER_WAVELENGTH_SET)) as u32)
+            } else {
+                ((1.0 / affordable).ceil().min(f64::from(MAX_PASSES_PER_WAVELENGTH_SET)) as u32, 1)
+            };
+            PassWavelengths { seed: hash_words(&[seed, PASS_WAVELENGTH_SEED_SALT]), passes_per_set, quadruples }
         });
         self
     }
 
     /// The wavelengths of a path of pass `pass` from its own uniform number `u`.
     ///
-    /// Where the scene shares pass wavelengths, every path of a set of passes carries the same four (in hero order
-    /// from `u`): the primary sample (q + ξ)/4 of the strategy, q = ⌊4u⌋ and ξ the set's shift, which is uniform
-    /// over [0, 1) for every set (Owen-scrambled van der Corput over the sets, as photon mapping's iterations), so
-    /// each pass is unbiased on its own and the sets together stratify the spectrum. Pixels then see the same
-    /// wavelengths within a pass (no colour noise between neighbours, a tint that changes from set to set) and the
-    /// Mie optics are computed at four wavelengths per set instead of four per path.
+    /// Where the scene shares pass wavelengths, the paths of a set of passes carry one of the set's Q hero
+    /// quadruples: the primary sample (q + (b + ξ)/Q)/4 of the strategy, with t = ⌊4Qu⌋, b = t mod Q, q = ⌊t/Q⌋
+    /// and ξ the set's shift, uniform over [0, 1) for every set (Owen-scrambled van der Corput over the sets, as
+    /// photon mapping's iterations); the hero's rotations by 1/4 stay in the set. Each pass is unbiased on its
+    /// own and the sets together stratify the spectrum. Pixels then share wavelengths within a pass (less colour
+    /// noise between neighbours, a tint that changes from set to set) and the Mie optics are computed at 4Q
+    /// wavelengths per set instead of four per path.
     #[inline]
     pub fn wavelengths_of(&self, pass: u32, u: f32) -> SampledWavelengths {
         match self.pass_wavelengths {
             None => self.wavelengths.sample(f64::from(u)),
-            Some(p) => self.wavelengths.sample(set_primary_sample(pass / p.passes_per_set, p.seed, u)),
+            Some(p) => self.wavelengths.sample(set_primary_sample(pass / p.passes_per_set, p.seed, p.quadruples, u)),
         }
     }
 
@@ -303,7 +310,7 @@ impl CameraSampler {
         mut render: impl FnMut(Range<u32>) -> RenderStats,
     ) -> RenderStats {
         let Some(p) = self.pass_wavelengths else { return render(samples) };
-        let chunk = p.passes_per_set * WAVELENGTH_CHUNK_SETS;
+        let chunk = p.passes_per_set * (WAVELENGTH_CHUNK_WAVELENGTHS / (4 * p.quadruples)).max(1);
         let mut total = RenderStats::default();
         let mut s0 = samples.start;
         while s0 < samples.end {
@@ -311,8 +318,9 @@ impl CameraSampler {
             let s1 = ((s0 / chunk).saturating_add(1)).saturating_mul(chunk).min(samples.end);
             let mut lambdas: Vec<f64> = Vec::new();
             for set in s0 / p.passes_per_set..=(s1 - 1) / p.passes_per_set {
-                for q in 0..4 {
-                    let wl = self.wavelengths.sample(set_primary_sample(set, p.seed, (q as f32 + 0.5) / 4.0));
+                for t in 0..4 * p.quadruples {
+                    let u = (t as f32 + 0.5) / (4 * p.quadruples) as f32;
+                    let wl = self.wavelengths.sample(set_primary_sample(set, p.seed, p.quadruples, u));
                     lambdas.extend((0..spectral::N_WAVELENGTHS).map(|i| f64::from(wl.lambda(i))));
                 }
             }
@@ -371,12 +379,15 @@ impl CameraSampler {
     }
 }
 
-/// The primary sample of wavelength set `set` picked by `u`: (⌊4u⌋ + ξ)/4, ξ the set's shift.
+/// The primary sample of wavelength set `set` (of `quadruples` hero quadruples) picked by `u`: (q + (b + ξ)/Q)/4,
+/// t = ⌊4Qu⌋, b = t mod Q, q = ⌊t/Q⌋, ξ the set's shift (see [`CameraSampler::wavelengths_of`]).
 #[inline]
-fn set_primary_sample(set: u32, seed: u32, u: f32) -> f64 {
+fn set_primary_sample(set: u32, seed: u32, quadruples: u32, u: f32) -> f64 {
     let xi = f64::from(sobol_burley::sample(set, 0, seed));
-    let q = (f64::from(u) * 4.0).floor().clamp(0.0, 3.0);
-    ((q + xi) / 4.0).min(1.0 - f64::EPSILON)
+    let n = f64::from(4 * quadruples);
+    let t = (f64::from(u) * n).floor().clamp(0.0, n - 1.0);
+    let (b, q) = (t % f64::from(quadruples), (t / f64::from(quadruples)).floor());
+    ((q + (b + xi) / f64::from(quadruples)) / 4.0).min(1.0 - f64::EPSILON)
 }
 
 /// What a film keeps of each camera sample's first visible surface: nothing, the AOVs (albedo and world-space
