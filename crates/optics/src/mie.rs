@@ -865,6 +865,13 @@ impl MieSpectralTable {
             finite("n of the particle", m.re)?;
             finite("k of the particle", m.im)?;
             check_m_x(m, 1.0)?;
+            if m == Complex::from_real(1.0) {
+                return Err(OpticsError::OutOfRange {
+                    name: "relative index m".into(),
+                    value: 1.0,
+                    expected: format!("m = 1 at {l} nm does not scatter, so there is no phase function"),
+                });
+            }
         }
         // The largest size parameter: the largest radius node at the shortest wavelength.
         let x_mean = 2.0 * std::f64::consts::PI * 1e3 / lo * radius_um;

@@ -207,6 +207,8 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(
         MieSpectralTable::from_index(|l| Complex::new(if l == 612.0 { -1.0 } else { 1.33 }, 0.0), 1.0, 0.0).is_err()
     );
+    // So is one that stops scattering (m = 1) somewhere.
+    assert!(MieSpectralTable::from_index(|l| Complex::new(if l == 700.0 { 1.0 } else { 1.33 }, 0.0), 1.0, 0.0).is_err());
     // Wavelengths outside 360–830 nm, and NaN, get an end's table, never a panic.
     let t = MieSpectralTable::from_particle("water", 2.0, 0.0).unwrap();
     assert_eq!(t.eval_phase(200.0, 0.3), t.eval_phase(360.0, 0.3));

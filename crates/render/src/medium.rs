@@ -75,6 +75,16 @@ impl PhaseFunction {
         }
     }
 
+    /// [`PhaseFunction::pdf`] from the phase function's values `p` at the direction (what [`PhaseFunction::p`]
+    /// returned there), without looking them up again.
+    #[inline]
+    pub fn pdf_of_values(&self, p: &SampledSpectrum, wl: &SampledWavelengths) -> f32 {
+        match self {
+            PhaseFunction::HenyeyGreenstein(_) => p[0],
+            PhaseFunction::Mie(_) => mie_mixture_pdf(p, wl),
+        }
+    }
+
     /// Draws an outgoing direction for light travelling along `d_in`: `u` places the direction around the lobe and
     /// `u_pick` chooses among the carried wavelengths where the lobe depends on wavelength.
     #[inline]

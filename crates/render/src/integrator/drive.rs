@@ -217,9 +217,9 @@ const PASS_WAVELENGTH_SEED_SALT: u32 = 0x7061_7373;
 /// tables of about 120 kB).
 const WAVELENGTH_CHUNK_WAVELENGTHS: u32 = 64;
 
-/// The work of one pixel sample in the units of [`RenderScene::work_per_wavelength`] (a rainbow's: 4.4 µs of CPU
-/// against 2.2 ns per unit for its drops' tables), and the share of a render the tables may take: passes share
-/// a wavelength set until its four tables cost at most that share of the passes' pixel samples.
+/// The work of one pixel sample in the units of [`RenderScene::work_per_wavelength`] (the ratio of the rainbow's
+/// measured time per pixel sample to its drops' time per unit, BENCHMARKS.md "Lorenz–Mie optics per wavelength"),
+/// and the share of a render the tables may take: a set's tables cost at most that share of its passes' samples.
 const WORK_PER_PIXEL_SAMPLE: f64 = 2000.0;
 const WAVELENGTH_WORK_SHARE: f64 = 0.1;
 

@@ -237,7 +237,7 @@ pub(crate) fn sample_medium_direction(
     wl: &SampledWavelengths,
     alpha: f32,
 ) -> Option<crate::medium::PhaseSample> {
-    let (Some(sun), PhaseFunction::Mie(_), true) = (scene.sun(), phase, alpha > 0.0) else {
+    let Some(sun) = guide_axis(scene, phase, alpha) else {
         return phase.sample(d_in, u_dir, u_lobe, wl);
     };
     let (axis, u_pick) = if u_lobe < alpha {
@@ -245,10 +245,25 @@ pub(crate) fn sample_medium_direction(
     } else {
         (d_in, ((u_lobe - alpha) / (1.0 - alpha)).min(1.0 - f32::EPSILON))
     };
-    let s = phase.sample(axis, u_dir, u_pick, wl)?;
-    let p = phase.p(d_in, s.wi, wl);
-    let pdf = (1.0 - alpha) * phase.pdf(d_in, s.wi, wl) + alpha * phase.pdf(sun, s.wi, wl);
-    (pdf > 0.0 && pdf.is_finite()).then_some(crate::medium::PhaseSample { wi: s.wi, p, pdf })
+    let wi = phase.sample(axis, u_dir, u_pick, wl)?.wi;
+    // Both densities at the direction as stored (f32), exactly as `medium_direction_pdf` will find them when light
+    // sampling weighs this strategy; the phase function's own density comes from its values, not a second lookup.
+    let p = phase.p(d_in, wi, wl);
+    let pdf = (1.0 - alpha) * phase.pdf_of_values(&p, wl) + alpha * phase.pdf(sun, wi, wl);
+    (pdf > 0.0 && pdf.is_finite()).then_some(crate::medium::PhaseSample { wi, p, pdf })
+}
+
+/// The sun to guide towards at a vertex with `phase` and guide share `alpha`: only Mie drops' lobes are guided.
+fn guide_axis(scene: &crate::scene::RenderScene, phase: &PhaseFunction, alpha: f32) -> Option<Vec3> {
+    let guided = match phase {
+        PhaseFunction::Mie(_) => alpha > 0.0,
+        PhaseFunction::HenyeyGreenstein(_) => false,
+    };
+    if guided {
+        scene.sun()
+    } else {
+        None
+    }
 }
 
 /// The density [`sample_medium_direction`] draws `wi` with.
@@ -260,11 +275,9 @@ pub(crate) fn medium_direction_pdf(
     wl: &SampledWavelengths,
     alpha: f32,
 ) -> f32 {
-    match (scene.sun(), phase) {
-        (Some(sun), PhaseFunction::Mie(_)) if alpha > 0.0 => {
-            (1.0 - alpha) * phase.pdf(d_in, wi, wl) + alpha * phase.pdf(sun, wi, wl)
-        }
-        _ => phase.pdf(d_in, wi, wl),
+    match guide_axis(scene, phase, alpha) {
+        Some(sun) => (1.0 - alpha) * phase.pdf_of_values(&phase.p(d_in, wi, wl), wl) + alpha * phase.pdf(sun, wi, wl),
+        None => phase.pdf(d_in, wi, wl),
     }
 }
 
