@@ -172,9 +172,16 @@ fn unscattered_light_through_a_density_grid_follows_beer_lambert() {
 /// `maxdepth 1` counts one scattering event: the image is exactly the single-scattering radiance
 /// L(λ) = σs p(θ) E e^{−σt h/μ} (1 − e^{−k h})/k, k = σt (1 − 1/μ), μ = cos α,
 /// with θ the scattering angle between the light's direction of travel and the view ray reversed (cos θ = μ) and
-/// p Henyey–Greenstein with g = 0.5.
+/// p Henyey–Greenstein with g = 0.5. Light is sampled at the path's own collisions, and (`"bool forcedcollisions"
+/// true`) at a forced collision on each segment.
 #[test]
 fn single_scattering_of_a_thin_slab_matches_its_closed_form() {
+    for forced in ["false", "true"] {
+        single_scattering_of_a_thin_slab(forced);
+    }
+}
+
+fn single_scattering_of_a_thin_slab(forced: &str) {
     let (h, alpha, g) = (0.1f64, 40f64.to_radians(), 0.5f64);
     let (sa, ca) = alpha.sin_cos();
     let scene = format!(
@@ -182,7 +189,7 @@ fn single_scattering_of_a_thin_slab_matches_its_closed_form() {
 Camera "perspective" "float fov" 2
 Film "rgb" "integer xresolution" 8 "integer yresolution" 8 "string filename" "slab.exr"
 PixelFilter "box"
-Integrator "volpath" "integer maxdepth" 1
+Integrator "volpath" "integer maxdepth" 1 "bool forcedcollisions" {forced}
 WorldBegin
 LightSource "distant" "point3 from" [ 0 {fy} {fz} ] "point3 to" [ 0 0 0 ] "spectrum L" [ 360 1 830 1 ]
 MakeNamedMedium "slab" "string type" "homogeneous" "spectrum sigma_a" {SIGMA_A} "spectrum sigma_s" {SIGMA_S} "float g" {g}
@@ -202,7 +209,7 @@ Shape "trianglemesh" "point3 P" [ -100 -100 {z1}  100 -100 {z1}  100 100 {z1}  -
         let k = st * (1.0 - 1.0 / ca);
         sigma_s(l) * hg * (-st * h / ca).exp() * (1.0 - (-k * h).exp()) / k
     });
-    matches_closed_form(&built, &expected, 8192, 2e-3, 0.01, "single scattering");
+    matches_closed_form(&built, &expected, 8192, 2e-3, 0.01, &format!("single scattering, forced {forced}"));
 }
 
 /// A sphere of radius 1 with an `interface` boundary filled with a medium that scatters (chromatically) and
@@ -210,12 +217,17 @@ Shape "trianglemesh" "point3 P" [ -100 -100 {z1}  100 -100 {z1}  100 100 {z1}  -
 /// radiance unchanged, so every pixel sees exactly the environment (white furnace). The medium's optical radius is
 /// 0.6–3 depending on λ, so most paths scatter several times.
 fn white_furnace(integrator: &str, spp: u32, what: &str) {
+    white_furnace_with(integrator, "", spp, what)
+}
+
+/// [`white_furnace`] with `params` added to the integrator's.
+fn white_furnace_with(integrator: &str, params: &str, spp: u32, what: &str) {
     let scene = format!(
         r#"LookAt 0 0 -5  0 0 0  0 1 0
 Camera "perspective" "float fov" 16
 Film "rgb" "integer xresolution" 8 "integer yresolution" 8 "string filename" "furnace.exr"
 PixelFilter "box"
-Integrator "{integrator}" "integer maxdepth" 1000
+Integrator "{integrator}" "integer maxdepth" 1000 {params}
 WorldBegin
 LightSource "infinite" "rgb L" [ 1 1 1 ]
 MakeNamedMedium "white" "string type" "homogeneous" "rgb sigma_a" [ 0 0 0 ]
@@ -231,10 +243,12 @@ Shape "sphere" "float radius" 1
     matches_closed_form(&built, &env, spp, 1e-3, 0.01, what);
 }
 
-/// The white furnace with the volumetric path tracer.
+/// The white furnace with the volumetric path tracer, light sampled at the path's collisions and at forced ones
+/// (whose multiple importance weights against phase sampling must still sum to one at the environment).
 #[test]
 fn white_furnace_with_a_scattering_medium_in_an_index_matched_sphere() {
     white_furnace("volpath", 128, "furnace");
+    white_furnace_with("volpath", r#""bool forcedcollisions" true"#, 128, "furnace, forced collisions");
 }
 
 /// The white furnace with bidirectional path tracing: camera and light subpaths (from the environment) scatter in
@@ -440,25 +454,29 @@ fn a_pass_through_mie_drops_shares_its_wavelengths_between_pixels() {
     }
 }
 
-/// `volpath` draws some scattering directions in Mie drops towards the sun (`"float sunguide"`): the image is the
-/// same as without, within the noise (each seed renders both ways with the same wavelengths). What it does to the
-/// noise is measured in BENCHMARKS.md, not here. A share outside [0, 0.9] is an error naming the parameter.
+/// `volpath` draws some scattering directions in Mie drops towards the sun (`"float sunguide"`), and samples light
+/// at a forced collision on each segment (`"bool forcedcollisions"`, on by default in Mie drops): the image is the
+/// same with either, both or neither, within the noise (each seed renders every way with the same wavelengths).
+/// What they do to the noise is measured in BENCHMARKS.md, not here. A share outside [0, 0.9] is an error naming
+/// the parameter.
 #[test]
 fn guiding_scattering_towards_the_sun_leaves_the_image_unchanged() {
     let spp = 2048;
-    let renders = |guide: &str| {
-        let built = build(&mie_fog_scene("mie", spp, &format!(r#""float sunguide" {guide}"#)), "guide.pbrt");
+    let renders = |params: &str| {
+        let built = build(&mie_fog_scene("mie", spp, params), "guide.pbrt");
         let (a, b) =
             (render(&built, WavelengthStrategy::Hero, spp, 1), render(&built, WavelengthStrategy::Hero, spp, 2));
         image_xyz(&a, &b)
     };
-    let (m0, se0) = renders("0");
-    let (m1, se1) = renders("0.5");
-    for c in 0..3 {
-        let se = (se0[c] * se0[c] + se1[c] * se1[c]).sqrt();
-        eprintln!("XYZ[{c}]: unguided {:.5} ± {:.5}, guided {:.5} ± {:.5}", m0[c], se0[c], m1[c], se1[c]);
-        assert!(se < 0.05 * m0[c], "too noisy to tell: ± {se}");
-        assert!((m1[c] - m0[c]).abs() <= K_SIGMA * se, "XYZ[{c}]: {} against {}", m1[c], m0[c]);
+    let (m0, se0) = renders(r#""float sunguide" 0 "bool forcedcollisions" false"#);
+    for params in [r#""float sunguide" 0.5 "bool forcedcollisions" false"#, r#""float sunguide" 0.5"#] {
+        let (m1, se1) = renders(params);
+        for c in 0..3 {
+            let se = (se0[c] * se0[c] + se1[c] * se1[c]).sqrt();
+            eprintln!("XYZ[{c}]: plain {:.5} ± {:.5}, {params} {:.5} ± {:.5}", m0[c], se0[c], m1[c], se1[c]);
+            assert!(se < 0.05 * m0[c], "too noisy to tell: ± {se}");
+            assert!((m1[c] - m0[c]).abs() <= K_SIGMA * se, "{params}, XYZ[{c}]: {} against {}", m1[c], m0[c]);
+        }
     }
     for bad in ["-0.1", "0.95", "2"] {
         let e = build_error(&mie_fog_scene("mie", 1, &format!(r#""float sunguide" {bad}"#)), "guide.pbrt");

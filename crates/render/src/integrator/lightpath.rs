@@ -92,7 +92,13 @@ impl Integrate for LightPathIntegrator {
     ) -> Result<Box<dyn RenderJob + 'a>, RenderError> {
         // Emitters seen directly (through media, and media that glow): a volumetric path tracer that stops before
         // the first scattering event.
-        let direct = VolumePaths { max_depth: 0, split_dispersion: true, regularize: false, sun_guide: 0.0 };
+        let direct = VolumePaths {
+            max_depth: 0,
+            split_dispersion: true,
+            regularize: false,
+            sun_guide: 0.0,
+            forced_collisions: Some(false),
+        };
         let camera = CameraPaths::new(direct, scene, film, seed)?;
         Ok(Box::new(LightPaths { integrator: self, camera }))
     }

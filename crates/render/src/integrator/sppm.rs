@@ -29,7 +29,7 @@ use super::drive::{begin_camera_bounce, CameraBounce, Depth, FirstHit, RenderSta
 use super::drive::{CameraSample, CameraSampler, SurfaceRecord, SurfaceRecords};
 use super::light_walk::{walk_light_path, LightVertexAt, LightWalk};
 use super::transport::{sample_direct_light, scatter, BounceSamples, DirectLight, PathRay, SurfaceVertex, Tracer};
-use super::volume::{sample_ld, weigh_tracking, ScatterVertex, SpectralMis};
+use super::volume::{sample_ld, weigh_tracking, PrefixRatios, ScatterVertex, SpectralMis};
 use super::{Integrate, IntegratorParams, Needs, PassUnit, RenderError, RenderJob};
 use crate::bxdf::{Bxdf, TransportMode};
 use crate::camera::CameraRays;
@@ -605,7 +605,8 @@ impl SppmIntegrator {
                     let u = BounceSamples::draw(sampler);
                     let v =
                         ScatterVertex::Medium { p, d_in: d, phase, medium: Some(m), time: ray.time, sun_guide: 0.0 };
-                    ld += beta * sample_ld(tracer, v, wl, &u, &mis, r_u, DirectLight::LightSamplingOnly);
+                    ld += beta
+                        * sample_ld(tracer, v, wl, &u, &mis, PrefixRatios::shared(r_u), DirectLight::LightSamplingOnly);
                     let weight = (beta / mis.average(r_u)).safe_div(sigma_s);
                     let vp = VisiblePoint { p, at: VisibleAt::Medium { phase, d_in: d }, beta: weight, wl: *wl };
                     return (Some(vp), ld);
@@ -641,7 +642,7 @@ impl SppmIntegrator {
                 let weighting = DirectLight::LightSamplingOnly;
                 ld += beta
                     * if media {
-                        sample_ld(tracer, ScatterVertex::Surface(v), wl, &u, &mis, r_u, weighting)
+                        sample_ld(tracer, ScatterVertex::Surface(v), wl, &u, &mis, PrefixRatios::shared(r_u), weighting)
                     } else {
                         sample_direct_light(tracer, &v, wl, &u, weighting)
                     };

@@ -28,6 +28,10 @@ pub struct VolPathIntegrator {
     /// The share of scattering directions in Mie media drawn towards the scene's sun, by the phase function centred
     /// on it (Prismatic's `"float sunguide"`, in [0, 0.9], default 0.25; 0 draws by the phase function only).
     pub sun_guide: f32,
+    /// Whether next-event estimation in homogeneous media is done at a forced collision on every segment
+    /// (Prismatic's `"bool forcedcollisions"`; unset: in Mie media only, where it pays, BENCHMARKS.md "Rainbow
+    /// efficiency").
+    pub forced_collisions: Option<bool>,
 }
 
 impl Integrate for VolPathIntegrator {
@@ -37,6 +41,10 @@ impl Integrate for VolPathIntegrator {
             split_dispersion: params.entity.params.get_bool("splitdispersion", true)?,
             regularize: params.regularize()?,
             sun_guide: params.fraction("sunguide", 0.25, 0.9)?,
+            forced_collisions: match params.entity.params.contains("forcedcollisions") {
+                true => Some(params.entity.params.get_bool("forcedcollisions", false)?),
+                false => None,
+            },
         })
     }
 
@@ -51,6 +59,7 @@ impl Integrate for VolPathIntegrator {
             split_dispersion: self.split_dispersion,
             regularize: self.regularize,
             sun_guide: self.sun_guide,
+            forced_collisions: self.forced_collisions,
         };
         Ok(Box::new(CameraPaths::new(paths, scene, film, seed)?))
     }

@@ -281,9 +281,100 @@ pub(crate) fn medium_direction_pdf(
     }
 }
 
+/// The rescaled probabilities of a path up to a scattering vertex by the two strategies that finish it at a light:
+/// unidirectional sampling (`r_u`, the prefix as the path sampled it, then BSDF or phase sampling) and light
+/// sampling (`r_l`, the prefix as next-event estimation takes it, then the light's density). They differ where
+/// next-event estimation places its vertex by another density than the path's ([`ForcedCollision`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PrefixRatios {
+    pub r_u: SampledSpectrum,
+    pub r_l: SampledSpectrum,
+}
+
+impl PrefixRatios {
+    /// Both strategies share the prefix the path sampled.
+    #[inline]
+    pub fn shared(r_u: SampledSpectrum) -> Self {
+        Self { r_u, r_l: r_u }
+    }
+}
+
+/// A scattering vertex placed for next-event estimation on every segment of a path through a homogeneous medium,
+/// whether or not the path collides there: the forced collision of neutron transport (Cashwell & Everett 1959;
+/// Lux & Koblinger 1991, §7.4), with density f(t) = σt·e^(−σt·t) / (1 − e^(−σt·L)) on [0, L) at the hero.
+///
+/// Why: delta tracking collides on a segment of optical depth τ only with probability 1 − e^(−τ), and its
+/// next-event estimate is all or nothing on that draw; on the rain of `scenes/rainbow.pbrt` (τ near 1) that
+/// Bernoulli draw is most of the noise of each scattering order. The path itself still collides (or not) by
+/// delta tracking; only its light-sampling vertex moves here, so at the path's own collision light sampling is
+/// weighed with this density ([`ForcedCollision::light_ratio_at_collision`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ForcedCollision {
+    /// Where on the segment.
+    pub p: Vec3,
+    /// The throughput factor T(t)·σs / f_hero(t).
+    pub beta: SampledSpectrum,
+    /// The prefix ratios at the vertex: the path's collision density T·σs (unidirectional) and f (light sampling),
+    /// each over f at the hero, to multiply the path's r_u with.
+    pub ratios: PrefixRatios,
+    /// σt / (1 − e^(−σt·L)): f(t) / T(t) at each wavelength.
+    f_over_t: SampledSpectrum,
+}
+
+impl ForcedCollision {
+    /// Draws the vertex on the segment `o + t·d`, 0 ≤ t < `t_end` (infinite for a ray that leaves the scene) of a
+    /// homogeneous medium with coefficients `sigma_a`, `sigma_s`, with `u`. None where the medium does not scatter
+    /// at the hero.
+    pub fn sample(
+        o: Vec3,
+        d: Vec3,
+        t_end: f32,
+        sigma_a: SampledSpectrum,
+        sigma_s: SampledSpectrum,
+        mis: &SpectralMis,
+        u: f32,
+    ) -> Option<Self> {
+        let h = mis.hero;
+        let sigma_t = sigma_a + sigma_s;
+        if !(sigma_t[h] > 0.0 && sigma_s[h] > 0.0) {
+            return None;
+        }
+        // 1 − e^(−σt·L) without cancellation for thin segments; 1 for an infinite one.
+        let collide = sigma_t.map(|s| if s > 0.0 { -(-s * t_end.min(f32::MAX)).exp_m1() } else { 0.0 });
+        if collide[h].is_nan() || collide[h] <= 0.0 {
+            return None;
+        }
+        // Inverse of the truncated exponential's distribution function.
+        let t = -(-u * collide[h]).ln_1p() / sigma_t[h];
+        if !(t.is_finite() && t < t_end) {
+            return None;
+        }
+        let tr = sigma_t.map(|s| (-s * t).exp());
+        let f_over_t =
+            SampledSpectrum(std::array::from_fn(|i| if collide[i] > 0.0 { sigma_t[i] / collide[i] } else { 0.0 }));
+        let f_h = f_over_t[h] * tr[h];
+        let beta = tr * sigma_s / f_h;
+        let ratios = PrefixRatios { r_u: mis.ratio(beta), r_l: mis.ratio(f_over_t * tr / f_h) };
+        Some(Self { p: o + d * t, beta, ratios, f_over_t })
+    }
+
+    /// The factor that turns the path's r_u before its own collision on this segment (transmittance `t_maj` to
+    /// it, scattering coefficient `sigma_s`, hero `h`) into the light-sampling strategy's r_l there: f / (T·σs at
+    /// the hero).
+    pub fn light_ratio_at_collision(
+        &self,
+        t_maj: SampledSpectrum,
+        sigma_s: SampledSpectrum,
+        mis: &SpectralMis,
+    ) -> SampledSpectrum {
+        let h = mis.hero;
+        mis.ratio(self.f_over_t * t_maj / (t_maj[h] * sigma_s[h]))
+    }
+}
+
 /// Next-event estimation at `v`: a light and a point on it, transmittance through media (closed form in
 /// homogeneous ones, ratio tracking in grids) and material-less boundaries, weighted against BSDF or phase sampling
-/// by the balance heuristic over all wavelengths (`r_p` is the path's r_u, `mis` its spectral MIS), or by spectral
+/// by the balance heuristic over all wavelengths (`r_p` the path's prefix ratios, `mis` its spectral MIS), or by spectral
 /// MIS alone for [`DirectLight::LightSamplingOnly`] (integrators that find the rest of the light otherwise, as
 /// photon mapping does). Draws the light sample from `u`.
 pub(crate) fn sample_ld(
@@ -292,7 +383,7 @@ pub(crate) fn sample_ld(
     wl: &SampledWavelengths,
     u: &BounceSamples,
     mis: &SpectralMis,
-    r_p: SampledSpectrum,
+    r_p: PrefixRatios,
     weighting: DirectLight,
 ) -> SampledSpectrum {
     let scene = tracer.scene;
@@ -334,8 +425,8 @@ pub(crate) fn sample_ld(
         return SampledSpectrum::zero();
     };
     let (t_ray, r_l, r_u) = (tr.t, tr.r_l, tr.r_u);
-    let r_l = r_l * r_p * p_l;
-    let r_u = r_u * r_p * scatter_pdf;
+    let r_l = r_l * r_p.r_l * p_l;
+    let r_u = r_u * r_p.r_u * scatter_pdf;
     if ls.delta || weighting == DirectLight::LightSamplingOnly {
         f_hat * t_ray * ls.l / mis.average(r_l)
     } else {
@@ -350,10 +441,11 @@ mod tests {
     use glam::{Vec2, Vec3};
     use spectral::SampledWavelengths;
 
-    use super::{medium_direction_pdf, sample_medium_direction};
+    use super::{medium_direction_pdf, sample_medium_direction, ForcedCollision, SpectralMis};
     use crate::medium::TrackingRng;
     use crate::tests::support::chi_square_of_counts;
     use crate::{build_scene, BuildOptions};
+    use spectral::SampledSpectrum;
 
     /// Directions drawn with the sun guide: the density reported is the mixture's at the direction drawn, the value
     /// the phase function's, and a histogram of their angle to the sun follows the mixture (χ² in 2° bins about the
@@ -421,5 +513,49 @@ Shape "sphere" "float radius" 10
         // 90 bins: χ² of a right density stays below ~150 (mean 89, sd 13, plus the quadrature's error).
         assert!(right < 150.0, "χ² against the mixture {right}");
         assert!(wrong > 1000.0, "χ² against the phase function alone {wrong}");
+    }
+    /// The forced collision's throughput factor T(t)·σs/f(t) averages to the probability of scattering on the
+    /// segment, σs/σt·(1 − e^(−σt·L)), at every wavelength of a chromatic medium, on a short and an infinite
+    /// segment (10⁵ stratified draws, 0.3 %); its density ratios are f and T·σs over the hero's f, and at a
+    /// collision the light strategy's ratio is f/(T·σs) at the hero.
+    #[test]
+    fn forced_collisions_average_to_the_scattering_probability() {
+        let sigma_a = SampledSpectrum([0.1, 0.0, 0.4, 0.2]);
+        let sigma_s = SampledSpectrum([0.5, 1.2, 0.3, 2.0]);
+        let wl = SampledWavelengths::new([450.0, 530.0, 610.0, 690.0], [1.0; 4]);
+        let mut mis = SpectralMis::new(&wl);
+        mis.choose(0.6);
+        let h = mis.hero;
+        let (o, d) = (Vec3::ZERO, Vec3::Z);
+        for t_end in [0.7f32, f32::INFINITY] {
+            let n = 100_000;
+            let mut sum = [0.0f64; 4];
+            for k in 0..n {
+                let u = (k as f32 + 0.5) / n as f32;
+                let fc = ForcedCollision::sample(o, d, t_end, sigma_a, sigma_s, &mis, u).unwrap();
+                let t = fc.p.z;
+                assert!((0.0..t_end).contains(&t), "{t} outside [0, {t_end})");
+                let st = sigma_a + sigma_s;
+                let tr = st.map(|s| (-s * t).exp());
+                let f = st.map(|s| s * (-s * t).exp() / -(-s * t_end.min(f32::MAX)).exp_m1());
+                for i in 0..4 {
+                    sum[i] += f64::from(fc.beta[i]);
+                    let close = |a: f32, b: f32| (a - b).abs() <= 1e-4 * b.abs().max(1e-12);
+                    assert!(close(fc.ratios.r_l[i], f[i] / f[h]), "r_l[{i}] {} at t = {t}", fc.ratios.r_l[i]);
+                    assert!(close(fc.ratios.r_u[i], tr[i] * sigma_s[i] / f[h]), "r_u[{i}] at t = {t}");
+                }
+                let at_collision = fc.light_ratio_at_collision(tr, sigma_s, &mis);
+                for i in 0..4 {
+                    let want = f[i] / (tr[h] * sigma_s[h]);
+                    assert!((at_collision[i] - want).abs() <= 1e-4 * want, "collision ratio [{i}] at t = {t}");
+                }
+            }
+            for i in 0..4 {
+                let st = f64::from(sigma_a[i] + sigma_s[i]);
+                let want = f64::from(sigma_s[i]) / st * -(-st * f64::from(t_end)).exp_m1();
+                let got = sum[i] / n as f64;
+                assert!((got - want).abs() <= 3e-3 * want, "L = {t_end}, slot {i}: {got} against {want}");
+            }
+        }
     }
 }

@@ -6,7 +6,9 @@
 //! sampling by the balance heuristic through the same rescaled path probabilities r_u and r_l (pbrt-v4 §14.2.3).
 //!
 //! The depth counts scattering events, in media and at surfaces; crossing a material-less boundary is not one.
-//! Absorbing-only media attenuate in closed form (Beer–Lambert) instead of by tracking.
+//! Absorbing-only media attenuate in closed form (Beer–Lambert) instead of by tracking. In Mie media (or wherever
+//! asked), light is sampled at a forced collision on each segment of a homogeneous medium rather than at the
+//! path's own collisions ([`ForcedCollision`]).
 
 use glam::Vec3;
 use spectral::{SampledSpectrum, SampledWavelengths};
@@ -15,7 +17,9 @@ use super::drive::{begin_camera_bounce, CameraBounce, Depth, FirstHit, Radiance}
 use super::transport::{
     russian_roulette, scatter, BounceSamples, DirectLight, PathRay, Scattered, SurfaceVertex, Tracer,
 };
-use super::volume::{sample_ld, sample_medium_direction, weigh_tracking, ScatterVertex, SpectralMis};
+use super::volume::{
+    sample_ld, sample_medium_direction, weigh_tracking, ForcedCollision, PrefixRatios, ScatterVertex, SpectralMis,
+};
 use crate::bxdf::{DispersiveSplit, TransportMode};
 use crate::camera::CameraRay;
 use crate::medium::{sample_t_maj, Collision, TrackingRng};
@@ -33,6 +37,9 @@ pub(crate) struct VolumePaths {
     pub regularize: bool,
     /// The share of scattering directions in Mie media drawn towards the sun (`"float sunguide"`).
     pub sun_guide: f32,
+    /// Whether light is sampled at a forced collision on each segment through a homogeneous medium
+    /// ([`ForcedCollision`]) rather than at the path's own collisions; `None`: in Mie media.
+    pub forced_collisions: Option<bool>,
 }
 
 /// A volumetric path between two events: what a split at a dispersive refraction copies into each branch.
@@ -45,7 +52,12 @@ struct VolPathState {
     r_l: SampledSpectrum,
     mis: SpectralMis,
     specular_bounce: bool,
-    eta_scale: f32,
+    /// What Russian roulette multiplies the throughput by before it judges a path: the squared relative index of
+    /// refraction crossed (radiance scales with it, pbrt-v4 §13.4.2), and for each guided scattering direction the
+    /// ratio of its density to the phase function's. A direction guided towards the sun has a small weight because
+    /// it is drawn often, not because little light follows it: its next event sees the sun through the drops'
+    /// forward lobe, and judging it by its weight would end most such paths and make the survivors grains.
+    rr_scale: f32,
     depth: Depth,
     prev_p: Vec3,
 }
@@ -61,11 +73,11 @@ impl VolPathState {
         self.r_l = self.r_u / p_b;
         self.specular_bounce = s.bs.specular;
         if s.bs.transmission {
-            self.eta_scale *= s.bs.eta * s.bs.eta;
+            self.rr_scale *= s.bs.eta * s.bs.eta;
         }
         self.prev_p = hit.p;
         self.ray.leave(hit, s.wi, s.bs.specular);
-        let ratio = (self.beta * self.eta_scale / self.mis.average(self.r_u)).max_value();
+        let ratio = (self.beta * self.rr_scale / self.mis.average(self.r_u)).max_value();
         if !russian_roulette(ratio, self.depth.events, u, &mut self.beta) {
             return false;
         }
@@ -98,6 +110,36 @@ impl VolumePaths {
                     let h = st.mis.hero;
                     let mut rng = TrackingRng::new(sampler.next_1d(), st.depth.events);
                     let (ro, rd) = (st.ray.o, st.ray.d);
+                    let time = st.ray.time;
+                    let vertex = |p| ScatterVertex::Medium {
+                        p,
+                        d_in: rd,
+                        phase: medium.phase(),
+                        medium: Some(m),
+                        time,
+                        sun_guide: self.sun_guide,
+                    };
+                    // Next-event estimation on this segment at a forced collision, where transmittance has a closed
+                    // form and the path may still scatter once more.
+                    let forcing = self.forced_collisions.unwrap_or(medium.mie_optics().is_some())
+                        && medium.has_closed_form_transmittance()
+                        && st.depth.events < st.depth.max;
+                    // The numbers of this segment's scattering vertex (light sampling, then direction and roulette
+                    // at the path's collision) are drawn here when light is sampled at a forced collision, else
+                    // at the collision.
+                    let mut u_forced = None;
+                    let forced = if forcing {
+                        let u = BounceSamples::draw(sampler);
+                        u_forced = Some(u);
+                        let mp = medium.point(ro, wl);
+                        ForcedCollision::sample(ro, rd, t_end, mp.sigma_a, mp.sigma_s, &st.mis, sampler.next_1d())
+                    } else {
+                        None
+                    };
+                    if let (Some(fc), Some(u)) = (&forced, &u_forced) {
+                        let r_p = PrefixRatios { r_u: st.r_u * fc.ratios.r_u, r_l: st.r_u * fc.ratios.r_l };
+                        l += st.beta * fc.beta * sample_ld(tracer, vertex(fc.p), wl, u, &st.mis, r_p, DirectLight::Mis);
+                    }
                     let mut scattered: Option<(Vec3, Vec3)> = None;
                     let mut terminated = false;
                     let t_maj = sample_t_maj(medium, ro, rd, t_end, &mut rng, wl, h, |p, mp, sigma_maj, t_maj, rng| {
@@ -122,6 +164,7 @@ impl VolumePaths {
                                 terminated = true;
                                 return false;
                             }
+                            let r_prefix = st.r_u;
                             if !weigh_tracking(&mut st.beta, &mut st.r_u, &st.mis, t_maj, mp.sigma_s)
                                 || st.beta.is_black()
                                 || st.r_u.is_black()
@@ -129,17 +172,16 @@ impl VolumePaths {
                                 terminated = true;
                                 return false;
                             }
-                            let u = BounceSamples::draw(sampler);
-                            let time = st.ray.time;
-                            let v = ScatterVertex::Medium {
-                                p,
-                                d_in: rd,
-                                phase: mp.phase,
-                                medium: Some(m),
-                                time,
-                                sun_guide: self.sun_guide,
+                            let u = u_forced.unwrap_or_else(|| BounceSamples::draw(sampler));
+                            // Light sampling from here: done at the forced collision, or now.
+                            let r_l = match &forced {
+                                Some(fc) => r_prefix * fc.light_ratio_at_collision(t_maj, mp.sigma_s, &st.mis),
+                                None => {
+                                    let r_p = PrefixRatios::shared(st.r_u);
+                                    l += st.beta * sample_ld(tracer, vertex(p), wl, &u, &st.mis, r_p, DirectLight::Mis);
+                                    st.r_u
+                                }
                             };
-                            l += st.beta * sample_ld(tracer, v, wl, &u, &st.mis, st.r_u, DirectLight::Mis);
                             let Some(ps) =
                                 sample_medium_direction(tracer.scene, mp.phase, rd, u.dir, u.lobe, wl, self.sun_guide)
                             else {
@@ -147,9 +189,10 @@ impl VolumePaths {
                                 return false;
                             };
                             st.beta *= ps.p / ps.pdf;
-                            st.r_l = st.r_u / ps.pdf;
+                            st.r_l = r_l / ps.pdf;
+                            st.rr_scale *= ps.pdf / mp.phase.pdf_of_values(&ps.p, wl);
                             if !russian_roulette(
-                                (st.beta / st.mis.average(st.r_u)).max_value(),
+                                (st.beta * st.rr_scale / st.mis.average(st.r_u)).max_value(),
                                 st.depth.events,
                                 &u,
                                 &mut st.beta,
@@ -235,7 +278,8 @@ impl VolumePaths {
             let wo = frame.to_local(-d);
             let v = SurfaceVertex { hit, frame: &frame, bxdf: &bxdf, wo, medium: arrived_in };
             if !bxdf.is_specular() {
-                l += st.beta * sample_ld(tracer, ScatterVertex::Surface(v), wl, &u, &st.mis, st.r_u, DirectLight::Mis);
+                let r_p = PrefixRatios::shared(st.r_u);
+                l += st.beta * sample_ld(tracer, ScatterVertex::Surface(v), wl, &u, &st.mis, r_p, DirectLight::Mis);
             }
             let mode = TransportMode::Radiance;
             // A dispersive refraction splits the path into one branch per carried wavelength (each at its full
@@ -301,7 +345,7 @@ impl Radiance for VolumePaths {
             r_l: SampledSpectrum::splat(1.0),
             mis,
             specular_bounce: false,
-            eta_scale: 1.0,
+            rr_scale: 1.0,
             depth: Depth::new(self.max_depth),
             prev_p: o,
         };

@@ -242,6 +242,7 @@ fn diffuse_transmission_sphere_in_a_furnace_looks_r_plus_t_squared_over_one_minu
                 split_dispersion: true,
                 regularize: false,
                 sun_guide: 0.5,
+                forced_collisions: None,
             }),
             256,
             0.0,

@@ -220,7 +220,13 @@ fn path(max_depth: u32) -> Integrator {
 }
 
 fn volpath(max_depth: u32) -> Integrator {
-    Integrator::VolPath(VolPathIntegrator { max_depth, split_dispersion: true, regularize: false, sun_guide: 0.25 })
+    Integrator::VolPath(VolPathIntegrator {
+        max_depth,
+        split_dispersion: true,
+        regularize: false,
+        sun_guide: 0.25,
+        forced_collisions: None,
+    })
 }
 
 fn lightpath(max_depth: u32) -> Integrator {

@@ -499,6 +499,7 @@ fn a_white_measured_sphere_in_a_furnace_shows_the_model_albedo_in_every_integrat
                 split_dispersion: true,
                 regularize: false,
                 sun_guide: 0.5,
+                forced_collisions: None,
             }),
             64,
             0.0,
