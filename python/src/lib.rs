@@ -1,0 +1,245 @@
+//! `import prismatic`: the renderer as a Python extension module (built with maturin; the Python side is in
+//! `python/prismatic/`). A scene is parsed once and built once per set of build options; a render releases the
+//! GIL and returns the image as a NumPy array, the same values the command line writes for the same scene,
+//! options and seed.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{Arc, Mutex};
+
+use numpy::ndarray::Array3;
+use numpy::{IntoPyArray, PyArray3};
+use pyo3::exceptions::{PyException, PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+
+pyo3::create_exception!(
+    _prismatic,
+    SceneError,
+    PyException,
+    "A scene that cannot be read or built: `file`, `line` and `column` say where (None where the error has no place \
+     in a scene file), `message` what is wrong."
+);
+
+/// A SceneError with its place.
+fn scene_error(py: Python<'_>, loc: Option<&scene::Loc>, full: String, message: String) -> PyErr {
+    let err = SceneError::new_err(full);
+    let value = err.value(py);
+    let set = |name: &str, v: Py<PyAny>| value.setattr(name, v);
+    let (file, line, column) = match loc {
+        Some(l) => {
+            (Some(l.file.display().to_string()), Some(l.line).filter(|&n| n > 0), Some(l.column).filter(|&n| n > 0))
+        }
+        None => (None, None, None),
+    };
+    // Setting attributes on a fresh exception object cannot fail short of memory exhaustion; a failure would
+    // leave the attribute missing, which the message still covers.
+    let _ = set("file", file.into_pyobject(py).map(|o| o.into_any().unbind()).unwrap_or_else(|_| py.None()));
+    let _ = set("line", line.into_pyobject(py).map(|o| o.into_any().unbind()).unwrap_or_else(|_| py.None()));
+    let _ = set("column", column.into_pyobject(py).map(|o| o.into_any().unbind()).unwrap_or_else(|_| py.None()));
+    let _ = set("message", message.into_pyobject(py).map(|o| o.into_any().unbind()).unwrap_or_else(|_| py.None()));
+    err
+}
+
+fn parse_error(py: Python<'_>, e: pbrt::ParseError) -> PyErr {
+    scene_error(py, Some(&e.loc), e.to_string(), e.message.clone())
+}
+
+fn build_error(py: Python<'_>, e: render::RenderError) -> PyErr {
+    match &e {
+        render::RenderError::Scene(s) => scene_error(py, Some(s.loc()), e.to_string(), s.message()),
+        render::RenderError::ReferencedFile { loc, message, .. } => {
+            scene_error(py, Some(loc), e.to_string(), message.clone())
+        }
+        _ => scene_error(py, None, e.to_string(), e.to_string()),
+    }
+}
+
+/// The options a scene is built with (a film size or a sample count changes the built scene).
+#[derive(Clone, Debug, PartialEq)]
+struct BuildKey {
+    resolution: Option<(u32, u32)>,
+    spp: Option<u32>,
+}
+
+/// A parsed pbrt-v4 scene. `render` builds it (once per resolution and sample count) and renders it.
+#[pyclass(module = "prismatic._prismatic", frozen)]
+struct Scene {
+    desc: pbrt::SceneDescription,
+    /// What `load` was given (None for `loads`).
+    path: Option<PathBuf>,
+    /// The last scene built, with the options it was built with: rendering again with the same ones (another seed,
+    /// other threads) builds nothing.
+    built: Mutex<Option<(BuildKey, Arc<render::BuiltScene>)>>,
+    /// How many times the scene was built.
+    builds: AtomicU32,
+}
+
+/// A rendered image: `rgb`, linear in the film's colour space, `height × width × 3` float32.
+#[pyclass(module = "prismatic._prismatic", frozen)]
+struct Image {
+    rgb: Py<PyArray3<f32>>,
+    #[pyo3(get)]
+    width: u32,
+    #[pyo3(get)]
+    height: u32,
+    /// Samples per pixel rendered.
+    #[pyo3(get)]
+    spp: u32,
+}
+
+#[pymethods]
+impl Image {
+    /// The linear RGB image, `height × width × 3`, float32 (rows from the top).
+    #[getter]
+    fn rgb(&self, py: Python<'_>) -> Py<PyArray3<f32>> {
+        self.rgb.clone_ref(py)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<prismatic.Image {}×{}, {} spp>", self.width, self.height, self.spp)
+    }
+}
+
+/// A positive count or None, else ValueError naming `name`.
+fn check_positive(name: &str, v: Option<i64>, max: i64) -> PyResult<Option<u32>> {
+    match v {
+        None => Ok(None),
+        Some(n) if (1..=max).contains(&n) => Ok(Some(n as u32)),
+        Some(n) => Err(PyValueError::new_err(format!("{name} must be between 1 and {max}, got {n}"))),
+    }
+}
+
+#[pymethods]
+impl Scene {
+    /// Renders the scene; returns an [`Image`]. `spp` and `resolution` (width, height) replace the scene's, `seed`
+    /// is the render seed (the command line's `--seed`), `threads` the number of threads (all cores by default),
+    /// `wavelengths` the strategy ("hero", "cmf" or "rgb"). The GIL is released while rendering.
+    #[pyo3(signature = (*, spp=None, resolution=None, seed=0, threads=None, wavelengths=None))]
+    fn render(
+        &self,
+        py: Python<'_>,
+        spp: Option<i64>,
+        resolution: Option<Bound<'_, PyAny>>,
+        seed: i64,
+        threads: Option<i64>,
+        wavelengths: Option<&str>,
+    ) -> PyResult<Image> {
+        let spp = check_positive("spp", spp, 1 << 24)?;
+        let resolution =
+            match resolution {
+                None => None,
+                Some(r) => Some(r.extract::<(i64, i64)>().map_err(|e| {
+                    PyTypeError::new_err(format!("resolution must be (width, height), two integers: {e}"))
+                })?),
+            };
+        let resolution = match resolution {
+            None => None,
+            Some((w, h)) => Some((
+                check_positive("resolution width", Some(w), 1 << 16)?.unwrap_or(1),
+                check_positive("resolution height", Some(h), 1 << 16)?.unwrap_or(1),
+            )),
+        };
+        let seed = u32::try_from(seed)
+            .map_err(|_| PyValueError::new_err(format!("seed must be between 0 and {}, got {seed}", u32::MAX)))?;
+        let threads = check_positive("threads", threads, 4096)?;
+        let strategy = match wavelengths {
+            None => spectral::WavelengthStrategy::default(),
+            Some(s) => s.parse().map_err(|e: String| PyValueError::new_err(format!("wavelengths: {e}")))?,
+        };
+        let built = self.built(py, BuildKey { resolution, spp })?;
+        let result = py.detach(move || -> Result<(film::Film, u32), String> {
+            let mut spec = built.film.clone();
+            spec.wavelengths = strategy;
+            let mut film = film::Film::new(spec).map_err(|e| e.to_string())?;
+            let passes = 0..built.spp;
+            let go = |film: &mut film::Film| {
+                built.integrator.render(&built.scene, film, passes.clone(), seed, &|_| {}).map_err(|e| e.to_string())
+            };
+            match threads {
+                None => go(&mut film)?,
+                Some(n) => rayon::ThreadPoolBuilder::new()
+                    .num_threads(n as usize)
+                    .build()
+                    .map_err(|e| format!("cannot start {n} threads: {e}"))?
+                    .install(|| go(&mut film))?,
+            };
+            Ok((film, built.spp))
+        });
+        let (film, spp) = result.map_err(PyRuntimeError::new_err)?;
+        let b = film.bounds();
+        let (w, h) = (b.width(), b.height());
+        let flat: Vec<f32> = film.to_rgb_image().into_iter().flatten().collect();
+        let array = Array3::from_shape_vec((h as usize, w as usize, 3), flat)
+            .map_err(|e| PyRuntimeError::new_err(format!("image of {w}×{h}: {e}")))?;
+        Ok(Image { rgb: array.into_pyarray(py).unbind(), width: w, height: h, spp })
+    }
+
+    /// How many times the scene has been built (shapes, BVH, lights, textures): once per change of `spp` or
+    /// `resolution` between renders; another seed, thread count or wavelength strategy reuses the last build.
+    #[getter]
+    fn builds(&self) -> u32 {
+        self.builds.load(Ordering::Relaxed)
+    }
+
+    /// The file the scene was loaded from (None for a scene given as text).
+    #[getter]
+    fn path(&self) -> Option<String> {
+        self.path.as_ref().map(|p| p.display().to_string())
+    }
+
+    fn __repr__(&self) -> String {
+        match &self.path {
+            Some(p) => format!("<prismatic.Scene {}>", p.display()),
+            None => "<prismatic.Scene (from text)>".into(),
+        }
+    }
+}
+
+impl Scene {
+    /// The scene built with `key`'s options: the one kept from the last render if it had the same.
+    fn built(&self, py: Python<'_>, key: BuildKey) -> PyResult<Arc<render::BuiltScene>> {
+        let mut kept = self.built.lock().map_err(|_| PyRuntimeError::new_err("an earlier render panicked"))?;
+        if let Some((k, b)) = kept.as_ref() {
+            if *k == key {
+                return Ok(b.clone());
+            }
+        }
+        let options = render::BuildOptions { resolution: key.resolution, spp: key.spp, ..Default::default() };
+        let desc = &self.desc;
+        let built = py.detach(|| render::build_scene(desc, &options)).map_err(|e| build_error(py, e))?;
+        let built = Arc::new(built);
+        self.builds.fetch_add(1, Ordering::Relaxed);
+        *kept = Some((key, built.clone()));
+        Ok(built)
+    }
+}
+
+/// Parses the pbrt-v4 scene file at `path` (and the files it includes). Raises SceneError for a scene that cannot
+/// be read, with the file, line and column.
+#[pyfunction]
+fn load(py: Python<'_>, path: PathBuf) -> PyResult<Scene> {
+    let desc = py.detach(|| pbrt::parse_file(&path)).map_err(|e| parse_error(py, e))?;
+    Ok(Scene { desc, path: Some(path), built: Mutex::new(None), builds: AtomicU32::new(0) })
+}
+
+/// Parses a pbrt-v4 scene given as text; files it names are found relative to `base_dir` (the current directory by
+/// default). Raises SceneError as `load` does, naming the file `<string>`.
+#[pyfunction]
+#[pyo3(signature = (text, base_dir=None))]
+fn loads(py: Python<'_>, text: &str, base_dir: Option<PathBuf>) -> PyResult<Scene> {
+    let virtual_path = base_dir.map_or_else(|| PathBuf::from("<string>"), |d| d.join("<string>"));
+    let desc = pbrt::parse_str(text, Path::new(&virtual_path)).map_err(|e| parse_error(py, e))?;
+    Ok(Scene { desc, path: None, built: Mutex::new(None), builds: AtomicU32::new(0) })
+}
+
+/// The extension module; `prismatic/__init__.py` re-exports it.
+#[pymodule]
+fn _prismatic(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add_function(wrap_pyfunction!(loads, m)?)?;
+    m.add_class::<Scene>()?;
+    m.add_class::<Image>()?;
+    m.add("SceneError", m.py().get_type::<SceneError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,128 @@
+"""Tests of the Python package against the command line and the scene files' errors.
+
+Run by scripts/test.sh, which builds the command line and sets PRISMATIC_BIN to it.
+"""
+
+import os
+import subprocess
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import prismatic
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENE = ROOT / "scenes" / "cornell-glass.pbrt"
+
+
+def cli_binary():
+    path = os.environ.get("PRISMATIC_BIN", str(ROOT / "target" / "quick-release" / "prismatic"))
+    assert Path(path).is_file(), f"no prismatic binary at {path}: build it (scripts/test.sh does) or set PRISMATIC_BIN"
+    return path
+
+
+def read_pfm(path):
+    """A PFM file as height x width x 3 float32, rows from the top."""
+    data = Path(path).read_bytes()
+    magic, size, scale, pixels = data.split(b"\n", 3)
+    assert magic == b"PF"
+    w, h = map(int, size.split())
+    dtype = "<f4" if float(scale) < 0 else ">f4"
+    return np.frombuffer(pixels, dtype=dtype).reshape(h, w, 3)[::-1]
+
+
+def test_render_equals_the_command_line_bit_for_bit(tmp_path):
+    scene = prismatic.load(SCENE)
+    for seed in (1, 7):
+        image = scene.render(spp=4, resolution=(48, 36), seed=seed)
+        out = tmp_path / f"cli-{seed}.pfm"
+        subprocess.run(
+            [cli_binary(), "render", str(SCENE), "--spp", "4", "--resolution", "48x36", "--seed", str(seed),
+             "--quiet", "-o", str(out)],
+            check=True,
+        )
+        cli = read_pfm(out)
+        assert image.rgb.shape == (36, 48, 3) and image.rgb.dtype == np.float32
+        assert (image.width, image.height, image.spp) == (48, 36, 4)
+        assert image.rgb.mean() > 0.01, "a black image would match trivially"
+        assert np.array_equal(image.rgb, cli), f"seed {seed}: max difference {np.abs(image.rgb - cli).max()}"
+
+
+def test_threads_and_strategies_and_rebuilds():
+    scene = prismatic.load(SCENE)
+    a = scene.render(spp=2, resolution=(32, 24), seed=3)
+    b = scene.render(spp=2, resolution=(32, 24), seed=3, threads=1)
+    assert np.array_equal(a.rgb, b.rgb), "one thread and all cores give the same image"
+    c = scene.render(spp=2, resolution=(32, 24), seed=4, wavelengths="cmf")
+    assert not np.array_equal(a.rgb, c.rgb)
+    assert scene.builds == 1, "another seed, thread count or strategy builds nothing"
+    scene.render(spp=2, resolution=(16, 12), seed=3)
+    assert scene.builds == 2
+
+
+def test_loads_resolves_files_from_base_dir():
+    text = (SCENE.read_text())
+    scene = prismatic.loads(text, base_dir=SCENE.parent)
+    a = scene.render(spp=1, resolution=(16, 12), seed=2)
+    b = prismatic.load(SCENE).render(spp=1, resolution=(16, 12), seed=2)
+    assert np.array_equal(a.rgb, b.rgb)
+    assert scene.path is None and prismatic.load(SCENE).path == str(SCENE)
+
+
+def test_scene_errors_say_where():
+    with pytest.raises(prismatic.SceneError) as e:
+        prismatic.loads('WorldBegin\nShape "sphere" "float radius" "x"\n')
+    assert (e.value.file, e.value.line, e.value.column) == ("<string>", 2, 31)
+    assert "float radius" in e.value.message
+    # An error found when building (an unknown shape type) is raised by render, with its place.
+    scene = prismatic.loads('WorldBegin\n\nShape "blob"\n')
+    with pytest.raises(prismatic.SceneError) as e:
+        scene.render(spp=1, resolution=(8, 8))
+    assert (e.value.file, e.value.line) == ("<string>", 3) and "blob" in e.value.message
+    with pytest.raises(prismatic.SceneError) as e:
+        prismatic.load(ROOT / "no-such-scene.pbrt")
+    assert e.value.file.endswith("no-such-scene.pbrt")
+
+
+@pytest.mark.parametrize(
+    "options, error, name",
+    [
+        (dict(spp=0), ValueError, "spp"),
+        (dict(spp="4"), TypeError, "spp"),
+        (dict(resolution=(0, 10)), ValueError, "resolution"),
+        (dict(resolution=(8,)), TypeError, "resolution"),
+        (dict(threads=0), ValueError, "threads"),
+        (dict(seed=-1), ValueError, "seed"),
+        (dict(wavelengths="blue"), ValueError, "wavelengths"),
+    ],
+)
+def test_bad_options_name_the_parameter(options, error, name):
+    scene = prismatic.load(SCENE)
+    with pytest.raises(error) as e:
+        scene.render(**options)
+    assert name in str(e.value)
+
+
+def test_the_gil_is_released_while_rendering():
+    scene = prismatic.load(SCENE)
+    scene.render(spp=1, resolution=(8, 8))  # builds outside the measured render
+    ticks = 0
+    done = threading.Event()
+
+    def count():
+        nonlocal ticks
+        while not done.is_set():
+            ticks += 1
+
+    worker = threading.Thread(target=count)
+    worker.start()
+    try:
+        before = ticks
+        scene.render(spp=64, resolution=(8, 8), threads=1)
+        during = ticks - before
+    finally:
+        done.set()
+        worker.join()
+    assert during > 1000, f"the Python thread ran {during} times during the render"
