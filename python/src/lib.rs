@@ -6,10 +6,11 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use numpy::ndarray::Array3;
-use numpy::{IntoPyArray, PyArray3};
-use pyo3::exceptions::{PyException, PyRuntimeError, PyTypeError, PyValueError};
+use numpy::{IntoPyArray, PyArray1, PyArray3};
+use pyo3::exceptions::{PyException, PyOSError, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 pyo3::create_exception!(
@@ -74,17 +75,46 @@ struct Scene {
     builds: AtomicU32,
 }
 
-/// A rendered image: `rgb`, linear in the film's colour space, `height × width × 3` float32.
+/// A spectral film's buckets (height × width × N) and their N + 1 edges in nm.
+type SpectralArrays = (Py<PyArray3<f32>>, Py<PyArray1<f64>>);
+
+/// A rendered image: `rgb`, linear in the film's colour space, `height × width × 3` float32; for a spectral film
+/// also `spectral` (`height × width × N`) with `wavelengths`, the N + 1 bucket edges in nm.
 #[pyclass(module = "prismatic._prismatic", frozen)]
 struct Image {
+    film: film::Film,
     rgb: Py<PyArray3<f32>>,
+    spectral: Option<SpectralArrays>,
     #[pyo3(get)]
     width: u32,
     #[pyo3(get)]
     height: u32,
-    /// Samples per pixel rendered.
+    /// Samples per pixel rendered (fewer than asked if the render was interrupted).
     #[pyo3(get)]
     spp: u32,
+}
+
+impl Image {
+    /// The image of `film` after `spp` samples per pixel: one copy of the film's values into each array.
+    fn new(py: Python<'_>, film: film::Film, spp: u32) -> PyResult<Self> {
+        let b = film.bounds();
+        let (w, h) = (b.width(), b.height());
+        let shape = |n: usize| (h as usize, w as usize, n);
+        let flat: Vec<f32> = film.to_rgb_image().into_iter().flatten().collect();
+        let rgb = Array3::from_shape_vec(shape(3), flat)
+            .map_err(|e| PyRuntimeError::new_err(format!("image of {w}×{h}: {e}")))?;
+        let spectral = match film.spec().kind {
+            film::FilmKind::Rgb => None,
+            film::FilmKind::Spectral { nbuckets, lambda_min, lambda_max } => {
+                let values = Array3::from_shape_vec(shape(nbuckets), film.to_spectral_image())
+                    .map_err(|e| PyRuntimeError::new_err(format!("spectral image of {w}×{h}: {e}")))?;
+                let step = (lambda_max - lambda_min) / nbuckets as f64;
+                let edges: Vec<f64> = (0..=nbuckets).map(|i| lambda_min + step * i as f64).collect();
+                Some((values.into_pyarray(py).unbind(), PyArray1::from_vec(py, edges).unbind()))
+            }
+        };
+        Ok(Image { film, rgb: rgb.into_pyarray(py).unbind(), spectral, width: w, height: h, spp })
+    }
 }
 
 #[pymethods]
@@ -93,6 +123,26 @@ impl Image {
     #[getter]
     fn rgb(&self, py: Python<'_>) -> Py<PyArray3<f32>> {
         self.rgb.clone_ref(py)
+    }
+
+    /// The spectral image of a spectral film, `height × width × N` (radiance per bucket), else None.
+    #[getter]
+    fn spectral(&self, py: Python<'_>) -> Option<Py<PyArray3<f32>>> {
+        self.spectral.as_ref().map(|(s, _)| s.clone_ref(py))
+    }
+
+    /// The N + 1 edges of the spectral buckets in nm, else None.
+    #[getter]
+    fn wavelengths(&self, py: Python<'_>) -> Option<Py<PyArray1<f64>>> {
+        self.spectral.as_ref().map(|(_, w)| w.clone_ref(py))
+    }
+
+    /// Writes the image as the command line does, by the path's extension: `.exr` (linear; spectral films add
+    /// their buckets), `.png` (the film's display view, 8-bit) or `.pfm`; atomically.
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let attributes = [("samplesPerPixel".to_string(), self.spp.to_string())];
+        py.detach(|| film::write_image_with(&self.film, &path, &attributes))
+            .map_err(|e| PyOSError::new_err(e.to_string()))
     }
 
     fn __repr__(&self) -> String {
@@ -113,8 +163,11 @@ fn check_positive(name: &str, v: Option<i64>, max: i64) -> PyResult<Option<u32>>
 impl Scene {
     /// Renders the scene; returns an [`Image`]. `spp` and `resolution` (width, height) replace the scene's, `seed`
     /// is the render seed (the command line's `--seed`), `threads` the number of threads (all cores by default),
-    /// `wavelengths` the strategy ("hero", "cmf" or "rgb"). The GIL is released while rendering.
-    #[pyo3(signature = (*, spp=None, resolution=None, seed=0, threads=None, wavelengths=None))]
+    /// `wavelengths` the strategy ("hero", "cmf" or "rgb"), `progress` a function called as `progress(done,
+    /// total)` after each pass. The GIL is released while rendering. Ctrl-C stops the render at the end of the
+    /// pass: the KeyboardInterrupt raised carries the partial image as `.image`.
+    #[pyo3(signature = (*, spp=None, resolution=None, seed=0, threads=None, wavelengths=None, progress=None))]
+    #[allow(clippy::too_many_arguments)]
     fn render(
         &self,
         py: Python<'_>,
@@ -123,6 +176,7 @@ impl Scene {
         seed: i64,
         threads: Option<i64>,
         wavelengths: Option<&str>,
+        progress: Option<Py<PyAny>>,
     ) -> PyResult<Image> {
         let spp = check_positive("spp", spp, 1 << 24)?;
         let resolution =
@@ -146,32 +200,73 @@ impl Scene {
             None => spectral::WavelengthStrategy::default(),
             Some(s) => s.parse().map_err(|e: String| PyValueError::new_err(format!("wavelengths: {e}")))?,
         };
+        if let Some(f) = &progress {
+            if !f.bind(py).is_callable() {
+                return Err(PyTypeError::new_err("progress must be a function progress(done, total)"));
+            }
+        }
         let built = self.built(py, BuildKey { resolution, spp })?;
-        let result = py.detach(move || -> Result<(film::Film, u32), String> {
-            let mut spec = built.film.clone();
-            spec.wavelengths = strategy;
-            let mut film = film::Film::new(spec).map_err(|e| e.to_string())?;
-            let passes = 0..built.spp;
-            let go = |film: &mut film::Film| {
-                built.integrator.render(&built.scene, film, passes.clone(), seed, &|_| {}).map_err(|e| e.to_string())
-            };
-            match threads {
-                None => go(&mut film)?,
-                Some(n) => rayon::ThreadPoolBuilder::new()
+        let mut spec = built.film.clone();
+        spec.wavelengths = strategy;
+        let mut film = film::Film::new(spec).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let total = built.spp;
+        // The passes run on this thread (which must be Python's main thread to see Ctrl-C), their samples on the
+        // threads asked for.
+        let pool = match threads {
+            None => None,
+            Some(n) => Some(
+                rayon::ThreadPoolBuilder::new()
                     .num_threads(n as usize)
                     .build()
-                    .map_err(|e| format!("cannot start {n} threads: {e}"))?
-                    .install(|| go(&mut film))?,
-            };
-            Ok((film, built.spp))
-        });
-        let (film, spp) = result.map_err(PyRuntimeError::new_err)?;
-        let b = film.bounds();
-        let (w, h) = (b.width(), b.height());
-        let flat: Vec<f32> = film.to_rgb_image().into_iter().flatten().collect();
-        let array = Array3::from_shape_vec((h as usize, w as usize, 3), flat)
-            .map_err(|e| PyRuntimeError::new_err(format!("image of {w}×{h}: {e}")))?;
-        Ok(Image { rgb: array.into_pyarray(py).unbind(), width: w, height: h, spp })
+                    .map_err(|e| PyRuntimeError::new_err(format!("cannot start {n} threads: {e}")))?,
+            ),
+        };
+        let render = |film: &mut film::Film| -> Result<(u32, Option<PyErr>), String> {
+            let mut job = built.integrator.begin(&built.scene, film, seed).map_err(|e| e.to_string())?;
+            // Passes of growing size, each well under a second, so that Ctrl-C (seen between passes) is answered
+            // quickly; a pixel's samples are added in the same order whatever the passes, so the image is the same.
+            let (mut done, mut pass, mut stopped) = (0u32, 1u32, None);
+            while done < total {
+                let start = Instant::now();
+                let n = pass.min(total - done);
+                match &pool {
+                    Some(pool) => pool.install(|| job.run(film, done..done + n, &|_| {})),
+                    None => job.run(film, done..done + n, &|_| {}),
+                };
+                done += n;
+                let took = start.elapsed();
+                if took < Duration::from_millis(250) {
+                    pass = pass.saturating_mul(2);
+                } else if took > Duration::from_millis(1000) && pass > 1 {
+                    pass /= 2;
+                }
+                let checked = Python::attach(|py| -> PyResult<()> {
+                    if let Some(f) = &progress {
+                        f.call1(py, (done, total))?;
+                    }
+                    py.check_signals()
+                });
+                if let Err(e) = checked {
+                    stopped = Some(e);
+                    break;
+                }
+            }
+            // Whatever the integrator keeps outside the film (photon mapping's estimate) goes in, also after a stop.
+            job.finish(film);
+            Ok((done, stopped))
+        };
+        let result = py.detach(|| render(&mut film));
+        let (done, stopped) = result.map_err(PyRuntimeError::new_err)?;
+        let image = Image::new(py, film, done)?;
+        match stopped {
+            None => Ok(image),
+            Some(e) => {
+                // Ctrl-C: the KeyboardInterrupt carries the partial image (`.image`), the image the command line
+                // writes when interrupted; so does an exception raised by the progress callback.
+                e.value(py).setattr("image", Py::new(py, image)?)?;
+                Err(e)
+            }
+        }
     }
 
     /// How many times the scene has been built (shapes, BVH, lights, textures): once per change of `spp` or

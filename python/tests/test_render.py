@@ -4,6 +4,7 @@ Run by scripts/test.sh, which builds the command line and sets PRISMATIC_BIN to 
 """
 
 import os
+import signal
 import subprocess
 import threading
 from pathlib import Path
@@ -126,3 +127,70 @@ def test_the_gil_is_released_while_rendering():
         done.set()
         worker.join()
     assert during > 1000, f"the Python thread ran {during} times during the render"
+
+
+def test_save_writes_what_the_command_line_writes(tmp_path):
+    scene = prismatic.load(SCENE)
+    image = scene.render(spp=2, resolution=(24, 16), seed=5)
+    image.save(tmp_path / "py.pfm")
+    subprocess.run(
+        [cli_binary(), "render", str(SCENE), "--spp", "2", "--resolution", "24x16", "--seed", "5", "--quiet",
+         "-o", str(tmp_path / "cli.pfm")],
+        check=True,
+    )
+    assert (tmp_path / "py.pfm").read_bytes() == (tmp_path / "cli.pfm").read_bytes()
+    image.save(tmp_path / "py.png")
+    assert (tmp_path / "py.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(OSError) as e:
+        image.save(tmp_path / "py.bmp")
+    assert "bmp" in str(e.value)
+
+
+SPECTRAL = """LookAt 0 0 -5  0 0 0  0 1 0
+Camera "perspective" "float fov" 30
+Film "spectral" "integer xresolution" 12 "integer yresolution" 8 "integer nbuckets" 10
+    "float lambdamin" 400 "float lambdamax" 700
+WorldBegin
+LightSource "infinite" "blackbody L" 5000
+Material "dielectric" "string glass" "N-SF11"
+Shape "sphere" "float radius" 1
+"""
+
+
+def test_a_spectral_film_gives_its_buckets():
+    image = prismatic.loads(SPECTRAL).render(spp=4, seed=1)
+    assert image.spectral.shape == (8, 12, 10) and image.spectral.dtype == np.float32
+    assert np.allclose(image.wavelengths, np.linspace(400, 700, 11))
+    assert (image.spectral >= 0).all() and image.spectral.mean() > 0
+    assert prismatic.load(SCENE).render(spp=1, resolution=(8, 8)).spectral is None
+
+
+def test_progress_is_reported_after_each_pass():
+    calls = []
+    prismatic.load(SCENE).render(spp=40, resolution=(8, 8), progress=lambda done, total: calls.append((done, total)))
+    assert calls[-1] == (40, 40) and all(t == 40 for _, t in calls)
+    assert [d for d, _ in calls] == sorted(d for d, _ in calls) and len(calls) >= 2
+    with pytest.raises(TypeError):
+        prismatic.load(SCENE).render(spp=1, progress=3)
+
+    def stop(done, total):
+        raise RuntimeError(f"stopped at {done}")
+
+    with pytest.raises(RuntimeError) as e:
+        prismatic.load(SCENE).render(spp=40, resolution=(8, 8), progress=stop)
+    assert e.value.image.spp == 1, "the first pass is one sample per pixel"
+
+
+def test_ctrl_c_stops_at_the_end_of_a_pass_with_the_partial_image():
+    scene = prismatic.load(SCENE)
+    scene.render(spp=1, resolution=(16, 16))  # built before the clock starts
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt) as e:
+            scene.render(spp=1 << 14, resolution=(16, 16), threads=1)
+    finally:
+        timer.cancel()
+    partial = e.value.image
+    assert 0 < partial.spp < 1 << 14
+    assert partial.rgb.mean() > 0.01
