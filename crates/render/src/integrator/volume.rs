@@ -300,8 +300,9 @@ impl PrefixRatios {
 }
 
 /// A scattering vertex placed for next-event estimation on every segment of a path through a homogeneous medium,
-/// whether or not the path collides there: the forced collision of neutron transport (Cashwell & Everett 1959;
-/// Lux & Koblinger 1991, §7.4), with density f(t) = σt·e^(−σt·t) / (1 − e^(−σt·L)) on [0, L) at the hero.
+/// whether or not the path collides there: the forced collision of neutron transport (Lux & Koblinger 1991,
+/// "Monte Carlo Particle Transport Methods"), with density f(t) = σt·e^(−σt·t) / (1 − e^(−σt·L)) on [0, L) at
+/// the hero.
 ///
 /// Why: delta tracking collides on a segment of optical depth τ only with probability 1 − e^(−τ), and its
 /// next-event estimate is all or nothing on that draw; on the rain of `scenes/rainbow.pbrt` (τ near 1) that
