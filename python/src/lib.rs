@@ -12,6 +12,7 @@ use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray1, PyArray3};
 use pyo3::exceptions::{PyException, PyOSError, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyBytes;
 
 pyo3::create_exception!(
     _prismatic,
@@ -95,6 +96,20 @@ struct Image {
 }
 
 impl Image {
+    /// The display encoding of the film's colour space through `view` (the film's view if None).
+    fn encoding(&self, view: Option<&str>) -> PyResult<film::DisplayEncoding> {
+        let view = match view {
+            None => self.film.spec().view,
+            Some(name) => film::View::by_name(name).ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "view: unknown view '{name}'; valid views: {}",
+                    film::View::NAMES.join(", ")
+                ))
+            })?,
+        };
+        Ok(film::DisplayEncoding::new(&self.film.spec().color_space, view))
+    }
+
     /// The image of `film` after `spp` samples per pixel: one copy of the film's values into each array.
     fn new(py: Python<'_>, film: film::Film, spp: u32) -> PyResult<Self> {
         let b = film.bounds();
@@ -143,6 +158,29 @@ impl Image {
         let attributes = [("samplesPerPixel".to_string(), self.spp.to_string())];
         py.detach(|| film::write_image_with(&self.film, &path, &attributes))
             .map_err(|e| PyOSError::new_err(e.to_string()))
+    }
+
+    /// The 8-bit display image the command line's PNG holds, `height × width × 3` uint8: through `view` ("oklab",
+    /// the default, or "clip"; the film's own if None) into the film's colour space, sRGB-encoded and dithered.
+    #[pyo3(signature = (view=None))]
+    fn display(&self, py: Python<'_>, view: Option<&str>) -> PyResult<Py<PyArray3<u8>>> {
+        let bytes = self.encoding(view)?.encode_8bit(&self.film.to_rgb_image(), self.width);
+        let array = Array3::from_shape_vec((self.height as usize, self.width as usize, 3), bytes)
+            .map_err(|e| PyRuntimeError::new_err(format!("display image: {e}")))?;
+        Ok(array.into_pyarray(py).unbind())
+    }
+
+    /// The PNG the command line writes (Jupyter shows an Image inline through this).
+    fn _repr_png_<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        let png = film::encode_display_png(
+            "image.png",
+            self.width,
+            self.height,
+            &self.film.to_rgb_image(),
+            &self.encoding(None)?,
+        )
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        Ok(PyBytes::new(py, &png))
     }
 
     fn __repr__(&self) -> String {

@@ -5,8 +5,10 @@ Run by scripts/test.sh, which builds the command line and sets PRISMATIC_BIN to 
 
 import os
 import signal
+import struct
 import subprocess
 import threading
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +34,41 @@ def read_pfm(path):
     w, h = map(int, size.split())
     dtype = "<f4" if float(scale) < 0 else ">f4"
     return np.frombuffer(pixels, dtype=dtype).reshape(h, w, 3)[::-1]
+
+
+def read_png_rgb8(path, width, height):
+    """The pixels of an 8-bit RGB PNG as height x width x 3 uint8 (zlib and the PNG row filters, no imaging
+    library needed)."""
+    data = Path(path).read_bytes()
+    idat, i = b"", 8
+    while i < len(data):
+        n, kind = struct.unpack(">I4s", data[i:i + 8])
+        if kind == b"IDAT":
+            idat += data[i + 8:i + 8 + n]
+        i += 12 + n
+    raw = zlib.decompress(idat)
+    stride = width * 3
+    rows, prev = [], bytearray(stride)
+    for y in range(height):
+        f = raw[y * (stride + 1)]
+        line = bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for x in range(stride):
+            a = line[x - 3] if x >= 3 else 0
+            b = prev[x]
+            c = prev[x - 3] if x >= 3 else 0
+            if f == 1:
+                line[x] = (line[x] + a) & 255
+            elif f == 2:
+                line[x] = (line[x] + b) & 255
+            elif f == 3:
+                line[x] = (line[x] + (a + b) // 2) & 255
+            elif f == 4:
+                p = a + b - c
+                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+                line[x] = (line[x] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+        rows.append(bytes(line))
+        prev = line
+    return np.frombuffer(b"".join(rows), dtype=np.uint8).reshape(height, width, 3)
 
 
 def test_render_equals_the_command_line_bit_for_bit(tmp_path):
@@ -194,3 +231,19 @@ def test_ctrl_c_stops_at_the_end_of_a_pass_with_the_partial_image():
     partial = e.value.image
     assert 0 < partial.spp < 1 << 14
     assert partial.rgb.mean() > 0.01
+
+
+def test_the_display_image_is_the_command_line_png(tmp_path):
+    scene = prismatic.load(SCENE)
+    image = scene.render(spp=2, resolution=(24, 16), seed=5)
+    image.save(tmp_path / "py.png")
+    assert image._repr_png_() == (tmp_path / "py.png").read_bytes()
+    shown = image.display()
+    assert shown.shape == (16, 24, 3) and shown.dtype == np.uint8 and shown.max() > 0
+    clipped = image.display(view="clip")
+    assert not np.array_equal(shown, clipped)
+    png_pixels = read_png_rgb8(tmp_path / "py.png", 24, 16)
+    assert np.array_equal(shown, png_pixels)
+    with pytest.raises(ValueError) as e:
+        image.display(view="sepia")
+    assert "view" in str(e.value)
