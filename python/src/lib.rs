@@ -365,11 +365,55 @@ fn loads(py: Python<'_>, text: &str, base_dir: Option<PathBuf>) -> PyResult<Scen
     Ok(Scene { desc, path: None, built: Mutex::new(None), builds: AtomicU32::new(0) })
 }
 
+/// n at each wavelength, and k for a material that absorbs.
+type IndexArrays = (Py<PyArray1<f64>>, Option<Py<PyArray1<f64>>>);
+
+/// A catalogue material: name, category, n_d, V_d, valid range (nm), source.
+type CatalogueRow = (String, String, Option<f64>, Option<f64>, (f64, f64), String);
+
+/// n(λ) and, for a material that absorbs (a metal), k(λ) of catalogue material `name` at each of `nm` (nm):
+/// what `prismatic ior NAME --nm …` prints. `prismatic.ior` wraps it for any array shape.
+#[pyfunction]
+fn _ior(py: Python<'_>, name: &str, nm: numpy::PyReadonlyArray1<'_, f64>) -> PyResult<IndexArrays> {
+    let entry = optics::catalogue::lookup(name).map_err(|e| PyValueError::new_err(format!("name: {e}")))?;
+    let nm = nm.as_slice()?;
+    if let Some(bad) = nm.iter().find(|l| !(l.is_finite() && **l > 0.0)) {
+        return Err(PyValueError::new_err(format!("nm: wavelengths are positive numbers of nanometres, got {bad}")));
+    }
+    let n: Vec<f64> = nm.iter().map(|&l| entry.ior.n(l)).collect();
+    let k = match entry.category {
+        optics::catalogue::Category::Metal => Some(nm.iter().map(|&l| entry.ior.k(l)).collect::<Vec<f64>>()),
+        _ => None,
+    };
+    Ok((PyArray1::from_vec(py, n).unbind(), k.map(|k| PyArray1::from_vec(py, k).unbind())))
+}
+
+/// The catalogue `prismatic ior --list` prints: (name, category, n_d or None, V_d or None, valid range in nm,
+/// source) per material.
+#[pyfunction]
+fn _catalogue() -> Vec<CatalogueRow> {
+    optics::catalogue::entries()
+        .iter()
+        .map(|e| {
+            (
+                e.name.to_string(),
+                e.category.to_string(),
+                e.dispersion.as_ref().map(|d| d.nd),
+                e.dispersion.as_ref().map(|d| d.vd),
+                e.valid_range_nm,
+                e.source.to_string(),
+            )
+        })
+        .collect()
+}
+
 /// The extension module; `prismatic/__init__.py` re-exports it.
 #[pymodule]
 fn _prismatic(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(loads, m)?)?;
+    m.add_function(wrap_pyfunction!(_ior, m)?)?;
+    m.add_function(wrap_pyfunction!(_catalogue, m)?)?;
     m.add_class::<Scene>()?;
     m.add_class::<Image>()?;
     m.add("SceneError", m.py().get_type::<SceneError>())?;

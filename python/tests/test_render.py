@@ -247,3 +247,30 @@ def test_the_display_image_is_the_command_line_png(tmp_path):
     with pytest.raises(ValueError) as e:
         image.display(view="sepia")
     assert "view" in str(e.value)
+
+
+def test_ior_is_the_catalogue_sellmeier_and_metal_tables():
+    # SCHOTT's Sellmeier coefficients for N-BK7 (wavelength in micrometres).
+    b = (1.03961212, 0.231792344, 1.01046945)
+    c = (0.00600069867, 0.0200179144, 103.560653)
+    lam = np.array([[404.7, 486.1], [587.5618, 656.3]])
+    l2 = (lam / 1000) ** 2
+    expected = np.sqrt(1 + sum(bi * l2 / (l2 - ci) for bi, ci in zip(b, c)))
+    n = prismatic.ior("N-BK7", lam)
+    assert n.shape == (2, 2) and np.allclose(n, expected, rtol=0, atol=1e-7)
+    assert np.ndim(prismatic.ior("N-BK7", 587.5618)) == 0
+    assert abs(prismatic.ior("N-BK7", 587.5618) - 1.5168) < 1e-6
+    gold = prismatic.ior("Au", 550)  # Johnson & Christy 1972, the table's row at 550 nm
+    assert np.iscomplexobj(gold) and abs(gold - (0.42415 + 2.4721j)) < 1e-9
+    with pytest.raises(ValueError) as e:
+        prismatic.ior("N-BK8", 550)
+    assert "N-BK7" in str(e.value), "close matches are suggested"
+    with pytest.raises(ValueError) as e:
+        prismatic.ior("N-BK7", [550, -1])
+    assert "nm" in str(e.value)
+    with pytest.raises(TypeError) as e:
+        prismatic.ior("N-BK7", "green")
+    assert "nm" in str(e.value)
+    entries = {m["name"]: m for m in prismatic.catalogue()}
+    assert abs(entries["N-BK7"]["nd"] - 1.5168) < 1e-4 and abs(entries["N-BK7"]["vd"] - 64.17) < 0.01
+    assert entries["Au"]["nd"] is None and entries["Au"]["category"] == "metal"
