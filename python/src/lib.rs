@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray1, PyArray3};
@@ -263,21 +263,16 @@ impl Scene {
             let mut job = built.integrator.begin(&built.scene, film, seed).map_err(|e| e.to_string())?;
             // Passes of growing size, each well under a second, so that Ctrl-C (seen between passes) is answered
             // quickly; a pixel's samples are added in the same order whatever the passes, so the image is the same.
-            let (mut done, mut pass, mut stopped) = (0u32, 1u32, None);
+            let (mut done, mut sizes, mut stopped) = (0u32, render::PassSizes::default(), None);
             while done < total {
                 let start = Instant::now();
-                let n = pass.min(total - done);
+                let n = sizes.next(total - done);
                 match &pool {
                     Some(pool) => pool.install(|| job.run(film, done..done + n, &|_| {})),
                     None => job.run(film, done..done + n, &|_| {}),
                 };
                 done += n;
-                let took = start.elapsed();
-                if took < Duration::from_millis(250) {
-                    pass = pass.saturating_mul(2);
-                } else if took > Duration::from_millis(1000) && pass > 1 {
-                    pass /= 2;
-                }
+                sizes.took(start.elapsed());
                 let checked = Python::attach(|py| -> PyResult<()> {
                     if let Some(f) = &progress {
                         f.call1(py, (done, total))?;

@@ -532,20 +532,15 @@ pub fn run(args: &RenderArgs) -> Result<String> {
             };
             // Passes of growing size, each well under a second, so that a signal is answered quickly; a pixel's
             // samples are added in the same order whatever the passes, so the image is the same.
-            let mut pass = 1u32;
+            let mut sizes = render::PassSizes::default();
             let mut saved = (done, Instant::now());
             while done < passes.end && stop.load(Ordering::SeqCst) == 0 {
                 let pass_start = Instant::now();
-                let n = pass.min(passes.end - done);
+                let n = sizes.next(passes.end - done);
                 let stats = job.run(&mut film, done..done + n, &progress);
                 rays += stats.rays;
                 done += n;
-                let took = pass_start.elapsed();
-                if took < Duration::from_millis(250) {
-                    pass = pass.saturating_mul(2);
-                } else if took > Duration::from_millis(1000) && pass > 1 {
-                    pass /= 2;
-                }
+                sizes.took(pass_start.elapsed());
                 if done < passes.end && saved.1.elapsed().as_secs_f64() >= every {
                     save_checkpoint(&film, job.as_ref(), done)?;
                     saved = (done, Instant::now());

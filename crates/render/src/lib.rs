@@ -88,8 +88,8 @@ pub use builder::{build_scene, BuildOptions, BuiltScene};
 pub use camera::{Camera, FOCUS_WAVELENGTH_NM};
 pub use error::RenderError;
 pub use integrator::{
-    BdptIntegrator, Integrator, LightPathIntegrator, Needs, PassUnit, PathIntegrator, RenderJob, RenderStats,
-    SppmIntegrator, VolPathIntegrator,
+    BdptIntegrator, Integrator, LightPathIntegrator, Needs, PassSizes, PassUnit, PathIntegrator, RenderJob,
+    RenderStats, SppmIntegrator, VolPathIntegrator,
 };
 pub use scene::RenderScene;
 

@@ -30,6 +30,36 @@ pub struct RenderStats {
     pub rays: u64,
 }
 
+/// The sizes of the passes of an interactive render (one that answers a signal, a progress report or a live view
+/// between passes): doubling from one while a pass takes under a quarter of a second, halved past a second. A
+/// pixel's samples are added in the same order whatever the passes, so the sizes never change the image.
+#[derive(Clone, Copy, Debug)]
+pub struct PassSizes {
+    next: u32,
+}
+
+impl Default for PassSizes {
+    fn default() -> Self {
+        Self { next: 1 }
+    }
+}
+
+impl PassSizes {
+    /// The size of the next pass, at most `remaining`.
+    pub fn next(&self, remaining: u32) -> u32 {
+        self.next.min(remaining)
+    }
+
+    /// Notes that the last pass took `took`.
+    pub fn took(&mut self, took: std::time::Duration) {
+        if took < std::time::Duration::from_millis(250) {
+            self.next = self.next.saturating_mul(2);
+        } else if took > std::time::Duration::from_millis(1000) && self.next > 1 {
+            self.next /= 2;
+        }
+    }
+}
+
 /// Salt that makes a light path's random numbers independent of its pixel sample's camera ray.
 pub(crate) const LIGHT_PATH_SEED_SALT: u32 = 0x6c69_6768;
 

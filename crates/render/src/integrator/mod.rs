@@ -35,7 +35,7 @@ mod transport;
 mod volume;
 mod volume_paths;
 
-pub use drive::RenderStats;
+pub use drive::{PassSizes, RenderStats};
 
 /// What an integrator needs of the scene and how its passes count.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
