@@ -26,7 +26,6 @@ pyo3::create_exception!(
 fn scene_error(py: Python<'_>, loc: Option<&scene::Loc>, full: String, message: String) -> PyErr {
     let err = SceneError::new_err(full);
     let value = err.value(py);
-    let set = |name: &str, v: Py<PyAny>| value.setattr(name, v);
     let (file, line, column) = match loc {
         Some(l) => {
             (Some(l.file.display().to_string()), Some(l.line).filter(|&n| n > 0), Some(l.column).filter(|&n| n > 0))
@@ -35,10 +34,10 @@ fn scene_error(py: Python<'_>, loc: Option<&scene::Loc>, full: String, message: 
     };
     // Setting attributes on a fresh exception object cannot fail short of memory exhaustion; a failure would
     // leave the attribute missing, which the message still covers.
-    let _ = set("file", file.into_pyobject(py).map(|o| o.into_any().unbind()).unwrap_or_else(|_| py.None()));
-    let _ = set("line", line.into_pyobject(py).map(|o| o.into_any().unbind()).unwrap_or_else(|_| py.None()));
-    let _ = set("column", column.into_pyobject(py).map(|o| o.into_any().unbind()).unwrap_or_else(|_| py.None()));
-    let _ = set("message", message.into_pyobject(py).map(|o| o.into_any().unbind()).unwrap_or_else(|_| py.None()));
+    let _ = value.setattr("file", file);
+    let _ = value.setattr("line", line);
+    let _ = value.setattr("column", column);
+    let _ = value.setattr("message", message);
     err
 }
 
