@@ -187,12 +187,12 @@ impl Image {
     }
 }
 
-/// A positive count or None, else ValueError naming `name`.
-fn check_positive(name: &str, v: Option<i64>, max: i64) -> PyResult<Option<u32>> {
-    match v {
-        None => Ok(None),
-        Some(n) if (1..=max).contains(&n) => Ok(Some(n as u32)),
-        Some(n) => Err(PyValueError::new_err(format!("{name} must be between 1 and {max}, got {n}"))),
+/// `n` as a count in [1, `max`], else ValueError naming `name`.
+fn positive(name: &str, n: i64, max: i64) -> PyResult<u32> {
+    if (1..=max).contains(&n) {
+        Ok(n as u32)
+    } else {
+        Err(PyValueError::new_err(format!("{name} must be between 1 and {max}, got {n}")))
     }
 }
 
@@ -215,7 +215,7 @@ impl Scene {
         wavelengths: Option<&str>,
         progress: Option<Py<PyAny>>,
     ) -> PyResult<Image> {
-        let spp = check_positive("spp", spp, 1 << 24)?;
+        let spp = spp.map(|n| positive("spp", n, 1 << 24)).transpose()?;
         let resolution =
             match resolution {
                 None => None,
@@ -225,14 +225,13 @@ impl Scene {
             };
         let resolution = match resolution {
             None => None,
-            Some((w, h)) => Some((
-                check_positive("resolution width", Some(w), 1 << 16)?.unwrap_or(1),
-                check_positive("resolution height", Some(h), 1 << 16)?.unwrap_or(1),
-            )),
+            Some((w, h)) => {
+                Some((positive("resolution width", w, 1 << 16)?, positive("resolution height", h, 1 << 16)?))
+            }
         };
         let seed = u32::try_from(seed)
             .map_err(|_| PyValueError::new_err(format!("seed must be between 0 and {}, got {seed}", u32::MAX)))?;
-        let threads = check_positive("threads", threads, 4096)?;
+        let threads = threads.map(|n| positive("threads", n, 4096)).transpose()?;
         let strategy = match wavelengths {
             None => spectral::WavelengthStrategy::default(),
             Some(s) => s.parse().map_err(|e: String| PyValueError::new_err(format!("wavelengths: {e}")))?,
@@ -325,19 +324,25 @@ impl Scene {
 impl Scene {
     /// The scene built with `key`'s options: the one kept from the last render if it had the same.
     fn built(&self, py: Python<'_>, key: BuildKey) -> PyResult<Arc<render::BuiltScene>> {
-        let mut kept = self.built.lock().map_err(|_| PyRuntimeError::new_err("an earlier render panicked"))?;
-        if let Some((k, b)) = kept.as_ref() {
-            if *k == key {
-                return Ok(b.clone());
+        // The lock is taken with the GIL released: a thread holding it while building must be able to take the GIL
+        // back from another thread waiting for the lock.
+        let built = py.detach(|| -> Result<Arc<render::BuiltScene>, Option<render::RenderError>> {
+            let mut kept = self.built.lock().map_err(|_| None)?;
+            if let Some((k, b)) = kept.as_ref() {
+                if *k == key {
+                    return Ok(b.clone());
+                }
             }
-        }
-        let options = render::BuildOptions { resolution: key.resolution, spp: key.spp, ..Default::default() };
-        let desc = &self.desc;
-        let built = py.detach(|| render::build_scene(desc, &options)).map_err(|e| build_error(py, e))?;
-        let built = Arc::new(built);
-        self.builds.fetch_add(1, Ordering::Relaxed);
-        *kept = Some((key, built.clone()));
-        Ok(built)
+            let options = render::BuildOptions { resolution: key.resolution, spp: key.spp, ..Default::default() };
+            let built = Arc::new(render::build_scene(&self.desc, &options).map_err(Some)?);
+            self.builds.fetch_add(1, Ordering::Relaxed);
+            *kept = Some((key, built.clone()));
+            Ok(built)
+        });
+        built.map_err(|e| match e {
+            Some(e) => build_error(py, e),
+            None => PyRuntimeError::new_err("an earlier render of this scene panicked"),
+        })
     }
 }
 
@@ -375,9 +380,15 @@ fn _ior(py: Python<'_>, name: &str, nm: numpy::PyReadonlyArray1<'_, f64>) -> PyR
         return Err(PyValueError::new_err(format!("nm: wavelengths are positive numbers of nanometres, got {bad}")));
     }
     let n: Vec<f64> = nm.iter().map(|&l| entry.ior.n(l)).collect();
+    use optics::catalogue::Category;
     let k = match entry.category {
-        optics::catalogue::Category::Metal => Some(nm.iter().map(|&l| entry.ior.k(l)).collect::<Vec<f64>>()),
-        _ => None,
+        Category::Metal => Some(nm.iter().map(|&l| entry.ior.k(l)).collect::<Vec<f64>>()),
+        Category::SchottGlass
+        | Category::HoyaGlass
+        | Category::Glass
+        | Category::Liquid
+        | Category::Crystal
+        | Category::UniaxialCrystal => None,
     };
     Ok((PyArray1::from_vec(py, n).unbind(), k.map(|k| PyArray1::from_vec(py, k).unbind())))
 }

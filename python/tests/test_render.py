@@ -7,6 +7,7 @@ import os
 import signal
 import struct
 import subprocess
+import sys
 import threading
 import zlib
 from pathlib import Path
@@ -294,3 +295,22 @@ def test_fifty_renders_do_not_leak():
     grown = resident_bytes() - before
     # A film of 128×128 pixels is about 0.5 MB: keeping each would grow the process by about 26 MB.
     assert grown < 8 << 20, f"resident memory grew by {grown / 2**20:.1f} MB over 50 renders"
+
+
+def test_two_threads_can_render_one_scene_with_different_options():
+    # One thread builds (holding the scene's build lock) while the others wait for it: waiting must not hold the
+    # GIL, or the builder could never return. Run in a child process, so that a deadlock fails within a minute.
+    code = f"""
+import threading, prismatic
+scene = prismatic.load({str(SCENE)!r})
+results = {{}}
+def render(size):
+    results[size] = scene.render(spp=1, resolution=(size, size), seed=2).rgb.shape
+workers = [threading.Thread(target=render, args=(size,)) for size in (8, 12, 16, 20)]
+for w in workers:
+    w.start()
+for w in workers:
+    w.join()
+assert results == {{s: (s, s, 3) for s in (8, 12, 16, 20)}}, results
+"""
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=60)

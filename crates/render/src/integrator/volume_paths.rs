@@ -127,14 +127,14 @@ impl VolumePaths {
                     // The numbers of this segment's scattering vertex (light sampling, then direction and roulette
                     // at the path's collision) are drawn here when light is sampled at a forced collision, else
                     // at the collision.
-                    let mut u_forced = None;
-                    let forced = if forcing {
+                    let (u_forced, forced) = if forcing {
                         let u = BounceSamples::draw(sampler);
-                        u_forced = Some(u);
                         let mp = medium.point(ro, wl);
-                        ForcedCollision::sample(ro, rd, t_end, mp.sigma_a, mp.sigma_s, &st.mis, sampler.next_1d())
+                        let fc =
+                            ForcedCollision::sample(ro, rd, t_end, mp.sigma_a, mp.sigma_s, &st.mis, sampler.next_1d());
+                        (Some(u), fc)
                     } else {
-                        None
+                        (None, None)
                     };
                     if let (Some(fc), Some(u)) = (&forced, &u_forced) {
                         let r_p = PrefixRatios { r_u: st.r_u * fc.ratios.r_u, r_l: st.r_u * fc.ratios.r_l };
@@ -190,7 +190,11 @@ impl VolumePaths {
                             };
                             st.beta *= ps.p / ps.pdf;
                             st.r_l = r_l / ps.pdf;
-                            st.rr_scale *= ps.pdf / mp.phase.pdf_of_values(&ps.p, wl);
+                            // (A direction the phase function cannot take has no throughput left to judge.)
+                            let phase_pdf = mp.phase.pdf_of_values(&ps.p, wl);
+                            if phase_pdf > 0.0 {
+                                st.rr_scale *= ps.pdf / phase_pdf;
+                            }
                             if !russian_roulette(
                                 (st.beta * st.rr_scale / st.mis.average(st.r_u)).max_value(),
                                 st.depth.events,
