@@ -97,8 +97,12 @@ def test_threads_and_strategies_and_rebuilds():
     c = scene.render(spp=2, resolution=(32, 24), seed=4, wavelengths="cmf")
     assert not np.array_equal(a.rgb, c.rgb)
     assert scene.builds == 1, "another seed, thread count or strategy builds nothing"
-    scene.render(spp=2, resolution=(16, 12), seed=3)
-    assert scene.builds == 2
+    assert a.stats["shapes_built"] and a.stats["build_seconds"] > 0
+    assert b.stats["build_seconds"] == 0 and not b.stats["shapes_built"]
+    d = scene.render(spp=2, resolution=(16, 12), seed=3)
+    assert scene.builds == 1, "another resolution builds the film and camera, not the shapes"
+    assert d.stats["build_seconds"] > 0 and not d.stats["shapes_built"]
+    assert np.array_equal(d.rgb, prismatic.load(SCENE).render(spp=2, resolution=(16, 12), seed=3).rgb)
 
 
 def test_loads_resolves_files_from_base_dir():

@@ -460,6 +460,49 @@ pub fn named_spectrum_names() -> Vec<String> {
     v
 }
 
+/// A spectrum written as `prismatic spectrum` takes it: a named illuminant (`stdillum-D65`, …), a pbrt-v4 glass or
+/// metal spectrum (`glass-BK7`, `metal-Au-eta`, …), `blackbody:KELVIN` (Planck's law normalised to peak 1),
+/// `constant:VALUE`, `rgb:R,G,B` (a linear sRGB reflectance uplifted to a smooth spectrum) or `rgb-illum:R,G,B` (a
+/// linear sRGB emitter, uplifted and multiplied by D65). The error says what is wrong.
+pub fn spectrum_from_spec(spec: &str) -> Result<Spectrum, String> {
+    use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum};
+    if let Some(t) = spec.strip_prefix("blackbody:") {
+        let kelvin: f64 = t.trim().parse().map_err(|_| format!("blackbody temperature '{t}' is not a number"))?;
+        return Spectrum::blackbody(kelvin).map_err(|e| e.to_string());
+    }
+    if let Some(v) = spec.strip_prefix("constant:") {
+        let value: f64 = v.trim().parse().map_err(|_| format!("constant value '{v}' is not a number"))?;
+        if !value.is_finite() {
+            return Err(format!("constant value must be finite, got {value}"));
+        }
+        return Ok(Spectrum::Constant(value));
+    }
+    for (prefix, illuminant) in [("rgb:", false), ("rgb-illum:", true)] {
+        if let Some(list) = spec.strip_prefix(prefix) {
+            let v: Vec<f64> = list
+                .split(',')
+                .map(|c| c.trim().parse::<f64>().map_err(|_| format!("rgb component '{c}' is not a number")))
+                .collect::<Result<_, _>>()?;
+            let rgb: [f64; 3] = v.try_into().map_err(|_| format!("{prefix} needs exactly three components R,G,B"))?;
+            let s = if illuminant {
+                RgbIlluminantSpectrum::new(rgb).map(Spectrum::RgbIlluminant)
+            } else {
+                RgbAlbedoSpectrum::new(rgb).map(Spectrum::RgbAlbedo)
+            };
+            return s.map_err(|e| e.to_string());
+        }
+    }
+    if let Ok(s) = spectral::named::illuminant(spec) {
+        return Ok(s);
+    }
+    named_spectrum_checked(spec).map_err(|e| {
+        format!(
+            "{e}\n(named illuminants: {}; or blackbody:KELVIN, constant:VALUE, rgb:R,G,B, rgb-illum:R,G,B)",
+            spectral::named::ILLUMINANT_NAMES.join(", ")
+        )
+    })
+}
+
 /// Resolves a pbrt-v4 style named spectrum, as [`named_spectrum`] does, but says why a name fails.
 pub fn named_spectrum_checked(name: &str) -> Result<Spectrum, OpticsError> {
     let norm = normalize(name);

@@ -213,6 +213,13 @@ pub fn refract_with_eta<T: Float>(wi: [T; 3], n: [T; 3], eta: T) -> Option<([T; 
     Some(([-wi[0] / eta + a * n[0], -wi[1] / eta + a * n[1], -wi[2] / eta + a * n[2]], eta))
 }
 
+/// Minimum deviation of a prism of apex angle `apex` (radians) and index `n` in air: D = 2·asin(n·sin(A/2)) − A
+/// (the symmetric passage; Hecht, *Optics*, eq. 5.55). `None` when no ray gets through (n·sin(A/2) > 1).
+pub fn prism_minimum_deviation(n: f64, apex: f64) -> Option<f64> {
+    let s = n * (apex / 2.0).sin();
+    (s <= 1.0).then(|| 2.0 * s.asin() - apex)
+}
+
 /// Snell's law for the sine: sin θ₂ = n₁ sin θ₁ / n₂; `None` when that exceeds 1 (total internal reflection).
 pub fn snell_sin_t(sin_theta_i: f64, n1: f64, n2: f64) -> Option<f64> {
     let s = n1 * sin_theta_i / n2;

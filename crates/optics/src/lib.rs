@@ -48,8 +48,8 @@ pub use complex::Complex;
 pub use error::OpticsError;
 pub use fresnel::{
     brewster_angle, critical_angle, fresnel_complex, fresnel_complex_sp, fresnel_conductor, fresnel_dielectric,
-    fresnel_dielectric_p, fresnel_dielectric_s, fresnel_dielectric_transmittance, reflect, refract, refract_with_eta,
-    snell_sin_t, Float,
+    fresnel_dielectric_p, fresnel_dielectric_s, fresnel_dielectric_transmittance, prism_minimum_deviation, reflect,
+    refract, refract_with_eta, snell_sin_t, Float,
 };
 pub use ior::{
     Cauchy, ConstantIor, Ior, MaterialConstants, Sellmeier, TabulatedComplexIor, TabulatedIor, LAMBDA_C_NM,

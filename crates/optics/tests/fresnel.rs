@@ -255,7 +255,7 @@ fn reflect_mirrors_about_the_normal() {
 }
 
 #[test]
-fn prism_minimum_deviation() {
+fn minimum_deviation_is_the_least_deviation_of_a_trace() {
     // Minimum deviation of a prism with apex angle A: n = sin((A + δmin)/2)/sin(A/2). Trace through two faces with
     // the scalar Snell helpers and check the minimum over incidence angles.
     let glass = catalogue::lookup("SF11").unwrap().ior;
@@ -271,7 +271,7 @@ fn prism_minimum_deviation() {
         let min = (1..9000)
             .filter_map(|i| deviation(f64::from(i) * 1e-4 * std::f64::consts::FRAC_PI_2 / 0.9))
             .fold(f64::INFINITY, f64::min);
-        let closed = 2.0 * (n * (apex / 2.0).sin()).asin() - apex;
+        let closed = prism_minimum_deviation(n, apex).unwrap();
         assert_relative_eq!(min, closed, epsilon = 1e-6);
     }
     // Blue deviates more than red.

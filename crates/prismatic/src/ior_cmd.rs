@@ -5,7 +5,7 @@ use std::fmt::Write;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use optics::catalogue::{self, CatalogueEntry};
-use optics::{descartes_rainbow_angle, LAMBDA_C_NM, LAMBDA_D_NM, LAMBDA_F_NM};
+use optics::{descartes_rainbow_angle, prism_minimum_deviation, LAMBDA_C_NM, LAMBDA_D_NM, LAMBDA_F_NM};
 
 /// Arguments of `prismatic ior`.
 #[derive(Args, Debug)]
@@ -37,13 +37,6 @@ pub struct IorArgs {
     /// List every catalogue material and pbrt-v4 name instead.
     #[arg(long, conflicts_with_all = ["material", "nm", "prism", "rainbow"])]
     pub list: bool,
-}
-
-/// Minimum deviation of a prism of apex angle `apex` (radians) and index `n` in air: D = 2·asin(n·sin(A/2)) − A
-/// (the symmetric passage; Hecht, *Optics*, eq. 5.55). `None` when no ray gets through (n·sin(A/2) > 1).
-pub fn minimum_deviation(n: f64, apex: f64) -> Option<f64> {
-    let s = n * (apex / 2.0).sin();
-    (s <= 1.0).then(|| 2.0 * s.asin() - apex)
 }
 
 /// Runs the subcommand and returns what to print.
@@ -95,7 +88,7 @@ pub fn run(args: &IorArgs) -> Result<String> {
         let mut first_last = vec![];
         for &l in &wavelengths {
             let n = entry.ior.n(l);
-            match minimum_deviation(n, apex) {
+            match prism_minimum_deviation(n, apex) {
                 Some(d) => {
                     let _ = writeln!(out, "  {l:>10.2}  D = {:>8.3}°", d.to_degrees());
                     first_last.push(d);
@@ -247,9 +240,9 @@ mod tests {
     #[test]
     fn prism_deviation_follows_the_minimum_deviation_formula() {
         // 60° prism, n = 1.5: D = 2·asin(0.75) − 60° = 37.1808°; n = 2 (sin 30° · 2 = 1): grazing, D = 120°.
-        assert!((minimum_deviation(1.5, 60f64.to_radians()).unwrap().to_degrees() - 37.18075578).abs() < 1e-6);
-        assert!((minimum_deviation(2.0, 60f64.to_radians()).unwrap().to_degrees() - 120.0).abs() < 1e-5);
-        assert!(minimum_deviation(2.5, 60f64.to_radians()).is_none());
+        assert!((prism_minimum_deviation(1.5, 60f64.to_radians()).unwrap().to_degrees() - 37.18075578).abs() < 1e-6);
+        assert!((prism_minimum_deviation(2.0, 60f64.to_radians()).unwrap().to_degrees() - 120.0).abs() < 1e-5);
+        assert!(prism_minimum_deviation(2.5, 60f64.to_radians()).is_none());
         let mut a = args("N-SF11", &[400.0, 700.0]);
         a.prism = Some(60.0);
         let out = run(&a).unwrap();

@@ -566,16 +566,16 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                 ProgressStyle::with_template("{spinner} {elapsed} {msg}")
                     .unwrap_or_else(|_| ProgressStyle::default_spinner()),
             );
-            let mut pass = 1u32;
+            let mut sizes = render::PassSizes::default();
             while (done == 0 || render_start.elapsed() < budget) && stop.load(Ordering::SeqCst) == 0 {
                 let pass_start = Instant::now();
                 let progress = |n: u64| {
                     taken.fetch_add(n, Ordering::Relaxed);
                 };
-                let range = done..done + pass;
-                let stats = job.run(&mut film, range, &progress);
+                let range = done..done + sizes.next(u32::MAX - done);
+                let stats = job.run(&mut film, range.clone(), &progress);
                 rays += stats.rays;
-                done += pass;
+                done = range.end;
                 bar.set_message(format!("{done} {unit}"));
                 bar.tick();
                 if let Some(live) = live.as_mut().filter(|l| l.due()) {
@@ -583,15 +583,9 @@ pub fn run(args: &RenderArgs) -> Result<String> {
                     let eta = Some(budget.saturating_sub(render_start.elapsed()).as_secs_f64());
                     live.publish(&film, preview::Progress { done, total: None, unit, elapsed, eta, finished: false });
                 }
-                // Grow the pass while it stays well inside the remaining time and under about a second (so that a
-                // signal is answered and the live view updated promptly); the passes do not change the image.
-                let left = budget.saturating_sub(render_start.elapsed());
-                let took = pass_start.elapsed();
-                if took * 4 < left && took < Duration::from_millis(250) {
-                    pass *= 2;
-                } else if (took > left || took > Duration::from_millis(1000)) && pass > 1 {
-                    pass /= 2;
-                }
+                // Passes stay well inside the remaining time and under about a second (so that a signal is answered
+                // and the live view updated promptly); the passes do not change the image.
+                sizes.took_leaving(pass_start.elapsed(), budget.saturating_sub(render_start.elapsed()));
             }
         }
     }

@@ -2,10 +2,9 @@
 
 use std::fmt::Write;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, Context, Result};
 use clap::Args;
-use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum};
-use spectral::{named, Observer, RgbColorSpace, Spectrum};
+use spectral::{Observer, RgbColorSpace, Spectrum};
 
 /// Arguments of `prismatic spectrum`.
 #[derive(Args, Debug)]
@@ -36,37 +35,7 @@ pub struct SpectrumArgs {
 
 /// Parses a SPEC string.
 pub fn parse_spec(spec: &str) -> Result<Spectrum> {
-    if let Some(t) = spec.strip_prefix("blackbody:") {
-        let kelvin: f64 = t.trim().parse().with_context(|| format!("blackbody temperature '{t}' is not a number"))?;
-        return Ok(Spectrum::blackbody(kelvin)?);
-    }
-    if let Some(v) = spec.strip_prefix("constant:") {
-        let value: f64 = v.trim().parse().with_context(|| format!("constant value '{v}' is not a number"))?;
-        if !value.is_finite() {
-            bail!("constant value must be finite, got {value}");
-        }
-        return Ok(Spectrum::Constant(value));
-    }
-    for (prefix, illuminant) in [("rgb:", false), ("rgb-illum:", true)] {
-        if let Some(list) = spec.strip_prefix(prefix) {
-            let v: Vec<f64> = list
-                .split(',')
-                .map(|c| c.trim().parse::<f64>().with_context(|| format!("rgb component '{c}' is not a number")))
-                .collect::<Result<_>>()?;
-            let rgb: [f64; 3] = v.try_into().map_err(|_| anyhow!("{prefix} needs exactly three components R,G,B"))?;
-            return Ok(if illuminant {
-                Spectrum::RgbIlluminant(RgbIlluminantSpectrum::new(rgb)?)
-            } else {
-                Spectrum::RgbAlbedo(RgbAlbedoSpectrum::new(rgb)?)
-            });
-        }
-    }
-    if let Ok(s) = named::illuminant(spec) {
-        return Ok(s);
-    }
-    optics::catalogue::named_spectrum_checked(spec).map_err(|e| {
-        anyhow!("{e}\n(named illuminants: {}; or blackbody:KELVIN, constant:VALUE)", named::ILLUMINANT_NAMES.join(", "))
-    })
+    optics::catalogue::spectrum_from_spec(spec).map_err(|e| anyhow!(e))
 }
 
 /// Runs the subcommand and returns what to print.
@@ -78,14 +47,9 @@ pub fn run(args: &SpectrumArgs) -> Result<String> {
         None => observer.spectrum_to_xyz(&spectrum),
         Some(name) => {
             let light = parse_spec(name).with_context(|| format!("--under {name}"))?;
-            let white = observer.spectrum_to_xyz(&light).y;
-            if white <= 0.0 {
-                bail!("--under {name}: the illuminant has no luminance");
-            }
-            // Reflectance × illuminant, tabulated at the observer's 1 nm grid.
-            let lambdas: Vec<f64> = (360..=830).map(f64::from).collect();
-            let values = lambdas.iter().map(|&l| spectrum.eval(l) * light.eval(l)).collect();
-            observer.spectrum_to_xyz(&Spectrum::piecewise_linear(lambdas, values)?).scaled(1.0 / white)
+            observer
+                .reflectance_to_xyz(&spectrum, &light)
+                .ok_or_else(|| anyhow!("--under {name}: the illuminant has no luminance"))?
         }
     };
     let xy = xyz.chromaticity();

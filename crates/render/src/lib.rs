@@ -84,7 +84,7 @@ mod scene;
 mod tests;
 mod texture;
 
-pub use builder::{build_scene, BuildOptions, BuiltScene};
+pub use builder::{build_scene, build_scene_reusing, BuildOptions, BuiltScene};
 pub use camera::{Camera, FOCUS_WAVELENGTH_NM};
 pub use error::RenderError;
 pub use integrator::{

@@ -272,8 +272,8 @@ impl Geometry for SceneGeometry {
 
 /// Everything the integrators need.
 pub struct RenderScene {
-    /// Ray queries.
-    pub(crate) geometry: Box<dyn Geometry>,
+    /// Ray queries (shared with later builds of the same shapes, see [`crate::build_scene_reusing`]).
+    pub(crate) geometry: Arc<dyn Geometry>,
     /// Materials, indexed by [`SurfaceHit::material`].
     pub(crate) materials: Vec<Material>,
     /// Each material's bump or normal map, indexed like `materials` (empty, or `None`, for none).
@@ -327,7 +327,7 @@ impl RenderScene {
     /// Builds the light sampler and the list of infinite lights from `lights` (selection ∝ power; a scene whose
     /// lights all report zero power falls back to uniform selection).
     pub(crate) fn new(
-        geometry: Box<dyn Geometry>,
+        geometry: Arc<dyn Geometry>,
         materials: Vec<Material>,
         lights: Vec<Light>,
         media: Vec<Medium>,

@@ -115,6 +115,24 @@ impl Observer {
         let n = self.y_integral();
         Xyz::new(acc[0] / n, acc[1] / n, acc[2] / n)
     }
+
+    /// XYZ of a surface of reflectance `r` lit by `illuminant`: Σ R·E·x̄ / Σ E·ȳ over the observer's 1 nm table,
+    /// so that a perfect white reflector has Y = 1 (CIE 15:2004, §7.1, with k = 1/Σ E·ȳ). `None` when the
+    /// illuminant has no luminance.
+    pub fn reflectance_to_xyz(self, r: &Spectrum, illuminant: &Spectrum) -> Option<Xyz> {
+        let t = self.table();
+        let (mut acc, mut white) = ([0.0; 3], 0.0);
+        for (i, cmf) in t.values.iter().enumerate() {
+            let l = t.lambda(i);
+            let e = illuminant.eval(l);
+            let re = r.eval(l) * e;
+            for c in 0..3 {
+                acc[c] += re * cmf[c];
+            }
+            white += e * cmf[1];
+        }
+        (white > 0.0).then(|| Xyz::new(acc[0] / white, acc[1] / white, acc[2] / white))
+    }
 }
 
 /// The Stiles & Burch (1959) 10° RGB colour matching functions r̄, ḡ, b̄, 390–830 nm at 5 nm.

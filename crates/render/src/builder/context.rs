@@ -246,6 +246,11 @@ impl Materials {
         }
     }
 
+    /// The index of each named material.
+    pub(super) fn names(&self) -> &HashMap<String, u32> {
+        &self.names
+    }
+
     /// The medium inside shapes of material `index` (a `subsurface` material's), if any.
     pub(super) fn interior(&self, index: u32) -> Option<u32> {
         self.interior_index.get(index as usize).copied().flatten()
@@ -277,6 +282,11 @@ impl Media {
     /// The media read, in the order of [`crate::scene::RenderScene::media`], and the index of each name.
     pub(super) fn new(list: Vec<Medium>, index: HashMap<String, u32>) -> Self {
         Media { list, index }
+    }
+
+    /// The index of each name.
+    pub(super) fn names(&self) -> &HashMap<String, u32> {
+        &self.index
     }
 
     /// True if some medium scatters or glows (not only absorbs).

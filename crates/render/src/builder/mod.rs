@@ -8,11 +8,15 @@
 //! lookups, the error helpers, emission and the measured media), never on each other: this file calls them in
 //! order and hands each what the earlier ones made, the functions of one family that another calls included.
 
+use std::collections::HashMap;
+use std::sync::Arc;
+
 use ::film::FilmSpec;
 use scene::SceneDescription;
 
 use crate::integrator::{Integrator, IntegratorParams};
-use crate::scene::RenderScene;
+use crate::light::Light;
+use crate::scene::{Geometry, LightMedium, RenderScene};
 
 mod camera;
 mod context;
@@ -41,6 +45,38 @@ pub struct BuiltScene {
     pub triangles: usize,
     /// Warnings (unused parameters, ignored features), each with file, line and column.
     pub warnings: Vec<String>,
+    /// The shapes as built (BVH and area lights), which [`build_scene_reusing`] takes over.
+    shapes: Arc<SceneShapes>,
+    /// Whether this build made `shapes` (false: taken from an earlier build).
+    shapes_made: bool,
+}
+
+impl BuiltScene {
+    /// Whether this build made its shapes (BVH, area lights) rather than taking them from an earlier build.
+    pub fn built_shapes(&self) -> bool {
+        self.shapes_made
+    }
+}
+
+/// The shapes of a built scene: the BVH, the area lights made with it, and what the shapes were bound to (each
+/// material's index as a shape sees it, the media's indices), which a later build must match to reuse them.
+struct SceneShapes {
+    geometry: Arc<dyn Geometry>,
+    area_lights: Vec<Light>,
+    area_light_media: Vec<LightMedium>,
+    triangles: usize,
+    scene_radius: f32,
+    moving: bool,
+    bindings: ShapeBindings,
+}
+
+/// What the BVH's per-shape records hold besides geometry: per material, whether it is an `interface` (a shape
+/// records no material) and the medium inside it (`subsurface`); the index of each named material and medium.
+#[derive(Debug, PartialEq)]
+struct ShapeBindings {
+    materials: Vec<(bool, Option<u32>)>,
+    material_names: HashMap<String, u32>,
+    media_names: HashMap<String, u32>,
 }
 
 /// pbrt-v4's sampler names. Each one maps to Prismatic's own sampler (Owen-scrambled Sobol points per pixel);
@@ -69,6 +105,25 @@ fn sampler_spp(desc: &SceneDescription) -> Result<u32> {
 
 /// Builds the render-ready scene from a parsed description.
 pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<BuiltScene> {
+    build(desc, options, None)
+}
+
+/// [`build_scene`] for a description that differs from the one `previous` was built from only in its materials'
+/// and media's parameters (the same names), its `LightSource` lights, camera, film, sampler or integrator, or
+/// `options`: the BVH and the area lights of `previous` are taken over instead of built again (a study that
+/// changes a glass, a medium or a light pays only for what changed). If a change reaches what the BVH records (a
+/// material becomes or stops being an `interface` or a `subsurface`, or the names change) the shapes are built
+/// again; [`BuiltScene::built_shapes`] says which happened. The shapes, textures and area lights of `desc` must be
+/// those `previous` was built from: they are not compared.
+pub fn build_scene_reusing(
+    desc: &SceneDescription,
+    options: &BuildOptions,
+    previous: &BuiltScene,
+) -> Result<BuiltScene> {
+    build(desc, options, Some(&previous.shapes))
+}
+
+fn build(desc: &SceneDescription, options: &BuildOptions, previous: Option<&Arc<SceneShapes>>) -> Result<BuiltScene> {
     if desc.color_space != "srgb" {
         return err(&desc.film.loc, format!("colour space '{}' is not supported (only srgb)", desc.color_space));
     }
@@ -106,9 +161,41 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
 
     let camera_medium = media.of(&desc.camera.medium, &desc.camera.entity.loc)?;
     // Area lights are made with their shapes, so they come before the `LightSource` lights.
-    let (mut lights, mut light_media) = (vec![], vec![]);
-    let shapes =
-        shapes::make_geometry(desc, &textures, &materials, &media, lights::area_lights, &mut lights, &mut light_media)?;
+    let bindings = ShapeBindings {
+        materials: (0..materials.list.len() as u32)
+            .map(|i| {
+                (matches!(materials.list[i as usize], crate::material::Material::Interface), materials.interior(i))
+            })
+            .collect(),
+        material_names: materials.names().clone(),
+        media_names: media.names().clone(),
+    };
+    let (shapes, shapes_made) = match previous.filter(|p| p.bindings == bindings) {
+        Some(p) => (p.clone(), false),
+        None => {
+            let (mut area_lights, mut area_light_media) = (vec![], vec![]);
+            let built = shapes::make_geometry(
+                desc,
+                &textures,
+                &materials,
+                &media,
+                lights::area_lights,
+                &mut area_lights,
+                &mut area_light_media,
+            )?;
+            let shapes = SceneShapes {
+                geometry: Arc::new(built.geometry),
+                area_lights,
+                area_light_media,
+                triangles: built.triangles,
+                scene_radius: built.scene_radius,
+                moving: built.moving,
+                bindings,
+            };
+            (Arc::new(shapes), true)
+        }
+    };
+    let (mut lights, mut light_media) = (shapes.area_lights.clone(), shapes.area_light_media.clone());
     lights::make_lights(desc, shapes.scene_radius, &mut lights, &mut warnings)?;
     for le in &desc.lights {
         light_media.push(crate::scene::LightMedium::Fixed(media.of(&le.medium, &le.entity.loc)?));
@@ -121,8 +208,8 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     } else {
         None
     };
-    let mut scene =
-        RenderScene::new(Box::new(shapes.geometry), materials.list, lights, media.list, camera_medium, camera);
+    let geometry = shapes.geometry.clone();
+    let mut scene = RenderScene::new(geometry, materials.list, lights, media.list, camera_medium, camera);
     scene.motion = motion;
     scene.light_media = light_media;
     scene.normal_perturbations = materials.perturbations;
@@ -134,5 +221,5 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
     }
     warnings.extend(desc.warnings.iter().map(|d| d.to_string()));
     warnings.extend(desc.unused_parameters().iter().map(|d| d.to_string()));
-    Ok(BuiltScene { scene, film, spp, integrator, triangles: shapes.triangles, warnings })
+    Ok(BuiltScene { scene, film, spp, integrator, triangles: shapes.triangles, warnings, shapes, shapes_made })
 }

@@ -7,6 +7,7 @@
 //! so an image does not depend on the number of threads.
 
 use std::ops::Range;
+use std::time::Duration;
 
 use film::{Film, FilmError, FilmRow, FilterSampler, GBufferCoordinates, Splat, VisibleSurface};
 use glam::{DVec3, Vec2, Vec3};
@@ -31,8 +32,9 @@ pub struct RenderStats {
 }
 
 /// The sizes of the passes of an interactive render (one that answers a signal, a progress report or a live view
-/// between passes): doubling from one while a pass takes under a quarter of a second, halved past a second. A
-/// pixel's samples are added in the same order whatever the passes, so the sizes never change the image.
+/// between passes): doubling from one while a pass takes under a quarter of a second, halved past a second; in a
+/// render with a time budget, also kept well inside the time left. A pixel's samples are added in the same order
+/// whatever the passes, so the sizes never change the image.
 #[derive(Clone, Copy, Debug)]
 pub struct PassSizes {
     next: u32,
@@ -51,10 +53,17 @@ impl PassSizes {
     }
 
     /// Notes that the last pass took `took`.
-    pub fn took(&mut self, took: std::time::Duration) {
-        if took < std::time::Duration::from_millis(250) {
+    pub fn took(&mut self, took: Duration) {
+        self.took_leaving(took, Duration::MAX);
+    }
+
+    /// Notes that the last pass took `took` and that `left` remains of the render's time budget: the next pass
+    /// doubles only if this one took under a quarter of both a second and the time left, and halves if it took
+    /// more than a second or than the time left.
+    pub fn took_leaving(&mut self, took: Duration, left: Duration) {
+        if took < Duration::from_millis(250) && took < left / 4 {
             self.next = self.next.saturating_mul(2);
-        } else if took > std::time::Duration::from_millis(1000) && self.next > 1 {
+        } else if (took > Duration::from_millis(1000) || took > left) && self.next > 1 {
             self.next /= 2;
         }
     }

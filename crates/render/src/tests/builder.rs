@@ -93,3 +93,58 @@ fn footprints_are_computed_for_materials_that_read_image_maps_or_bump_only() {
     assert!(!scene.reads_footprint(NO_MATERIAL));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A study's scene: a named material on a sphere over a floor, a light, `edit` at the end of the world block.
+fn study_scene(material: &str, light: &str, integrator: &str) -> String {
+    format!(
+        "LookAt 0 1 -4  0 0.5 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+         Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 12 \"string filename\" \"x.exr\"\n\
+         Sampler \"zsobol\" \"integer pixelsamples\" 4\nIntegrator {integrator}\nWorldBegin\n{light}\n\
+         MakeNamedMaterial \"ball\" {material}\n\
+         AttributeBegin\nNamedMaterial \"ball\"\nTranslate 0 0.5 0\nShape \"sphere\" \"float radius\" 0.5\nAttributeEnd\n\
+         AttributeBegin\nAreaLightSource \"diffuse\" \"blackbody L\" 4000\nTranslate 0 3 0\nRotate 90 1 0 0\n\
+         Shape \"disk\" \"float radius\" 0.3\nAttributeEnd\n\
+         Shape \"trianglemesh\" \"point3 P\" [ -5 0 -5  5 0 -5  5 0 5  -5 0 5 ] \"integer indices\" [ 0 1 2  0 2 3 ]\n"
+    )
+}
+
+/// A build reusing an earlier one's shapes (another material, light, integrator or resolution) shares its BVH and
+/// renders exactly the image of a build from scratch; a change the BVH records (a material that becomes an
+/// `interface`) builds the shapes again.
+#[test]
+fn a_build_reusing_shapes_renders_what_a_fresh_build_renders() {
+    let parse = |text: &str| pbrt::parse_str(text, Path::new("study.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+    let glass = "\"string type\" \"dielectric\" \"spectrum eta\" \"glass-BK7\"";
+    let sun = "LightSource \"distant\" \"point3 from\" [ 1 4 -2 ] \"blackbody L\" 5500";
+    let first = build_scene(&parse(&study_scene(glass, sun, "\"path\"")), &BuildOptions::default()).unwrap();
+    assert!(first.built_shapes());
+    let variants = [
+        (study_scene("\"string type\" \"dielectric\" \"spectrum eta\" \"glass-F11\"", sun, "\"path\""), None),
+        (study_scene("\"string type\" \"diffuse\" \"rgb reflectance\" [ 0.8 0.2 0.1 ]", sun, "\"path\""), None),
+        (study_scene(glass, "LightSource \"point\" \"point3 from\" [ 1 2 -1 ] \"blackbody I\" 3000", "\"path\""), None),
+        (study_scene(glass, sun, "\"volpath\" \"integer maxdepth\" 3"), Some((24, 10))),
+    ];
+    for (text, resolution) in &variants {
+        let desc = parse(text);
+        let options = BuildOptions { resolution: *resolution, ..Default::default() };
+        let reused = crate::build_scene_reusing(&desc, &options, &first).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!reused.built_shapes(), "{text}");
+        assert!(std::sync::Arc::ptr_eq(&reused.scene.geometry, &first.scene.geometry));
+        let fresh = build_scene(&desc, &options).unwrap();
+        let rows = 0..reused.film.height;
+        let (a, b) = (super::support::mean_y(&reused, 1, rows.clone()), super::support::mean_y(&fresh, 1, rows));
+        assert!(a > 0.0 && a == b, "{text}: reused {a}, fresh {b}");
+    }
+    // The glass image differs from the F11 one (the edit reached the render).
+    let glass_y = super::support::mean_y(&first, 1, 0..12);
+    let f11 = parse(&variants[0].0);
+    let f11_y =
+        super::support::mean_y(&crate::build_scene_reusing(&f11, &BuildOptions::default(), &first).unwrap(), 1, 0..12);
+    assert_ne!(glass_y, f11_y);
+    // An interface material is recorded in the BVH as no material: the shapes are built again.
+    let desc = parse(&study_scene("\"string type\" \"interface\"", sun, "\"path\""));
+    let rebuilt = crate::build_scene_reusing(&desc, &BuildOptions::default(), &first).unwrap();
+    assert!(rebuilt.built_shapes());
+    let fresh = build_scene(&desc, &BuildOptions::default()).unwrap();
+    assert_eq!(super::support::mean_y(&rebuilt, 1, 0..12), super::support::mean_y(&fresh, 1, 0..12));
+}

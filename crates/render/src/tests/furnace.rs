@@ -78,7 +78,7 @@ fn scene(material: Material) -> RenderScene {
         1.0,
     );
     RenderScene::new(
-        Box::new(OneSphere { radius: 1.0 }),
+        std::sync::Arc::new(OneSphere { radius: 1.0 }),
         vec![material],
         vec![Light::UniformInfinite { l: Spectrum::Constant(1.0), scene_radius: 1.0 }],
         vec![],

@@ -204,7 +204,8 @@ fn room(extras: Extras) -> RenderScene {
         vec![]
     };
     let light_count = lights.len();
-    let mut scene = RenderScene::new(Box::new(SceneGeometry::new(accel, info)), materials, lights, media, None, camera);
+    let mut scene =
+        RenderScene::new(std::sync::Arc::new(SceneGeometry::new(accel, info)), materials, lights, media, None, camera);
     if extras.motion {
         scene.motion = Some([0.0, 1.0]);
     }

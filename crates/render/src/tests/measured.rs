@@ -473,7 +473,7 @@ fn a_white_measured_sphere_in_a_furnace_shows_the_model_albedo_in_every_integrat
         1.0,
     );
     let scene = RenderScene::new(
-        Box::new(OneSphere),
+        std::sync::Arc::new(OneSphere),
         vec![Material::Measured { brdf }],
         vec![Light::UniformInfinite { l: Spectrum::Constant(1.0), scene_radius: 1.0 }],
         vec![],
