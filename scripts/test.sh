@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Every test: the Rust workspace's (`cargo test`), then the Python package's: its wheel built with maturin into a
-# fresh virtual environment (with numpy and pytest from PyPI, and matplotlib and pyoidn for the notebooks in
+# fresh virtual environment (with numpy, pytest and OpenEXR from PyPI, and matplotlib and pyoidn for the notebooks in
 # examples/, which pytest runs), and pytest on python/tests against the command line built here. Prints one closing line per part. Needs cargo and python3 with venv and pip.
 #
 #   scripts/test.sh                 # what CI runs (.ci/run) and the README's test command
@@ -20,7 +20,7 @@ echo "== the Python package: a wheel into a fresh virtual environment, then pyte
 cargo build --profile quick-release -q -p prismatic
 python3 -m venv "$venv_dir/venv"
 py="$venv_dir/venv/bin/python"
-"$py" -m pip install -q --disable-pip-version-check "maturin>=1.5,<2" numpy pytest matplotlib pyoidn
+"$py" -m pip install -q --disable-pip-version-check "maturin>=1.5,<2" numpy pytest matplotlib pyoidn OpenEXR
 # The workspace's quick-release profile: the crates the cargo tests just built are reused.
 (cd python && "$py" -m maturin build -q --profile quick-release --out "$venv_dir/dist")
 "$py" -m pip install -q --disable-pip-version-check "$venv_dir"/dist/prismatic-*.whl

@@ -57,16 +57,18 @@ pub struct Image {
     spp: u32,
 }
 
-/// `values` (`n` per pixel, row-major from the top) as a `height × width × n` array.
+/// `values` (`n` per pixel, row-major from the top) as a `height × width × n` array, without a copy: the vector's
+/// buffer becomes the array's.
 fn array<const N: usize>(py: Python<'_>, (w, h): (u32, u32), values: Vec<[f32; N]>) -> PyResult<Py<PyArray3<f32>>> {
-    let flat: Vec<f32> = values.into_iter().flatten().collect();
+    let flat: Vec<f32> = values.into_flattened();
     let a = Array3::from_shape_vec((h as usize, w as usize, N), flat)
         .map_err(|e| PyRuntimeError::new_err(format!("image of {w}×{h}: {e}")))?;
     Ok(a.into_pyarray(py).unbind())
 }
 
 impl Image {
-    /// The image of `film` after `spp` samples per pixel: one copy of the film's values into each array.
+    /// The image of `film` after `spp` samples per pixel: the film's values converted once into each array, whose
+    /// buffer NumPy then owns (no further copy; the getters hand out the same arrays).
     pub fn new(py: Python<'_>, film: film::Film, spp: u32, statistics: RenderStatistics) -> PyResult<Self> {
         let b = film.bounds();
         let size = (b.width(), b.height());

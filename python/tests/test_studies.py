@@ -292,3 +292,35 @@ def test_spectra_have_the_colours_the_command_line_prints():
         d65.xyz(observer="cie2000")
     with pytest.raises(ValueError, match="colorspace"):
         d65.rgb(colorspace="adobe")
+
+
+def test_spectral_buckets_and_aovs_equal_the_command_lines_exr(tmp_path):
+    openexr = pytest.importorskip("OpenEXR")
+    from test_render import SPECTRAL
+
+    path = tmp_path / "spectral.pbrt"
+    path.write_text(SPECTRAL)
+    out = tmp_path / "cli.exr"
+    subprocess.run([cli_binary(), "render", str(path), "--spp", "4", "--seed", "1", "--aovs", "--quiet", "-o", str(out)],
+                   check=True)
+    image = prismatic.load(path).render(spp=4, seed=1, aovs=True)
+    with openexr.File(str(out)) as f:
+        channels = {name: c.pixels for name, c in f.channels().items()}
+    assert np.array_equal(image.rgb, channels["RGB"])
+    centres = (image.wavelengths[:-1] + image.wavelengths[1:]) / 2
+    for b, centre in enumerate(centres):
+        name = f"S0.{centre:.6f}nm".replace(".", ",").replace(",", ".", 1)
+        assert np.array_equal(image.spectral[:, :, b], channels[name]), name
+    assert image.spectral.mean() > 0
+    a = image.aovs
+    assert np.array_equal(a["albedo"], channels["Albedo"])
+    assert np.array_equal(a["variance"], channels["Variance"])
+    assert np.array_equal(a["relative_variance"], channels["RelativeVariance"])
+    for key, names in [("normal", ["Ns.X", "Ns.Y", "Ns.Z"]), ("geometric_normal", ["N.X", "N.Y", "N.Z"]),
+                       ("position", ["P.X", "P.Y", "P.Z"]), ("dzdxy", ["dzdx", "dzdy"]), ("uv", ["u", "v"])]:
+        assert np.array_equal(a[key], np.stack([channels[n] for n in names], axis=2)), key
+
+
+def test_the_arrays_are_handed_out_without_copies():
+    image = prismatic.load(SCENE).render(spp=1, resolution=(16, 8), aovs=True)
+    assert image.rgb is image.rgb and image.aovs["albedo"] is image.aovs["albedo"]
