@@ -4,8 +4,8 @@
 # times (interleaved, so drift in the machine's speed hits both alike), whole processes timed with /usr/bin/time.
 # Prints per scene the mean CPU time (user + system) of each, their ratio, and each one's peak resident memory.
 #
-#   scripts/bench-python.sh                  # all of scripts/bench.sh's scenes, 3 rounds
-#   ROUNDS=5 scripts/bench-python.sh cornell # scenes whose name contains "cornell"
+#   scripts/bench-python.sh                         # all of scripts/bench.sh's scenes, 3 rounds
+#   ROUNDS=5 scripts/bench-python.sh cornell metals # scenes whose name contains "cornell" or "metals"
 #
 # Both are release builds (the wheel built with maturin --release into a virtual environment in a temporary
 # directory, or the one in PRISMATIC_VENV if set, which is then reused).
@@ -32,7 +32,11 @@ cpu_of() { awk '{ print $2 + $3 }' "$1"; }
 printf '%-18s %10s %10s %7s %10s %10s\n' scene cli_cpu_s py_cpu_s ratio cli_MB py_MB
 for entry in "${scenes[@]}"; do
   IFS='|' read -r name scene extra <<<"$entry"
-  [[ -n "${1:-}" && "$name" != *"$1"* ]] && continue
+  if (($# > 0)); then
+    wanted=0
+    for pattern in "$@"; do [[ "$name" == *"$pattern"* ]] && wanted=1; done
+    ((wanted)) || continue
+  fi
   [[ -f "$scene" ]] || { echo "$name: $scene missing, skipped" >&2; continue; }
   spp=$(sed -n 's/.*--spp \([0-9]*\).*/\1/p' <<<"$extra")
   spp_arg=${spp:+spp=$spp}

@@ -157,3 +157,10 @@ pub fn lens(data: &[u8]) {
     }
     report("lens", parsed);
 }
+
+/// The glTF reader on the bytes as a file (JSON or binary: the reader tells them apart by content), read as a whole
+/// scene: buffers, accessors, the node graph, cameras, lights and materials.
+pub fn gltf(data: &[u8]) {
+    let file = Scratch::new("glb", data);
+    report("gltf", gltf_import::read_scene(&file.0, &gltf_import::ReadOptions::default()));
+}

@@ -115,6 +115,9 @@ pub struct Plan {
     pub view: Option<film::View>,
     /// `--colorspace`: the output colour space (an output option: the film accumulates XYZ whatever it is).
     pub colorspace: Option<String>,
+    /// `--camera`: a glTF scene's camera, by name or index (recorded only when given, so that plans written
+    /// before the option existed read back unchanged).
+    pub camera: Option<String>,
 }
 
 fn join<T: ToString>(v: &[T]) -> String {
@@ -153,6 +156,9 @@ impl Plan {
         if let Some(c) = &self.colorspace {
             out.push(("colorspace".into(), c.clone()));
         }
+        if let Some(c) = &self.camera {
+            out.push(("camera".into(), c.clone()));
+        }
         out
     }
 
@@ -184,6 +190,7 @@ impl Plan {
         let shard = pairs.get("shard").map(|s| parse_shard(s)).transpose()?;
         let view = pairs.get("view").map(|v| film::View::by_name(v).ok_or_else(|| bad("view", v))).transpose()?;
         let colorspace = pairs.get("colorspace").cloned();
+        let camera = pairs.get("camera").cloned();
         Ok(Plan {
             scene: PathBuf::from(get("scene")?),
             output: pairs.get("output").map(PathBuf::from),
@@ -201,6 +208,7 @@ impl Plan {
             shard,
             view,
             colorspace,
+            camera,
         })
     }
 
@@ -229,6 +237,10 @@ impl Plan {
             let s = |v: Option<(u32, u32)>| v.map_or("none".into(), |(k, n)| format!("{k}/{n}"));
             out.push(format!("shard: {} vs {}", s(self.shard), s(other.shard)));
         }
+        if self.camera != other.camera {
+            let c = |v: &Option<String>| v.clone().unwrap_or_else(|| "none".into());
+            out.push(format!("camera: {} vs {}", c(&self.camera), c(&other.camera)));
+        }
         out
     }
 }
@@ -249,6 +261,9 @@ pub fn options_hash(plan: &Plan, resolved: &str) -> u64 {
     let mut h = Fnv64::default();
     for (k, v) in plan.image_options() {
         h.write(format!("{k}={v}\n").as_bytes());
+    }
+    if let Some(c) = &plan.camera {
+        h.write(format!("camera={c}\n").as_bytes());
     }
     h.write(resolved.as_bytes());
     h.finish()
@@ -495,6 +510,7 @@ mod tests {
             shard: Some((2, 5)),
             view: Some(film::View::Clip),
             colorspace: Some("dci-p3".into()),
+            camera: Some("front".into()),
         };
         assert_eq!(Plan::from_text(&plan.to_text()).unwrap(), plan);
         let other = Plan { seed: 8, spp: None, ..plan.clone() };

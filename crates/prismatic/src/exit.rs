@@ -22,7 +22,7 @@ pub fn code(e: &Error) -> u8 {
         if let Some(stopped) = cause.downcast_ref::<Interrupted>() {
             return stopped.exit_code;
         }
-        if cause.is::<pbrt::ParseError>() || cause.is::<scene::SceneError>() {
+        if cause.is::<pbrt::ParseError>() || cause.is::<scene::SceneError>() || cause.is::<gltf_import::GltfError>() {
             return SCENE;
         }
         if let Some(r) = cause.downcast_ref::<render::RenderError>() {

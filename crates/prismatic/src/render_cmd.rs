@@ -50,7 +50,7 @@ use spectral::WavelengthStrategy;
                         plus its exact unnormalised sums); `prismatic merge` adds them into the image one process \
                         would have rendered.")]
 pub struct RenderArgs {
-    /// The pbrt-v4 scene file (optional with --resume: the checkpoint names it).
+    /// The scene: a pbrt-v4 file, or a glTF 2.0 file (.gltf, .glb) (optional with --resume: the checkpoint names it).
     #[arg(required_unless_present = "resume")]
     pub scene: Option<PathBuf>,
 
@@ -127,6 +127,10 @@ pub struct RenderArgs {
     /// the film's "colorspace".
     #[arg(long, value_name = "SPACE", value_parser = parse_colorspace)]
     pub colorspace: Option<String>,
+
+    /// A glTF scene's camera, by name or index (the first one by default).
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub camera: Option<String>,
 
     /// Serve a live view on 127.0.0.1 (the address is printed): the image as it converges, through the view, with
     /// samples, elapsed time and ETA, and buttons for the view and the exposure. Closing the page does not stop the
@@ -252,14 +256,7 @@ impl Setup {
     /// Parses and builds the scene of `plan` and works out the film and the passes (of its shard, if any).
     pub fn new(plan: &Plan) -> Result<Self> {
         let start = Instant::now();
-        let desc = pbrt::parse_file(&plan.scene).map_err(|e| {
-            // The scene file itself cannot be opened: an I/O error for the exit status (the operating system's
-            // error is the cause), with the parser's message.
-            match std::fs::File::open(&plan.scene) {
-                Err(io) => anyhow::Error::new(io).context(e),
-                Ok(_) => anyhow::Error::new(e),
-            }
-        })?;
+        let desc = read_scene_file(&plan.scene, plan.camera.as_deref())?;
         let parsed = start.elapsed();
         let options = BuildOptions {
             resolution: plan.resolution,
@@ -342,6 +339,28 @@ impl Setup {
     }
 }
 
+/// The scene description of `path`: a glTF 2.0 file (`.gltf`, `.glb`; `camera` picks its camera) or a pbrt-v4 file.
+pub fn read_scene_file(path: &Path, camera: Option<&str>) -> Result<scene::SceneDescription> {
+    // A scene file that cannot be opened is an I/O error for the exit status (the operating system's error is the
+    // cause), with the reader's message.
+    let io = |e: anyhow::Error| match std::fs::File::open(path) {
+        Err(io) => anyhow::Error::new(io).context(e.to_string()),
+        Ok(_) => e,
+    };
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if matches!(ext.as_deref(), Some("gltf" | "glb")) {
+        let options = gltf_import::ReadOptions { camera: camera.map(str::to_string) };
+        return gltf_import::read_scene(path, &options).map_err(|e| io(anyhow::Error::new(e)));
+    }
+    if camera.is_some() {
+        bail!(
+            "--camera picks a glTF scene's camera; {} is a pbrt-v4 file, whose Camera directive is used",
+            path.display()
+        );
+    }
+    pbrt::parse_file(path).map_err(|e| io(anyhow::Error::new(e)))
+}
+
 /// The K-th of N contiguous parts of `0..len` (K from 1): `(K−1)·len/N .. K·len/N`, rounded down.
 pub fn split(len: u32, (k, n): (u32, u32)) -> Range<u32> {
     let at = |i: u32| (i as u64 * len as u64 / n as u64) as u32;
@@ -373,6 +392,7 @@ fn plan_from_args(args: &RenderArgs, scene: &Path) -> Result<Plan> {
         shard: args.shard.as_deref().map(checkpoint::parse_shard).transpose()?,
         view: args.view,
         colorspace: args.colorspace.clone(),
+        camera: args.camera.clone(),
     })
 }
 

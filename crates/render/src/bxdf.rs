@@ -11,6 +11,7 @@ use std::sync::Arc;
 use crate::coating::CoatingAt;
 use crate::layered::Layered;
 use crate::measured::MeasuredBrdf;
+use crate::metallic_roughness::MetallicRoughness;
 use crate::microfacet::TrowbridgeReitz;
 use crate::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 
@@ -173,6 +174,9 @@ pub enum Bxdf {
         /// The film's layers at this hit (`None`: no thickness here, so no surface: everything passes).
         film: Option<Box<CoatingAt>>,
     },
+    /// glTF 2.0's metallic-roughness BRDF (its Appendix B): a Lambertian base under a GGX layer, blended with a
+    /// GGX metal.
+    MetallicRoughness(MetallicRoughness),
     /// A measured BRDF (pbrt-v4's `MeasuredBxDF`): an RGL material's tables evaluated at the path's wavelengths.
     /// The camera-side direction is the table's incident direction in both transport modes.
     Measured {
@@ -192,7 +196,7 @@ impl Bxdf {
             // An index-matched interface passes light straight through whatever its roughness.
             Bxdf::Dielectric { eta, distrib, .. } => *eta == 1.0 || distrib.effectively_smooth(),
             Bxdf::ThinDielectric { .. } | Bxdf::ThinFilm { .. } | Bxdf::DispersiveDielectric { .. } => true,
-            Bxdf::Layered(_) | Bxdf::Measured { .. } => false,
+            Bxdf::Layered(_) | Bxdf::Measured { .. } | Bxdf::MetallicRoughness(_) => false,
         }
     }
 
@@ -205,6 +209,7 @@ impl Bxdf {
             Bxdf::Conductor { eta, k, coating, .. } => conductor_reflectance(1.0, eta, k, coating.as_deref()),
             Bxdf::Layered(c) => c.base_albedo(),
             Bxdf::Measured { brdf, lambda } => brdf.albedo_hint(lambda),
+            Bxdf::MetallicRoughness(m) => m.albedo_hint(),
             Bxdf::Dielectric { .. }
             | Bxdf::DispersiveDielectric { .. }
             | Bxdf::ThinDielectric { .. }
@@ -253,6 +258,8 @@ impl Bxdf {
                 SampledSpectrum::zero()
             }
             Bxdf::Layered(c) => c.f(wo, wi, mode),
+            // Reciprocal: the same in both transport modes.
+            Bxdf::MetallicRoughness(m) => m.f(wo, wi),
             Bxdf::Measured { brdf, lambda } => match mode {
                 TransportMode::Radiance => brdf.f(wo, wi, lambda),
                 // wo is the light side on a light path: the camera side, wi, is the table's incident direction.
@@ -276,7 +283,8 @@ impl Bxdf {
             | Bxdf::DispersiveDielectric { .. }
             | Bxdf::Layered(_)
             | Bxdf::ThinDielectric { .. }
-            | Bxdf::ThinFilm { .. } => (self.f(wo, wi, mode), self.pdf(wo, wi, mode)),
+            | Bxdf::ThinFilm { .. }
+            | Bxdf::MetallicRoughness(_) => (self.f(wo, wi, mode), self.pdf(wo, wi, mode)),
         }
     }
 
@@ -332,6 +340,7 @@ impl Bxdf {
             }
             Bxdf::ThinDielectric { .. } | Bxdf::ThinFilm { .. } | Bxdf::DispersiveDielectric { .. } => 0.0,
             Bxdf::Layered(c) => c.pdf(wo, wi, mode),
+            Bxdf::MetallicRoughness(m) => m.pdf(wo, wi),
             // Sampling always starts from wo, so its density is indexed by wo in both modes.
             Bxdf::Measured { brdf, .. } => brdf.pdf(wo, wi),
         }
@@ -345,8 +354,14 @@ impl Bxdf {
     /// [`Bxdf::sample_f`] restricted to reflection or transmission (used inside layered BxDFs).
     pub fn sample_f_lobes(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode, lobes: Lobes) -> Option<BsdfSample> {
         match self {
-            Bxdf::Diffuse { .. } | Bxdf::Conductor { .. } | Bxdf::Measured { .. } if lobes == Lobes::Transmission => {
+            Bxdf::Diffuse { .. } | Bxdf::Conductor { .. } | Bxdf::Measured { .. } | Bxdf::MetallicRoughness(_)
+                if lobes == Lobes::Transmission =>
+            {
                 None
+            }
+            Bxdf::MetallicRoughness(m) => {
+                let (f, wi, pdf) = m.sample(wo, uc, u)?;
+                Some(BsdfSample::reflection(f, wi, pdf, false))
             }
             Bxdf::Measured { brdf, lambda } => {
                 let (wi, f_cos, pdf) = brdf.sample(wo, u, lambda)?;

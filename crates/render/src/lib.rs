@@ -76,6 +76,7 @@ mod light;
 mod material;
 mod measured;
 mod medium;
+mod metallic_roughness;
 mod microfacet;
 mod sampler;
 mod sampling;

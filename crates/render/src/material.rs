@@ -9,6 +9,7 @@ use crate::bxdf::Bxdf;
 use crate::coating::Coating;
 use crate::layered::Layered;
 use crate::measured::MeasuredBrdf;
+use crate::metallic_roughness::MetallicRoughness;
 use crate::microfacet::TrowbridgeReitz;
 use crate::texture::{FloatTexture, SpectrumTexture, TextureEvalContext};
 
@@ -203,6 +204,17 @@ pub enum Material {
         /// The tables, shared by every hit.
         brdf: Arc<MeasuredBrdf>,
     },
+    /// glTF 2.0's metallic-roughness material (its Appendix B BRDF; Prismatic's `metallicroughness`).
+    MetallicRoughness {
+        /// Base colour (a reflectance).
+        base_color: SpectrumTexture,
+        /// Metalness in [0, 1].
+        metallic: FloatTexture,
+        /// Perceptual roughness in [0, 1] (α = roughness²).
+        roughness: FloatTexture,
+        /// The dielectric layer's index (1.5 in glTF unless `KHR_materials_ior` says otherwise).
+        ior: f32,
+    },
     /// No surface: marks a boundary between media.
     Interface,
 }
@@ -228,6 +240,7 @@ impl Material {
             | Material::CoatedConductor { .. }
             | Material::Mix { .. }
             | Material::Measured { .. }
+            | Material::MetallicRoughness { .. }
             | Material::Interface => None,
         }
     }
@@ -285,6 +298,9 @@ impl Material {
                 Some(Bxdf::ThinDielectric { eta })
             }
             Material::ThinFilm { film } => Some(Bxdf::ThinFilm { film: film.at(ctx, wl) }),
+            Material::MetallicRoughness { base_color, metallic, roughness, ior } => Some(Bxdf::MetallicRoughness(
+                MetallicRoughness::new(base_color.eval(ctx, wl), metallic.eval(ctx), roughness.eval(ctx), *ior),
+            )),
             Material::CoatedDiffuse { reflectance, roughness, ior, medium } => {
                 let eta = single_eta(ior, wl, u);
                 let layered = Layered::coated_diffuse(

@@ -206,6 +206,9 @@ pub struct SceneDescription {
     pub objects: Vec<ObjectDefinition>,
     /// Object instances.
     pub instances: Vec<InstanceUse>,
+    /// Triangle meshes a reader decoded whole (glTF's primitives), which `importedmesh` shapes name by their index
+    /// in `"integer mesh"`; shared by every shape that places the same mesh.
+    pub meshes: Vec<Arc<geometry::MeshData>>,
     /// `Option` directives.
     pub options: Vec<OptionEntry>,
     /// Warnings from parsing (deprecated or ignored directives, …). Unused parameters are reported later, by
@@ -241,6 +244,7 @@ impl SceneDescription {
             shapes: Vec::new(),
             objects: Vec::new(),
             instances: Vec::new(),
+            meshes: Vec::new(),
             options: Vec::new(),
             warnings: Vec::new(),
             files: Vec::new(),

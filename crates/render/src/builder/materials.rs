@@ -357,6 +357,18 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &M
             coating: coating(t, p, &e.loc)?,
         },
         "thindielectric" => Material::ThinDielectric { ior: dielectric_ior(p, &e.loc, 1.5)? },
+        "metallicroughness" => {
+            let ior = p.get_float("ior", 1.5)?;
+            if !(ior.is_finite() && ior >= 1.0) {
+                return err(&p.loc_of("ior", &e.loc), format!("'ior' must be a number ≥ 1, got {ior}"));
+            }
+            Material::MetallicRoughness {
+                base_color: t.spectrum_param(p, "basecolor", SpectrumKind::Albedo, 1.0)?,
+                metallic: t.float_param(p, "metallic", 1.0)?,
+                roughness: t.float_param(p, "roughness", 1.0)?,
+                ior: ior as f32,
+            }
+        }
         "thinfilm" => Material::ThinFilm { film: free_film(t, p, &e.loc)? },
         "coateddiffuse" => Material::CoatedDiffuse {
             reflectance: t.spectrum_param(p, "reflectance", SpectrumKind::Albedo, 0.5)?,

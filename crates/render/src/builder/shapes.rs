@@ -105,7 +105,7 @@ pub(super) fn make_geometry(
             let (mut out, mut out_info, mut out_alpha) = (vec![], vec![], vec![]);
             // The geometry of every shape (PLY files read and decoded, vertices transformed) is made on all
             // cores; the results are then taken in file order, so the first error in the file is the one reported.
-            let built: Vec<Result<Option<Shape>>> = shapes.par_iter().map(|se| make_shape(se)).collect();
+            let built: Vec<Result<Option<Shape>>> = shapes.par_iter().map(|se| make_shape(se, &desc.meshes)).collect();
             for (se, shape) in shapes.iter().zip(built) {
                 let alpha = shape_alpha(textures, &se.entity.params, &se.entity.loc)?;
                 let Some(shape) = shape? else { continue };
@@ -248,7 +248,7 @@ fn indices_u32(p: &ParamSet, loc: &Loc, name: &str) -> Result<Option<Vec<u32>>> 
 }
 
 /// The geometry of one shape entity.
-fn make_shape(se: &ShapeEntity) -> Result<Option<Shape>> {
+fn make_shape(se: &ShapeEntity, meshes: &[Arc<MeshData>]) -> Result<Option<Shape>> {
     let e = &se.entity;
     let p = &e.params;
     let loc = &e.loc;
@@ -273,6 +273,14 @@ fn make_shape(se: &ShapeEntity) -> Result<Option<Shape>> {
             let uvs =
                 p.get_point2s("uv")?.map(|v| v.into_iter().map(|a| Vec2::new(a[0] as f32, a[1] as f32)).collect());
             mesh(MeshData { positions: to_vec3s(pos), normals, uvs, indices })
+        }
+        "importedmesh" => {
+            // A mesh a reader decoded whole (glTF), named by its index in the description's meshes.
+            let index = p.get_int("mesh", -1)?;
+            let Some(data) = usize::try_from(index).ok().and_then(|i| meshes.get(i)) else {
+                return err(loc, format!("importedmesh: no imported mesh {index} (the scene has {})", meshes.len()));
+            };
+            mesh(MeshData::clone(data))
         }
         "plymesh" => {
             let Some(path) = p.get_filename("filename")? else { return err(loc, "plymesh needs 'string filename'") };

@@ -1,0 +1,659 @@
+//! glTF 2.0 into a scene description: `.gltf` (with external or embedded buffers) and `.glb` files, as Blender and
+//! other tools export them, read with the `gltf` crate and turned into the same [`SceneDescription`] the pbrt-v4
+//! parser makes, so the renderer sees one kind of scene.
+//!
+//! What becomes what:
+//! - **Meshes**: every triangle primitive of every node of the default scene, decoded on all cores into
+//!   [`SceneDescription::meshes`] (once per primitive however many nodes use it) and placed by `importedmesh` shapes
+//!   under the node's world transform. glTF lengths are metres, used as scene units.
+//! - **Cameras**: the chosen one (by name or index; the first by default), perspective or orthographic, looking down
+//!   its node's −Z with +Y up as glTF says. Without any, a camera framing the scene's bounds, with a warning.
+//! - **Lights** (`KHR_lights_punctual`): point and spot lights in candela, directional ones in lux, become radiometric
+//!   by dividing by 683 lm/W (the luminous efficacy at 555 nm, as Blender's exporter multiplies by when it writes
+//!   a light of P watts as P·683/(4π) cd): a Blender point light of P watts has intensity P/(4π) W/sr.
+//! - **Materials**: the metallic-roughness material as the specification's Appendix B defines it (Prismatic's
+//!   `metallicroughness`), with `KHR_materials_ior`; `KHR_materials_transmission` as a dielectric of that index (with
+//!   `KHR_materials_dispersion`: n(λ) from the Abbe model with n_d = ior and V_d = 20/dispersion), mixed with the
+//!   opaque material by the transmission factor; `KHR_materials_volume`'s attenuation as the glass's absorption;
+//!   emission (`emissiveFactor` × `KHR_materials_emissive_strength`) as a diffuse area light on the mesh.
+//!
+//! Errors name the file and the JSON path of what is wrong (`meshes[3].primitives[0].attributes.POSITION`).
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use base64::Engine;
+use geometry::{MeshData, Transform};
+use glam::{DMat4, DVec3, Vec2, Vec3};
+use rayon::prelude::*;
+use scene::{
+    CameraEntity, Diagnostic, Entity, LightEntity, Loc, MaterialRef, MediumEntity, Param, ParamSet, ParamType,
+    SceneDescription, ShapeEntity,
+};
+
+/// A glTF file that cannot be read: the file, the JSON path of the offending element (empty for the file as a
+/// whole) and what is wrong.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {}{message}", file.display(), if path.is_empty() { String::new() } else { format!("{path}: ") })]
+pub struct GltfError {
+    /// The file.
+    pub file: PathBuf,
+    /// The JSON path, e.g. `meshes[3].primitives[0].attributes.POSITION`.
+    pub path: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+/// How to read a file as a whole scene.
+#[derive(Clone, Debug, Default)]
+pub struct ReadOptions {
+    /// The camera: a name, or an index into the file's cameras; the first one by default.
+    pub camera: Option<String>,
+}
+
+/// The extensions this reader understands; any other in `extensionsRequired` is an error, in `extensionsUsed` a
+/// warning.
+pub const SUPPORTED_EXTENSIONS: [&str; 6] = [
+    "KHR_lights_punctual",
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_dispersion",
+];
+
+/// Lumens per watt at 555 nm: glTF's photometric light units to the renderer's radiometric ones.
+const LUMENS_PER_WATT: f64 = 683.0;
+
+/// Reads `path` as a whole scene: its meshes, materials and lights, the chosen camera, and pbrt-v4's defaults for
+/// everything glTF does not describe (film, sampler, integrator), which the command line's options then set.
+pub fn read_scene(path: &Path, options: &ReadOptions) -> Result<SceneDescription, GltfError> {
+    let file: Arc<Path> = Arc::from(path);
+    let mut desc = SceneDescription::new(file.clone());
+    let imported = import(&mut desc, path, &Transform::IDENTITY)?;
+    desc.files.insert(0, path.to_path_buf());
+    let loc = Loc::new(file.clone(), 0, 0);
+    let aspect = match choose_camera(&imported.cameras, options, path)? {
+        Some(cam) => {
+            let (entity, aspect) = camera_entity(&cam.camera, loc.clone());
+            // pbrt's camera space looks down +z with +y up and +x to the image's right; glTF's looks down -z.
+            let flip = Transform::scale(DVec3::new(1.0, 1.0, -1.0)).expect("a reflection is invertible");
+            let camera_from_world = flip.then_after(&cam.world.inverse());
+            desc.camera = CameraEntity { entity, camera_from_world, medium: None, motion: None };
+            aspect
+        }
+        None => {
+            let (camera, warning) = framing_camera(&desc, loc.clone());
+            desc.camera = camera;
+            desc.warnings.push(Diagnostic::new(loc.clone(), warning));
+            None
+        }
+    };
+    // The film's size follows the camera's aspect ratio (the command line's --resolution replaces it).
+    let (w, h) = match aspect {
+        Some(a) if a.is_finite() && a > 0.0 => (1280, ((1280.0 / a).round() as i64).clamp(1, 16384)),
+        _ => (1280, 720),
+    };
+    let mut film = ParamSet::new();
+    film.push(ints("xresolution", &[w], &loc));
+    film.push(ints("yresolution", &[h], &loc));
+    let stem = path.file_stem().map_or("render".into(), |s| s.to_string_lossy().into_owned());
+    film.push(string("filename", &format!("{stem}.exr"), &loc));
+    desc.film = Entity::new("rgb", film, loc);
+    Ok(desc)
+}
+
+/// A camera of the file and where its node puts it.
+#[derive(Clone, Debug)]
+pub struct PlacedCamera {
+    /// Its name, if it has one.
+    pub name: Option<String>,
+    /// Its index in the file's `cameras`.
+    pub index: usize,
+    /// What it is.
+    pub camera: CameraModel,
+    /// Its node's world transform (glTF camera space to world).
+    pub world: Transform,
+}
+
+/// A glTF camera's projection.
+#[derive(Clone, Copy, Debug)]
+pub enum CameraModel {
+    /// Vertical field of view (radians) and, if given, the aspect ratio.
+    Perspective { yfov: f64, aspect: Option<f64> },
+    /// Half-width and half-height of the view in metres.
+    Orthographic { xmag: f64, ymag: f64 },
+}
+
+/// What [`import`] found besides what it added to the description.
+#[derive(Clone, Debug, Default)]
+pub struct Imported {
+    /// The cameras placed by nodes of the scene, in node order.
+    pub cameras: Vec<PlacedCamera>,
+}
+
+/// Adds the meshes, materials and lights of the glTF file at `path` to `desc`, placed by `render_from_file` (pbrt's
+/// `Import "model.glb"` under the current transform); returns the cameras it found.
+pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Transform) -> Result<Imported, GltfError> {
+    let err = |json: &str, message: String| GltfError { file: path.to_path_buf(), path: json.to_string(), message };
+    let bytes = std::fs::read(path).map_err(|e| err("", format!("cannot read the file: {e}")))?;
+    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| err("", gltf_message(&e)))?;
+    let file: Arc<Path> = Arc::from(path);
+    let loc = Loc::new(file.clone(), 0, 0);
+    for ext in gltf.extensions_required() {
+        if !SUPPORTED_EXTENSIONS.contains(&ext) {
+            return Err(err("extensionsRequired", format!("extension '{ext}' is required but not supported")));
+        }
+    }
+    for ext in gltf.extensions_used() {
+        if !SUPPORTED_EXTENSIONS.contains(&ext) {
+            desc.warnings.push(Diagnostic::new(loc.clone(), format!("extension '{ext}' is used but ignored")));
+        }
+    }
+    let buffers = load_buffers(&gltf, path)?;
+    let Some(scene) = gltf.default_scene().or_else(|| gltf.scenes().next()) else {
+        return Ok(Imported::default());
+    };
+
+    // The nodes in depth-first order with their world transforms (a node reached twice on one path is a cycle).
+    let mut placed: Vec<(gltf::Node<'_>, DMat4)> = vec![];
+    let mut stack: Vec<(gltf::Node<'_>, DMat4, Vec<usize>)> =
+        scene.nodes().map(|n| (n, render_from_file.matrix(), vec![])).collect();
+    stack.reverse();
+    while let Some((node, parent, mut ancestors)) = stack.pop() {
+        if ancestors.contains(&node.index()) {
+            return Err(err(&format!("nodes[{}].children", node.index()), "the node graph has a cycle".into()));
+        }
+        if ancestors.len() > 1000 {
+            return Err(err(&format!("nodes[{}]", node.index()), "nodes nested more than 1000 deep".into()));
+        }
+        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(err(&format!("nodes[{}]", node.index()), "the transform is not finite".into()));
+        }
+        ancestors.push(node.index());
+        for child in node.children().collect::<Vec<_>>().into_iter().rev() {
+            stack.push((child, world, ancestors.clone()));
+        }
+        placed.push((node, world));
+    }
+
+    // Materials: one named material per glTF material used (with the medium inside it, for a volume), and glTF's
+    // default for primitives without one.
+    type Made = (String, Option<String>);
+    let mut material_names: Vec<Option<Made>> = vec![None; gltf.materials().len()];
+    let mut default_material: Option<Made> = None;
+    let mut material_ref = |desc: &mut SceneDescription, m: gltf::Material<'_>| -> Result<Made, GltfError> {
+        let slot = match m.index() {
+            Some(i) => &mut material_names[i],
+            None => &mut default_material,
+        };
+        if let Some(made) = slot {
+            return Ok(made.clone());
+        }
+        let name = format!("{}#{}", path.display(), m.index().map_or("default".into(), |i| format!("materials[{i}]")));
+        let medium = add_material(desc, &name, &m, &loc, path)?;
+        *slot = Some((name.clone(), medium.clone()));
+        Ok((name, medium))
+    };
+
+    // Meshes: every primitive used, decoded on all cores.
+    let mut used: Vec<(usize, usize)> = vec![];
+    let mut seen = HashSet::new();
+    for (node, _) in &placed {
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                if seen.insert((mesh.index(), prim.index())) {
+                    used.push((mesh.index(), prim.index()));
+                }
+            }
+        }
+    }
+    let meshes: Vec<gltf::Mesh<'_>> = gltf.meshes().collect();
+    let decoded: Vec<Result<Option<Arc<MeshData>>, GltfError>> = used
+        .par_iter()
+        .map(|&(m, p)| {
+            let prim = meshes[m].primitives().nth(p).expect("the primitive was listed from this mesh");
+            decode_primitive(&prim, &buffers, &format!("meshes[{m}].primitives[{p}]"))
+                .map_err(|(json, message)| err(&json, message))
+        })
+        .collect();
+    let mut mesh_index = std::collections::HashMap::new();
+    for ((m, p), d) in used.iter().zip(decoded) {
+        if let Some(data) = d? {
+            mesh_index.insert((*m, *p), desc.meshes.len());
+            desc.meshes.push(data);
+        }
+    }
+
+    let mut cameras = vec![];
+    for (node, world) in &placed {
+        let world_t = Transform::from_matrix(*world)
+            .ok_or_else(|| err(&format!("nodes[{}]", node.index()), "the transform is singular".into()))?;
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                let Some(&index) = mesh_index.get(&(mesh.index(), prim.index())) else { continue };
+                let material = prim.material();
+                let (name, medium) = material_ref(desc, material.clone())?;
+                let mut params = ParamSet::new();
+                params.push(ints("mesh", &[index as i64], &loc));
+                let area_light = emission(&material, &loc);
+                desc.shapes.push(ShapeEntity {
+                    entity: Entity::new("importedmesh", params, loc.clone()),
+                    render_from_object: world_t,
+                    reverse_orientation: false,
+                    material: MaterialRef::Named(name),
+                    area_light,
+                    inside_medium: medium,
+                    outside_medium: None,
+                    motion: None,
+                });
+            }
+        }
+        if let Some(camera) = node.camera() {
+            let camera_model = match camera.projection() {
+                gltf::camera::Projection::Perspective(p) => {
+                    CameraModel::Perspective { yfov: f64::from(p.yfov()), aspect: p.aspect_ratio().map(f64::from) }
+                }
+                gltf::camera::Projection::Orthographic(o) => {
+                    CameraModel::Orthographic { xmag: f64::from(o.xmag()), ymag: f64::from(o.ymag()) }
+                }
+            };
+            cameras.push(PlacedCamera {
+                name: camera.name().map(str::to_string),
+                index: camera.index(),
+                camera: camera_model,
+                world: world_t,
+            });
+        }
+        if let Some(light) = node.light() {
+            desc.lights.push(light_entity(&light, world_t, &loc));
+        }
+    }
+    Ok(Imported { cameras })
+}
+
+/// The gltf crate's error, with the JSON paths of validation errors.
+fn gltf_message(e: &gltf::Error) -> String {
+    match e {
+        gltf::Error::Validation(list) => {
+            list.iter().map(|(path, what)| format!("{path}: {what}")).collect::<Vec<_>>().join("; ")
+        }
+        other => other.to_string(),
+    }
+}
+
+/// The data of every buffer: the GLB's binary chunk, a data URI's bytes, or an external file next to the glTF.
+fn load_buffers(gltf: &gltf::Gltf, path: &Path) -> Result<Vec<Vec<u8>>, GltfError> {
+    let err =
+        |i: usize, message: String| GltfError { file: path.to_path_buf(), path: format!("buffers[{i}]"), message };
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mut out = vec![];
+    for buffer in gltf.buffers() {
+        let i = buffer.index();
+        let data = match buffer.source() {
+            gltf::buffer::Source::Bin => {
+                gltf.blob.clone().ok_or_else(|| err(i, "refers to the GLB's binary chunk, which is missing".into()))?
+            }
+            gltf::buffer::Source::Uri(uri) => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let (_, payload) = rest
+                        .split_once(";base64,")
+                        .ok_or_else(|| err(i, "a data URI must be base64-encoded".into()))?;
+                    base64::engine::general_purpose::STANDARD
+                        .decode(payload)
+                        .map_err(|e| err(i, format!("the data URI is not valid base64: {e}")))?
+                } else {
+                    let name = uri.replace("%20", " ");
+                    let file = dir.join(&name);
+                    std::fs::read(&file).map_err(|e| err(i, format!("cannot read {}: {e}", file.display())))?
+                }
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(err(i, format!("holds {} bytes, fewer than its byteLength {}", data.len(), buffer.length())));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// Checks that accessor `a` lies inside its buffer view and the view inside its buffer, so that reading it cannot go
+/// out of bounds; `json` names it in errors.
+fn check_accessor(a: &gltf::Accessor<'_>, buffers: &[Vec<u8>], json: &str) -> Result<(), (String, String)> {
+    let bad = |m: String| (json.to_string(), m);
+    if a.sparse().is_some() {
+        return Err(bad("sparse accessors are not supported".into()));
+    }
+    let Some(view) = a.view() else { return Err(bad("an accessor without a buffer view is not supported".into())) };
+    let buffer = &buffers[view.buffer().index()];
+    let view_end = view.offset().checked_add(view.length());
+    if view_end.is_none_or(|e| e > buffer.len()) {
+        return Err(bad(format!("bufferViews[{}] reaches past the end of its buffer", view.index())));
+    }
+    let element = a.size();
+    let stride = view.stride().unwrap_or(element);
+    if a.count() > 0 {
+        let end = (a.count() - 1).checked_mul(stride).and_then(|v| v.checked_add(a.offset() + element));
+        if end.is_none_or(|e| e > view.length()) {
+            return Err(bad(format!("{} elements reach past the end of bufferViews[{}]", a.count(), view.index())));
+        }
+    }
+    Ok(())
+}
+
+/// One triangle primitive as mesh data (None for one with no triangles: points and lines are skipped); errors as
+/// (JSON path, message).
+fn decode_primitive(
+    prim: &gltf::Primitive<'_>,
+    buffers: &[Vec<u8>],
+    json: &str,
+) -> Result<Option<Arc<MeshData>>, (String, String)> {
+    if prim.mode() != gltf::mesh::Mode::Triangles {
+        return Ok(None);
+    }
+    for (semantic, accessor) in prim.attributes() {
+        check_accessor(&accessor, buffers, &format!("{json}.attributes.{}", semantic.to_string()))?;
+    }
+    if let Some(indices) = prim.indices() {
+        check_accessor(&indices, buffers, &format!("{json}.indices"))?;
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| (format!("{json}.attributes.POSITION"), "a triangle primitive needs positions".to_string()))?
+        .map(Vec3::from)
+        .collect();
+    if positions.iter().any(|p| !p.is_finite()) {
+        return Err((format!("{json}.attributes.POSITION"), "positions must be finite".into()));
+    }
+    let n = positions.len();
+    let normals: Option<Vec<Vec3>> = reader.read_normals().map(|it| it.map(Vec3::from).collect());
+    if normals.as_ref().is_some_and(|v| v.len() != n) {
+        return Err((format!("{json}.attributes.NORMAL"), "as many normals as positions are needed".into()));
+    }
+    let uvs: Option<Vec<Vec2>> = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect());
+    if uvs.as_ref().is_some_and(|v| v.len() != n) {
+        return Err((
+            format!("{json}.attributes.TEXCOORD_0"),
+            "as many texture coordinates as positions are needed".into(),
+        ));
+    }
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..n as u32).collect(),
+    };
+    if let Some(bad) = indices.iter().find(|&&i| i as usize >= n) {
+        return Err((format!("{json}.indices"), format!("index {bad} points past the {n} vertices")));
+    }
+    if !indices.len().is_multiple_of(3) {
+        return Err((format!("{json}.indices"), format!("{} indices are not whole triangles", indices.len())));
+    }
+    if indices.is_empty() {
+        return Ok(None);
+    }
+    // glTF's uv origin is the image's top-left corner, pbrt's the bottom-left: v flips.
+    let uvs = uvs.map(|v| v.into_iter().map(|t| Vec2::new(t.x, 1.0 - t.y)).collect());
+    Ok(Some(Arc::new(MeshData { positions, normals, uvs, indices })))
+}
+
+fn param(ty: ParamType, name: &str, loc: &Loc) -> Param {
+    Param::new(ty, name, loc.clone())
+}
+
+fn floats(ty: ParamType, name: &str, values: &[f64], loc: &Loc) -> Param {
+    let mut p = param(ty, name, loc);
+    p.floats = values.to_vec();
+    p
+}
+
+fn float(name: &str, v: f64, loc: &Loc) -> Param {
+    floats(ParamType::Float, name, &[v], loc)
+}
+
+fn ints(name: &str, values: &[i64], loc: &Loc) -> Param {
+    let mut p = param(ParamType::Integer, name, loc);
+    p.ints = values.to_vec();
+    p
+}
+
+fn string(name: &str, v: &str, loc: &Loc) -> Param {
+    let mut p = param(ParamType::String, name, loc);
+    p.strings = vec![v.to_string()];
+    p
+}
+
+fn strings(name: &str, v: &[String], loc: &Loc) -> Param {
+    let mut p = param(ParamType::String, name, loc);
+    p.strings = v.to_vec();
+    p
+}
+
+fn boolean(name: &str, v: bool, loc: &Loc) -> Param {
+    let mut p = param(ParamType::Bool, name, loc);
+    p.bools = vec![v];
+    p
+}
+
+fn rgb(name: &str, c: [f64; 3], loc: &Loc) -> Param {
+    floats(ParamType::Rgb, name, &c, loc)
+}
+
+/// A number from a material's raw extension object (`extensions.NAME.KEY`).
+fn extension_number(m: &gltf::Material<'_>, name: &str, key: &str) -> Option<f64> {
+    m.extensions()?.get(name)?.get(key)?.as_f64()
+}
+
+/// Adds material `m` as named material `name` (and the parts a transmissive one is mixed from); returns the name of
+/// the medium inside it, for a transmissive material with `KHR_materials_volume`'s attenuation.
+fn add_material(
+    desc: &mut SceneDescription,
+    name: &str,
+    m: &gltf::Material<'_>,
+    loc: &Loc,
+    path: &Path,
+) -> Result<Option<String>, GltfError> {
+    let json = m.index().map_or("materials (the default)".to_string(), |i| format!("materials[{i}]"));
+    let pbr = m.pbr_metallic_roughness();
+    let [r, g, b, a] = pbr.base_color_factor().map(f64::from);
+    let metallic = f64::from(pbr.metallic_factor());
+    let roughness = f64::from(pbr.roughness_factor());
+    let ior = m.ior().map_or(1.5, f64::from);
+    let values = [r, g, b, a, metallic, roughness, ior];
+    if values.iter().any(|v| !v.is_finite()) {
+        return Err(GltfError { file: path.to_path_buf(), path: json, message: "factors must be finite".into() });
+    }
+    let textures = [
+        pbr.base_color_texture().is_some(),
+        pbr.metallic_roughness_texture().is_some(),
+        m.normal_texture().is_some(),
+        m.emissive_texture().is_some(),
+    ];
+    if textures.iter().any(|&t| t) {
+        desc.warnings.push(Diagnostic::new(
+            loc.clone(),
+            format!("{json}: textures are not read yet; the material's factors are used"),
+        ));
+    }
+    let mut opaque = ParamSet::new();
+    opaque.push(rgb("basecolor", [r, g, b], loc));
+    opaque.push(float("metallic", metallic.clamp(0.0, 1.0), loc));
+    opaque.push(float("roughness", roughness.clamp(0.0, 1.0), loc));
+    opaque.push(float("ior", ior.max(1.0), loc));
+    let opaque = Entity::new("metallicroughness", opaque, loc.clone());
+    let transmission = m.transmission().map_or(0.0, |t| f64::from(t.transmission_factor())).clamp(0.0, 1.0);
+    // Transmission applies to the dielectric part only: the metal never transmits.
+    let amount = transmission * (1.0 - metallic.clamp(0.0, 1.0));
+    if amount <= 0.0 {
+        desc.named_materials.push((name.to_string(), opaque));
+        return Ok(None);
+    }
+    let mut glass = ParamSet::new();
+    glass.push(float("eta", ior.max(1.0), loc));
+    if let Some(d) = extension_number(m, "KHR_materials_dispersion", "dispersion").filter(|d| *d > 0.0) {
+        // KHR_materials_dispersion: V_d = 20 / dispersion, with n_d the material's ior.
+        glass.push(float("abbe", 20.0 / d, loc));
+    }
+    // GGX α = roughness², given directly.
+    glass.push(float("roughness", roughness * roughness, loc));
+    glass.push(boolean("remaproughness", false, loc));
+    let mut medium = None;
+    if let Some(v) = m.volume() {
+        let distance = f64::from(v.attenuation_distance());
+        if distance.is_finite() && distance > 0.0 {
+            // Beer–Lambert: the attenuation colour is what remains after `attenuationDistance` metres, so
+            // σa = −ln(c)/d per channel (uplifted as an unbounded RGB); no scattering. (`thickness` is a hint for
+            // rasterisers, which have no volume to trace.)
+            let c = v.attenuation_color().map(|c| f64::from(c).clamp(1e-6, 1.0));
+            let mut params = ParamSet::new();
+            params.push(rgb("sigma_a", c.map(|c| -c.ln() / distance), loc));
+            params.push(rgb("sigma_s", [0.0; 3], loc));
+            let medium_name = format!("{name}/volume");
+            desc.media.push(MediumEntity {
+                entity: Entity::new("homogeneous", params, loc.clone()),
+                medium_name: medium_name.clone(),
+                render_from_medium: Transform::IDENTITY,
+            });
+            medium = Some(medium_name);
+        }
+    }
+    let glass = Entity::new("dielectric", glass, loc.clone());
+    if amount >= 1.0 {
+        desc.named_materials.push((name.to_string(), glass));
+        return Ok(medium);
+    }
+    let (opaque_name, glass_name) = (format!("{name}/opaque"), format!("{name}/transmission"));
+    desc.named_materials.push((opaque_name.clone(), opaque));
+    desc.named_materials.push((glass_name.clone(), glass));
+    let mut mix = ParamSet::new();
+    mix.push(strings("materials", &[opaque_name, glass_name], loc));
+    mix.push(float("amount", amount, loc));
+    desc.named_materials.push((name.to_string(), Entity::new("mix", mix, loc.clone())));
+    Ok(medium)
+}
+
+/// The area light of an emissive material (emissive factor × `KHR_materials_emissive_strength`), if any.
+fn emission(m: &gltf::Material<'_>, loc: &Loc) -> Option<Entity> {
+    let strength = f64::from(m.emissive_strength().unwrap_or(1.0));
+    let e = m.emissive_factor().map(|c| f64::from(c) * strength);
+    if !e.iter().all(|c| c.is_finite()) || e.iter().all(|&c| c <= 0.0) {
+        return None;
+    }
+    let mut params = ParamSet::new();
+    params.push(rgb("L", e, loc));
+    // glTF emission is one-sided, on the side of the normal, as pbrt's diffuse area light.
+    Some(Entity::new("diffuse", params, loc.clone()))
+}
+
+/// A `KHR_lights_punctual` light as a `LightSource`: lights shine down their node's −Z.
+fn light_entity(light: &gltf::khr_lights_punctual::Light<'_>, world: Transform, loc: &Loc) -> LightEntity {
+    let color = light.color().map(f64::from);
+    let intensity = f64::from(light.intensity());
+    let mut params = ParamSet::new();
+    let name = match light.kind() {
+        gltf::khr_lights_punctual::Kind::Directional => {
+            params.push(rgb("L", color, loc));
+            params.push(floats(ParamType::Point3, "from", &[0.0, 0.0, 0.0], loc));
+            params.push(floats(ParamType::Point3, "to", &[0.0, 0.0, -1.0], loc));
+            "distant"
+        }
+        gltf::khr_lights_punctual::Kind::Point => {
+            params.push(rgb("I", color, loc));
+            "point"
+        }
+        gltf::khr_lights_punctual::Kind::Spot { inner_cone_angle, outer_cone_angle } => {
+            params.push(rgb("I", color, loc));
+            params.push(floats(ParamType::Point3, "from", &[0.0, 0.0, 0.0], loc));
+            params.push(floats(ParamType::Point3, "to", &[0.0, 0.0, -1.0], loc));
+            let (inner, outer) = (f64::from(inner_cone_angle).to_degrees(), f64::from(outer_cone_angle).to_degrees());
+            params.push(float("coneangle", outer, loc));
+            params.push(float("conedeltaangle", (outer - inner).max(0.0), loc));
+            "spot"
+        }
+    };
+    // Candela (or lux) over 683 lm/W: the light's luminance-weighted intensity in W/sr (or W/m²), which pbrt-v4's
+    // `scale` sets for a spectrum normalised to unit luminance.
+    params.push(float("scale", intensity / LUMENS_PER_WATT, loc));
+    LightEntity { entity: Entity::new(name, params, loc.clone()), render_from_light: world, medium: None }
+}
+
+/// The camera `options` asks for among `cameras` (None when the file has none).
+fn choose_camera(
+    cameras: &[PlacedCamera],
+    options: &ReadOptions,
+    path: &Path,
+) -> Result<Option<PlacedCamera>, GltfError> {
+    let Some(want) = &options.camera else { return Ok(cameras.first().cloned()) };
+    let found = cameras
+        .iter()
+        .find(|c| c.name.as_deref() == Some(want.as_str()))
+        .or_else(|| want.parse::<usize>().ok().and_then(|i| cameras.iter().find(|c| c.index == i)));
+    match found {
+        Some(c) => Ok(Some(c.clone())),
+        None => {
+            let names: Vec<String> =
+                cameras.iter().map(|c| format!("{} ({})", c.index, c.name.as_deref().unwrap_or("unnamed"))).collect();
+            Err(GltfError {
+                file: path.to_path_buf(),
+                path: "cameras".into(),
+                message: format!(
+                    "no camera named or numbered '{want}'; the scene's cameras: {}",
+                    if names.is_empty() { "none".into() } else { names.join(", ") }
+                ),
+            })
+        }
+    }
+}
+
+/// The pbrt-v4 camera of a glTF one and its aspect ratio, if it gives one.
+fn camera_entity(model: &CameraModel, loc: Loc) -> (Entity, Option<f64>) {
+    let mut params = ParamSet::new();
+    match *model {
+        CameraModel::Perspective { yfov, aspect } => {
+            // pbrt's fov spans the shorter side: the vertical one for a landscape image, else the horizontal one.
+            let fov = match aspect {
+                Some(a) if a < 1.0 => 2.0 * ((yfov / 2.0).tan() * a).atan(),
+                _ => yfov,
+            };
+            params.push(float("fov", fov.to_degrees(), &loc));
+            (Entity::new("perspective", params, loc), aspect)
+        }
+        CameraModel::Orthographic { xmag, ymag } => {
+            params.push(floats(ParamType::Float, "screenwindow", &[-xmag, xmag, -ymag, ymag], &loc));
+            (Entity::new("orthographic", params, loc), Some(xmag / ymag))
+        }
+    }
+}
+
+/// A camera looking at the scene's bounds from +z (glTF's front) with a 40° field of view, and the warning that says
+/// so.
+fn framing_camera(desc: &SceneDescription, loc: Loc) -> (CameraEntity, String) {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for s in &desc.shapes {
+        let Some(index) = s.entity.params.get_ints("mesh").and_then(|i| i.first()) else { continue };
+        let Some(mesh) = desc.meshes.get(*index as usize) else { continue };
+        for p in &mesh.positions {
+            let w = s.render_from_object.point(p.as_dvec3());
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    let (centre, radius) =
+        if lo.x <= hi.x { ((lo + hi) / 2.0, ((hi - lo).length() / 2.0).max(1e-3)) } else { (DVec3::ZERO, 1.0) };
+    let fov = 40f64;
+    let distance = radius / (fov.to_radians() / 2.0).sin();
+    let eye = centre + DVec3::new(0.0, 0.0, distance);
+    let mut params = ParamSet::new();
+    params.push(float("fov", fov, &loc));
+    let camera_from_world = Transform::look_at(eye, centre, DVec3::Y)
+        .map(|t| Transform::scale(DVec3::new(-1.0, 1.0, 1.0)).expect("a reflection is invertible").then_after(&t))
+        .unwrap_or(Transform::IDENTITY);
+    let camera =
+        CameraEntity { entity: Entity::new("perspective", params, loc), camera_from_world, medium: None, motion: None };
+    (
+        camera,
+        format!("the file has no camera: one looks at the scene's bounds from +z, {distance:.3} m from their centre"),
+    )
+}
