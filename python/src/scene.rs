@@ -111,9 +111,7 @@ fn virtual_file(scene_file: &Path, what: &str) -> PathBuf {
 
 /// The `Integrator` directive with arguments `args` (`"volpath" "integer maxdepth" 20`, or a bare name).
 fn integrator_entity(args: &str, scene_file: &Path) -> Result<Entity, pbrt::ParseError> {
-    let args = if args.trim_start().starts_with('"') { args.to_string() } else { format!("\"{}\"", args.trim()) };
-    let text = format!("Integrator {args}\nWorldBegin\n");
-    Ok(pbrt::parse_str(&text, &virtual_file(scene_file, "integrator"))?.integrator)
+    pbrt::parse_integrator(args, &virtual_file(scene_file, "integrator"))
 }
 
 /// Checks that `name` can be a type name in a directive (letters, digits, `-`, `_`, `.`).

@@ -72,7 +72,6 @@ pub fn read_scene(path: &Path, options: &ReadOptions) -> Result<SceneDescription
     let file: Arc<Path> = Arc::from(path);
     let mut desc = SceneDescription::new(file.clone());
     let imported = import(&mut desc, path, &Transform::IDENTITY)?;
-    desc.files.insert(0, path.to_path_buf());
     let loc = Loc::new(file.clone(), 0, 0);
     let aspect = match choose_camera(&imported.cameras, options, path)? {
         Some(cam) => {
@@ -138,7 +137,7 @@ pub struct Imported {
 pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Transform) -> Result<Imported, GltfError> {
     let err = |json: &str, message: String| GltfError { file: path.to_path_buf(), path: json.to_string(), message };
     let bytes = std::fs::read(path).map_err(|e| err("", format!("cannot read the file: {e}")))?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| err("", gltf_message(&e)))?;
+    let gltf = parse(&bytes).map_err(|(json, message)| err(&json, message))?;
     let file: Arc<Path> = Arc::from(path);
     let loc = Loc::new(file.clone(), 0, 0);
     for ext in gltf.extensions_required() {
@@ -151,7 +150,9 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
             desc.warnings.push(Diagnostic::new(loc.clone(), format!("extension '{ext}' is used but ignored")));
         }
     }
-    let buffers = load_buffers(&gltf, path)?;
+    // The files read, for checkpoints' scene hash: the glTF file and its external buffers.
+    desc.files.push(path.to_path_buf());
+    let buffers = load_buffers(&gltf, path, &mut desc.files)?;
     let Some(scene) = gltf.default_scene().or_else(|| gltf.scenes().next()) else {
         return Ok(Imported::default());
     };
@@ -239,6 +240,23 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
                 let (name, medium) = material_ref(desc, material.clone())?;
                 let mut params = ParamSet::new();
                 params.push(ints("mesh", &[index as i64], &loc));
+                // alphaMode with the base colour factor's alpha (textures come later): MASK keeps or drops the
+                // whole primitive at the cutoff; BLEND is stochastic transparency, pbrt's "float alpha".
+                let a = f64::from(material.pbr_metallic_roughness().base_color_factor()[3]).clamp(0.0, 1.0);
+                let alpha = match material.alpha_mode() {
+                    gltf::material::AlphaMode::Opaque => 1.0,
+                    gltf::material::AlphaMode::Mask => {
+                        if a >= f64::from(material.alpha_cutoff().unwrap_or(0.5)) {
+                            1.0
+                        } else {
+                            0.0
+                        }
+                    }
+                    gltf::material::AlphaMode::Blend => a,
+                };
+                if alpha < 1.0 {
+                    params.push(float("alpha", alpha, &loc));
+                }
                 let area_light = emission(&material, &loc);
                 desc.shapes.push(ShapeEntity {
                     entity: Entity::new("importedmesh", params, loc.clone()),
@@ -275,6 +293,32 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
     Ok(Imported { cameras })
 }
 
+/// The document and its binary chunk: parsed, checked where the gltf crate's validation would index out of bounds
+/// (a primitive's attribute naming an accessor that does not exist), then validated by the crate.
+fn parse(bytes: &[u8]) -> Result<gltf::Gltf, (String, String)> {
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| (String::new(), gltf_message(&e)))?;
+    let json = document.into_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            for (semantic, index) in &prim.attributes {
+                if index.value() >= json.accessors.len() {
+                    let name = match semantic {
+                        gltf::json::validation::Checked::Valid(s) => s.to_string(),
+                        gltf::json::validation::Checked::Invalid => "(invalid)".into(),
+                    };
+                    return Err((
+                        format!("meshes[{m}].primitives[{p}].attributes.{name}"),
+                        format!("accessor {} does not exist (the file has {})", index.value(), json.accessors.len()),
+                    ));
+                }
+            }
+        }
+    }
+    let document = gltf::Document::from_json(json).map_err(|e| (String::new(), gltf_message(&e)))?;
+    Ok(gltf::Gltf { document, blob })
+}
+
 /// The gltf crate's error, with the JSON paths of validation errors.
 fn gltf_message(e: &gltf::Error) -> String {
     match e {
@@ -286,7 +330,7 @@ fn gltf_message(e: &gltf::Error) -> String {
 }
 
 /// The data of every buffer: the GLB's binary chunk, a data URI's bytes, or an external file next to the glTF.
-fn load_buffers(gltf: &gltf::Gltf, path: &Path) -> Result<Vec<Vec<u8>>, GltfError> {
+fn load_buffers(gltf: &gltf::Gltf, path: &Path, files: &mut Vec<PathBuf>) -> Result<Vec<Vec<u8>>, GltfError> {
     let err =
         |i: usize, message: String| GltfError { file: path.to_path_buf(), path: format!("buffers[{i}]"), message };
     let dir = path.parent().unwrap_or(Path::new(""));
@@ -308,7 +352,10 @@ fn load_buffers(gltf: &gltf::Gltf, path: &Path) -> Result<Vec<Vec<u8>>, GltfErro
                 } else {
                     let name = uri.replace("%20", " ");
                     let file = dir.join(&name);
-                    std::fs::read(&file).map_err(|e| err(i, format!("cannot read {}: {e}", file.display())))?
+                    let data =
+                        std::fs::read(&file).map_err(|e| err(i, format!("cannot read {}: {e}", file.display())))?;
+                    files.push(file);
+                    data
                 }
             }
         };
@@ -354,11 +401,30 @@ fn decode_primitive(
     if prim.mode() != gltf::mesh::Mode::Triangles {
         return Ok(None);
     }
+    use gltf::accessor::{DataType, Dimensions};
     for (semantic, accessor) in prim.attributes() {
-        check_accessor(&accessor, buffers, &format!("{json}.attributes.{}", semantic.to_string()))?;
+        let path = format!("{json}.attributes.{}", semantic.to_string());
+        check_accessor(&accessor, buffers, &path)?;
+        // The types the reader's iterators assume (another would be misread).
+        let (t, d) = (accessor.data_type(), accessor.dimensions());
+        let fits = match semantic {
+            gltf::Semantic::Positions | gltf::Semantic::Normals => t == DataType::F32 && d == Dimensions::Vec3,
+            gltf::Semantic::TexCoords(_) => {
+                matches!(t, DataType::F32 | DataType::U8 | DataType::U16) && d == Dimensions::Vec2
+            }
+            _ => true,
+        };
+        if !fits {
+            return Err((path, format!("an accessor of {t:?} {d:?} cannot hold this attribute")));
+        }
     }
     if let Some(indices) = prim.indices() {
-        check_accessor(&indices, buffers, &format!("{json}.indices"))?;
+        let path = format!("{json}.indices");
+        check_accessor(&indices, buffers, &path)?;
+        let (t, d) = (indices.data_type(), indices.dimensions());
+        if !matches!(t, DataType::U8 | DataType::U16 | DataType::U32) || d != Dimensions::Scalar {
+            return Err((path, format!("indices must be unsigned integer scalars, not {t:?} {d:?}")));
+        }
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
     let positions: Vec<Vec3> = reader

@@ -102,12 +102,9 @@ fn blocks(film: &film::Film, b: u32) -> Vec<f64> {
     out
 }
 
-/// An off-centre quad (to the right of and above the centre), seen by a glTF camera 5 m out on +z
-/// under a sun: the same image as the pbrt-v4 scene written with LookAt (no mirror, the same light, the same
-/// material), block by block within the noise.
-#[test]
-fn a_gltf_scene_renders_as_the_same_pbrt_scene() {
-    let d = dir("equivalent");
+/// An off-centre quad (to the right of and above the centre) lit by a sun shining along (0, -0.6, -0.8) (683 lx),
+/// and a camera 5 m out on +z, in `d`.
+fn quad_scene(d: &Path) -> PathBuf {
     let quad = [[0.2f32, 0.1, 0.0], [1.2, 0.1, 0.0], [1.2, 0.9, 0.0], [0.2, 0.9, 0.0]];
     let doc = document(
         &quad,
@@ -127,7 +124,16 @@ fn a_gltf_scene_renders_as_the_same_pbrt_scene() {
             ]
         }),
     );
-    let path = write(&d, "scene.gltf", &doc);
+    write(d, "scene.gltf", &doc)
+}
+
+/// An off-centre quad (to the right of and above the centre), seen by a glTF camera 5 m out on +z
+/// under a sun: the same image as the pbrt-v4 scene written with LookAt (no mirror, the same light, the same
+/// material), block by block within the noise.
+#[test]
+fn a_gltf_scene_renders_as_the_same_pbrt_scene() {
+    let d = dir("equivalent");
+    let path = quad_scene(&d);
     let desc = gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
     let pbrt = format!(
@@ -257,6 +263,16 @@ fn bad_files_are_errors_that_name_the_json_path() {
         json!({ "nodes": [ { "mesh": 0, "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1] } ] }),
     );
     read("fine.gltf", &nan).unwrap();
+    // Found by fuzzing: a POSITION naming an accessor that does not exist (the gltf crate's validation indexed
+    // out of bounds), and float indices (its index reader assumed integers).
+    let mut missing = document(&tri, &[0, 1, 2], json!({}));
+    missing["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(9);
+    let e = read("missing-accessor.gltf", &missing).unwrap_err();
+    assert_eq!(e.path, "meshes[0].primitives[0].attributes.POSITION", "{e}");
+    let mut float_indices = document(&tri, &[0, 1, 2], json!({}));
+    float_indices["accessors"][1]["componentType"] = json!(5126);
+    let e = read("float-indices.gltf", &float_indices).unwrap_err();
+    assert_eq!(e.path, "meshes[0].primitives[0].indices", "{e}");
     std::fs::write(d.join("broken.gltf"), b"{ \"asset\": ").unwrap();
     assert!(gltf_import::read_scene(&d.join("broken.gltf"), &Default::default()).is_err());
     let e = gltf_import::read_scene(
@@ -265,4 +281,134 @@ fn bad_files_are_errors_that_name_the_json_path() {
     )
     .unwrap_err();
     assert!(e.message.contains("no camera named or numbered 'front'"), "{e}");
+}
+
+/// `Import "scene.gltf"` in a pbrt-v4 file (Prismatic's extension) brings the glTF's meshes, materials and lights
+/// in under the current transform: the same image as the quad written in pbrt-v4 syntax, moved the same way.
+#[test]
+fn a_pbrt_file_imports_a_gltf_file_under_its_transform() {
+    let d = dir("import");
+    quad_scene(&d);
+    let scene = |content: &str| {
+        format!(
+            "Scale -1 1 1\nLookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 34.377\n\
+             Film \"rgb\" \"integer xresolution\" 48 \"integer yresolution\" 32\nWorldBegin\n\
+             AttributeBegin\nTranslate -1.2 -0.9 0\n{content}\nAttributeEnd\n"
+        )
+    };
+    let imported =
+        pbrt::parse_str(&scene("Import \"scene.gltf\""), &d.join("main.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(imported.files.iter().filter(|f| f.ends_with("scene.gltf")).count(), 1, "{:?}", imported.files);
+    let written = pbrt::parse_str(
+        &scene(
+            "LightSource \"distant\" \"point3 from\" [ 0 0 0 ] \"point3 to\" [ 0 -0.6 -0.8 ] \"rgb L\" [ 1 1 1 ]\n\
+             Material \"metallicroughness\" \"rgb basecolor\" [ 0.8 0.8 0.8 ] \"float metallic\" 0\n\
+             Shape \"trianglemesh\" \"point3 P\" [ 0.2 0.1 0  1.2 0.1 0  1.2 0.9 0  0.2 0.9 0 ] \"integer indices\" [ 0 1 2 0 2 3 ]",
+        ),
+        &d.join("written.pbrt"),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let (a, b) = (render(&imported, 16, (48, 32)), render(&written, 16, (48, 32)));
+    let (ba, bb) = (blocks(&a, 8), blocks(&b, 8));
+    // Moved left and down by the quad's own far corner: now left of and below the centre.
+    assert!(bb[2 * 6 + 1] > 0.01 && bb[6 + 4] < 1e-6, "{bb:?}");
+    for (i, (x, y)) in ba.iter().zip(&bb).enumerate() {
+        assert!((x - y).abs() <= 0.03 * y.max(0.01), "block {i}: imported {x}, written {y}");
+    }
+    // A file that is not there is an error at the Import.
+    let e = pbrt::parse_str(&scene("Import \"missing.glb\""), &d.join("main.pbrt")).unwrap_err();
+    assert!(e.loc.line == 8 && e.to_string().contains("missing.glb"), "{e}");
+}
+
+/// alphaMode with the base colour's alpha: BLEND lets the light through in proportion (pbrt's stochastic alpha),
+/// MASK keeps or drops the surface at the cutoff, OPAQUE ignores alpha.
+#[test]
+fn alpha_modes_cut_out_and_blend() {
+    let d = dir("alpha");
+    // A blocker between a sun and a white floor: how much light reaches the floor under it.
+    let floor_and_blocker = |mode: &str, alpha: f64| {
+        let positions = [
+            [-2.0f32, 0.0, -2.0],
+            [2.0, 0.0, -2.0],
+            [2.0, 0.0, 2.0],
+            [-2.0, 0.0, 2.0],
+            [-3.0, 1.0, -3.0],
+            [3.0, 1.0, -3.0],
+            [3.0, 1.0, 3.0],
+            [-3.0, 1.0, 3.0],
+        ];
+        let (bytes, n) = geometry(&positions, &[0, 2, 1, 0, 3, 2, 4, 6, 5, 4, 7, 6]);
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&bytes)
+        );
+        let doc = json!({
+            "asset": { "version": "2.0" },
+            "buffers": [ { "byteLength": bytes.len(), "uri": uri } ],
+            "bufferViews": [ { "buffer": 0, "byteOffset": 0, "byteLength": n }, { "buffer": 0, "byteOffset": n, "byteLength": bytes.len() - n } ],
+            "accessors": [
+                { "bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3", "min": [-3, 0, -3], "max": [3, 1, 3] },
+                { "bufferView": 1, "byteOffset": 0, "componentType": 5125, "count": 6, "type": "SCALAR" },
+                { "bufferView": 1, "byteOffset": 24, "componentType": 5125, "count": 6, "type": "SCALAR" }
+            ],
+            "meshes": [ { "primitives": [
+                { "attributes": { "POSITION": 0 }, "indices": 1, "material": 0 },
+                { "attributes": { "POSITION": 0 }, "indices": 2, "material": 1 }
+            ] } ],
+            "materials": [
+                { "pbrMetallicRoughness": { "baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0 } },
+                { "pbrMetallicRoughness": { "baseColorFactor": [0, 0, 0, alpha], "metallicFactor": 0.0 }, "alphaMode": mode, "alphaCutoff": 0.5 }
+            ],
+            "extensionsUsed": ["KHR_lights_punctual"],
+            "extensions": { "KHR_lights_punctual": { "lights": [ { "type": "directional", "intensity": 683.0 } ] } },
+            "cameras": [ { "type": "perspective", "perspective": { "yfov": 0.2, "aspectRatio": 1.0, "znear": 0.01 } } ],
+            "scene": 0,
+            "scenes": [ { "nodes": [0, 1, 2] } ],
+            "nodes": [
+                { "mesh": 0 },
+                // Below the blocker, looking straight down at the floor.
+                { "camera": 0, "translation": [0.0, 0.5, 0.0], "rotation": [-0.707_106_77, 0.0, 0.0, 0.707_106_77] },
+                { "extensions": { "KHR_lights_punctual": { "light": 0 } }, "rotation": [-0.707_106_77, 0.0, 0.0, 0.707_106_77] }
+            ]
+        });
+        let path = write(&d, &format!("{mode}-{alpha}.gltf"), &doc);
+        let desc =
+            gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let film = render(&desc, 64, (4, 4));
+        (0..4).flat_map(|y| (0..4).map(move |x| (x, y))).map(|(x, y)| film.pixel_xyz(x, y).y).sum::<f64>() / 16.0
+    };
+    let open = floor_and_blocker("MASK", 0.2);
+    assert!(open > 0.1, "a masked-out blocker lets the sun through: {open}");
+    assert!(floor_and_blocker("MASK", 0.7) < 1e-4 * open, "kept at the cutoff");
+    assert!(floor_and_blocker("OPAQUE", 0.2) < 1e-4 * open, "opaque ignores alpha");
+    let blend = floor_and_blocker("BLEND", 0.3);
+    assert!((blend / open - 0.7).abs() < 0.05, "BLEND at alpha 0.3 lets 70% through: {}", blend / open);
+}
+
+/// The gallery's diamond as Blender built and exported it (`scenes/tools/gltf_scenes.py`): its camera, its
+/// dispersive glass (n_d 2.4175, V_d 55.3) and emissive softboxes are read, and its fire comes from dispersion: the
+/// image is several times more colourful than with the same glass without dispersion.
+#[test]
+fn the_blender_diamond_has_fire_from_dispersion() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/gltf/gem.glb");
+    let mut desc =
+        gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    assert!((desc.camera.entity.params.get_float("fov", 0.0).unwrap() - 18.0).abs() < 1e-4);
+    desc.integrator = pbrt::parse_integrator("\"path\" \"integer maxdepth\" 20", Path::new("test")).unwrap();
+    let glass = desc.named_materials.iter().position(|(_, m)| m.name == "dielectric").expect("the diamond's glass");
+    let m = &desc.named_materials[glass].1;
+    assert!((m.params.get_float("eta", 0.0).unwrap() - 2.4175).abs() < 1e-6);
+    assert!((m.params.get_float("abbe", 0.0).unwrap() - 55.3).abs() < 1e-3);
+    // Colourfulness: the mean spread of each pixel's linear RGB channels.
+    let colourfulness = |desc: &scene::SceneDescription| {
+        let film = render(desc, 32, (112, 84));
+        let rgb = film.to_rgb_image();
+        rgb.iter().map(|p| (p[0].max(p[1]).max(p[2]) - p[0].min(p[1]).min(p[2])) as f64).sum::<f64>() / rgb.len() as f64
+    };
+    let fire = colourfulness(&desc);
+    let params = desc.named_materials[glass].1.params.params().iter().filter(|p| p.name != "abbe").cloned().collect();
+    desc.named_materials[glass].1.params = scene::ParamSet::from_params(params);
+    let plain = colourfulness(&desc);
+    assert!(fire > 3.0 * plain && fire > 0.01, "colourfulness with dispersion {fire}, without {plain}");
 }

@@ -57,6 +57,14 @@ pub fn parse_bytes(bytes: &[u8], virtual_path: &Path) -> Result<SceneDescription
     parser::Parser::new(virtual_path, text).run()
 }
 
+/// The `Integrator` directive whose arguments are `args`: a name (`volpath`) or a quoted name with parameters
+/// (`"volpath" "integer maxdepth" 20`), as the command line's `--integrator` and Python's `integrator=` take them;
+/// errors locate themselves in `virtual_path`.
+pub fn parse_integrator(args: &str, virtual_path: &Path) -> Result<scene::Entity, ParseError> {
+    let args = if args.trim_start().starts_with('"') { args.to_string() } else { format!("\"{}\"", args.trim()) };
+    Ok(parse_str(&format!("Integrator {args}\nWorldBegin\n"), virtual_path)?.integrator)
+}
+
 /// Parses scene text as if it were the file `virtual_path`: locations name that path, and `Include`, `Import`
 /// and file names resolve relative to its directory.
 pub fn parse_str(text: &str, virtual_path: &Path) -> Result<SceneDescription, ParseError> {

@@ -1107,6 +1107,19 @@ impl Parser {
                 let (name, _) = self.expect_string("a file name")?;
                 if word == "Import" {
                     self.require_world(word, &loc)?;
+                    let ext = Path::new(&name).extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+                    if matches!(ext.as_deref(), Some("gltf" | "glb")) {
+                        // Prismatic's extension: a glTF file's meshes, materials and lights under the current
+                        // transform (its cameras are not used: the pbrt file has its own).
+                        let path = self.resolve(&name);
+                        if self.skip_under_singular_ctm(&format!("Import \"{name}\""), &loc) {
+                            return Ok(());
+                        }
+                        let ctm = self.gs.ctm;
+                        gltf_import::import(&mut self.scene, &path, &ctm)
+                            .map_err(|e| ParseError::new(loc.clone(), e.to_string()))?;
+                        return Ok(());
+                    }
                 }
                 self.open_file(&name, loc, word == "Import")?;
             }
@@ -1118,14 +1131,20 @@ impl Parser {
         Ok(())
     }
 
-    fn open_file(&mut self, name: &str, loc: Loc, import: bool) -> Result<()> {
+    /// The path of a file named in the current file: relative to that file's directory, or to the main file's.
+    fn resolve(&self, name: &str) -> PathBuf {
         let dir = self.files.last().map_or_else(|| self.main_dir.clone(), |s| s.dir.clone());
         let rel = Path::new(name);
-        let mut path = dir.join(rel);
+        let path = dir.join(rel);
         if !path.exists() && !rel.is_absolute() && *dir != *self.main_dir && self.main_dir.join(rel).exists() {
             // pbrt-v4 resolves relative to the main file's directory.
-            path = self.main_dir.join(rel);
+            return self.main_dir.join(rel);
         }
+        path
+    }
+
+    fn open_file(&mut self, name: &str, loc: Loc, import: bool) -> Result<()> {
+        let path = self.resolve(name);
         let canon = canonical(&path);
         if self.files.iter().any(|s| s.canonical == canon) {
             let chain: Vec<String> = self.files.iter().map(|s| s.lexer.file().display().to_string()).collect();

@@ -118,6 +118,8 @@ pub struct Plan {
     /// `--camera`: a glTF scene's camera, by name or index (recorded only when given, so that plans written
     /// before the option existed read back unchanged).
     pub camera: Option<String>,
+    /// `--integrator`: the integrator's arguments instead of the scene's (recorded only when given).
+    pub integrator: Option<String>,
 }
 
 fn join<T: ToString>(v: &[T]) -> String {
@@ -159,6 +161,9 @@ impl Plan {
         if let Some(c) = &self.camera {
             out.push(("camera".into(), c.clone()));
         }
+        if let Some(i) = &self.integrator {
+            out.push(("integrator".into(), i.clone()));
+        }
         out
     }
 
@@ -191,6 +196,7 @@ impl Plan {
         let view = pairs.get("view").map(|v| film::View::by_name(v).ok_or_else(|| bad("view", v))).transpose()?;
         let colorspace = pairs.get("colorspace").cloned();
         let camera = pairs.get("camera").cloned();
+        let integrator = pairs.get("integrator").cloned();
         Ok(Plan {
             scene: PathBuf::from(get("scene")?),
             output: pairs.get("output").map(PathBuf::from),
@@ -209,6 +215,7 @@ impl Plan {
             view,
             colorspace,
             camera,
+            integrator,
         })
     }
 
@@ -237,9 +244,12 @@ impl Plan {
             let s = |v: Option<(u32, u32)>| v.map_or("none".into(), |(k, n)| format!("{k}/{n}"));
             out.push(format!("shard: {} vs {}", s(self.shard), s(other.shard)));
         }
+        let c = |v: &Option<String>| v.clone().unwrap_or_else(|| "none".into());
         if self.camera != other.camera {
-            let c = |v: &Option<String>| v.clone().unwrap_or_else(|| "none".into());
             out.push(format!("camera: {} vs {}", c(&self.camera), c(&other.camera)));
+        }
+        if self.integrator != other.integrator {
+            out.push(format!("integrator: {} vs {}", c(&self.integrator), c(&other.integrator)));
         }
         out
     }
@@ -264,6 +274,9 @@ pub fn options_hash(plan: &Plan, resolved: &str) -> u64 {
     }
     if let Some(c) = &plan.camera {
         h.write(format!("camera={c}\n").as_bytes());
+    }
+    if let Some(i) = &plan.integrator {
+        h.write(format!("integrator={i}\n").as_bytes());
     }
     h.write(resolved.as_bytes());
     h.finish()
@@ -511,6 +524,7 @@ mod tests {
             view: Some(film::View::Clip),
             colorspace: Some("dci-p3".into()),
             camera: Some("front".into()),
+            integrator: Some("\"path\" \"integer maxdepth\" 20".into()),
         };
         assert_eq!(Plan::from_text(&plan.to_text()).unwrap(), plan);
         let other = Plan { seed: 8, spp: None, ..plan.clone() };

@@ -128,6 +128,11 @@ pub struct RenderArgs {
     #[arg(long, value_name = "SPACE", value_parser = parse_colorspace)]
     pub colorspace: Option<String>,
 
+    /// The integrator instead of the scene's: a name (`path`, `volpath`, `bdpt`, `sppm`, …) or a directive's
+    /// arguments (`'"path" "integer maxdepth" 20'`); for glTF scenes, which have none, `volpath` by default.
+    #[arg(long, value_name = "INTEGRATOR")]
+    pub integrator: Option<String>,
+
     /// A glTF scene's camera, by name or index (the first one by default).
     #[arg(long, value_name = "NAME|INDEX")]
     pub camera: Option<String>,
@@ -256,7 +261,11 @@ impl Setup {
     /// Parses and builds the scene of `plan` and works out the film and the passes (of its shard, if any).
     pub fn new(plan: &Plan) -> Result<Self> {
         let start = Instant::now();
-        let desc = read_scene_file(&plan.scene, plan.camera.as_deref())?;
+        let mut desc = read_scene_file(&plan.scene, plan.camera.as_deref())?;
+        if let Some(args) = &plan.integrator {
+            desc.integrator = pbrt::parse_integrator(args, Path::new("<--integrator>"))
+                .map_err(|e| anyhow!("--integrator: {}", e.message))?;
+        }
         let parsed = start.elapsed();
         let options = BuildOptions {
             resolution: plan.resolution,
@@ -393,6 +402,7 @@ fn plan_from_args(args: &RenderArgs, scene: &Path) -> Result<Plan> {
         view: args.view,
         colorspace: args.colorspace.clone(),
         camera: args.camera.clone(),
+        integrator: args.integrator.clone(),
     })
 }
 

@@ -184,8 +184,33 @@ fn bdpt_beam_through_a_prism_lands_where_snell_says() {
     beam_through_a_prism(r#"Integrator "bdpt" "integer maxdepth" 3"#, 8, 0.3);
 }
 
+/// The same beam through the same prism built and exported by Blender (`scenes/tools/gltf_scenes.py`): a glTF file
+/// with `KHR_materials_transmission`, `_ior` and `_dispersion` brought in by `Import`, whose glass is the Abbe model
+/// of the file's n_d and V_d = 20/dispersion.
+#[test]
+fn lightpath_beam_through_a_blender_gltf_prism_lands_where_snell_says() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/gltf/dispersive-prism.glb");
+    // The numbers as Blender's exporter wrote them (f32): ior 1.78472, dispersion 20/25.68.
+    let (nd, dispersion) = (1.784_719_944_000_244_1, 0.778_816_223_144_531_2);
+    let abbe = optics::Ior::abbe(nd, 20.0 / dispersion).unwrap();
+    let import = format!("Import \"{}\"\n", file.display());
+    beam_through(r#"Integrator "lightpath" "integer maxdepth" 3"#, 8, 0.3, Some((import, abbe)));
+}
+
 fn beam_through_a_prism(integrator: &str, spp: u32, tolerance: f32) {
-    let prism = BeamPrism::new();
+    beam_through(integrator, spp, tolerance, None);
+}
+
+/// The beam test with the prism written in pbrt-v4 syntax (N-SF11), or given as scene text with its glass's index.
+fn beam_through(integrator: &str, spp: u32, tolerance: f32, prism_text: Option<(String, optics::Ior)>) {
+    let mut prism = BeamPrism::new();
+    let prism_shape = match prism_text {
+        Some((text, ior)) => {
+            prism.ior = ior;
+            text
+        }
+        None => format!("Material \"dielectric\" \"string glass\" \"N-SF11\"\n  {}", prism.mesh()),
+    };
     let (lambda_min, lambda_max, nbuckets) = (420.0, 680.0, 8usize);
     // The screen: perpendicular to the 550 nm exit ray, 3 units beyond the exit point.
     let (e550, d550, _) = prism.exit(550.0);
@@ -218,23 +243,12 @@ WorldBegin
 LightSource "spot" "point3 from" [ {} {} {} ] "point3 to" [ {} {} {} ] "float coneangle" 0.4
     "float conedeltaangle" 0 "spectrum I" [ 360 1  830 1 ]
 AttributeBegin
-  Material "dielectric" "string glass" "N-SF11"
-  {}AttributeEnd
+  {prism_shape}AttributeEnd
 AttributeBegin
   Material "diffuse" "rgb reflectance" [ 1 1 1 ]
   {screen}AttributeEnd
 "#,
-        cam[0],
-        cam[1],
-        screen_c[0],
-        screen_c[1],
-        from[0],
-        from[1],
-        from[2],
-        to[0],
-        to[1],
-        to[2],
-        prism.mesh(),
+        cam[0], cam[1], screen_c[0], screen_c[1], from[0], from[1], from[2], to[0], to[1], to[2],
     );
     let built = build(&scene, "test.pbrt");
     let camera = built.scene.camera();
@@ -242,9 +256,7 @@ AttributeBegin
     // Raster position of the beam's screen point at wavelength λ, and its Fresnel weight.
     let predict = |lambda: f64, dn: f64| {
         let mut p = BeamPrism::new();
-        if dn != 0.0 {
-            p.ior = optics::Ior::constant(prism.ior.n(lambda) + dn).unwrap();
-        }
+        p.ior = if dn != 0.0 { optics::Ior::constant(prism.ior.n(lambda) + dn).unwrap() } else { prism.ior.clone() };
         let (e, d, t) = p.exit(lambda);
         let s = hit_line(e, d, screen_c, screen_n);
         let world = glam::Vec3::new(s[0] as f32, 0.0, s[1] as f32);

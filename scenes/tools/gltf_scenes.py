@@ -1,0 +1,142 @@
+"""Builds glTF test and gallery scenes with Blender (the `bpy` module, CPython 3.13: `pip install bpy`) and exports
+them with Blender's own glTF exporter, so that Prismatic is tested on what Blender writes.
+
+    python3.13 scenes/tools/gltf_scenes.py            # writes the files below
+
+- scenes/gltf/gem.glb: the brilliant-cut diamond of scenes/diamond.pbrt (scenes/meshes/diamond.ply) as a
+  KHR_materials_dispersion glass (n_d 2.4175, V_d 55.3: dispersion 20/55.3), under the same emissive softboxes
+  (a disc above, six strips around) and seen by the same camera: its fire comes from the dispersion alone.
+- crates/prismatic/tests/fixtures/gltf/dispersive-prism.glb: the equilateral N-SF11-like prism of the caustics
+  tests (side 2, centroid at the origin, extruded from y = -1 to 1 in glTF's y-up coordinates), transmissive with
+  IOR 1.78472 and KHR_materials_dispersion 20/25.68 (an Abbe number of 25.68), nothing else.
+
+Blender is z-up and its exporter converts to glTF's y-up: a glTF point (x, y, z) is Blender's (x, -z, y).
+Blender has no dispersion input of its own: the exporter reads Dispersion (and Thickness, which makes it write
+KHR_materials_volume, without which it writes no dispersion) from its "glTF Material Output" node group.
+"""
+
+import math
+import os
+import sys
+
+import bpy
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def reset():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def gltf_output_node(material, thickness, dispersion):
+    """The exporter's "glTF Material Output" node group in `material`, with `thickness` and `dispersion` set."""
+    from io_scene_gltf2.blender.com.material_helpers import create_settings_group, get_gltf_node_name
+
+    name = get_gltf_node_name()
+    group = bpy.data.node_groups.get(name) or create_settings_group(name)
+    node = material.node_tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    node.inputs["Thickness"].default_value = thickness
+    node.inputs["Dispersion"].default_value = dispersion
+    return node
+
+
+def glass(name, ior, abbe, roughness=0.0):
+    """A clear glass of index `ior` (at the d line) and Abbe number `abbe`, as glTF's dispersion extension says."""
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    bsdf = m.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Transmission Weight"].default_value = 1.0
+    bsdf.inputs["Roughness"].default_value = roughness
+    bsdf.inputs["IOR"].default_value = ior
+    gltf_output_node(m, thickness=1.0, dispersion=20.0 / abbe)
+    return m
+
+
+def mesh_object(name, gltf_vertices, faces, material):
+    """A mesh from vertices in glTF's coordinates (converted to Blender's) and faces (lists of vertex indices)."""
+    verts = [(x, -z, y) for (x, y, z) in gltf_vertices]
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(verts, [], faces)
+    mesh.update()
+    mesh.materials.append(material)
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def export(path):
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    bpy.ops.export_scene.gltf(filepath=path, export_format="GLB", export_cameras=True, export_lights=True,
+                              export_apply=True)
+    print(f"wrote {os.path.relpath(path, ROOT)} ({os.path.getsize(path)} bytes)")
+
+
+def emitter(name, strength):
+    """A one-sided white emitter of luminance `strength` (exported as emissiveFactor 1 and emissive strength)."""
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    bsdf = m.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    bsdf.inputs["Emission Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Emission Strength"].default_value = strength
+    return m
+
+
+def gem():
+    from mathutils import Euler, Vector
+
+    reset()
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 560, 420
+    bpy.ops.wm.ply_import(filepath=os.path.join(ROOT, "scenes/meshes/diamond.ply"))
+    stone = bpy.context.selected_objects[0]
+    stone.name = "diamond"
+    stone.data.materials.clear()
+    stone.data.materials.append(glass("diamond", 2.4175, 55.3))
+    # A disc above facing down, and six strips at 60 degree steps, 7 units out and 5 up, tilted towards the stone.
+    bpy.ops.mesh.primitive_circle_add(vertices=48, radius=3.0, fill_type="NGON", location=(0.0, 0.0, 7.0),
+                                      rotation=(math.pi, 0.0, 0.0))
+    top = bpy.context.active_object
+    top.data.materials.append(emitter("softbox", 1.5))
+    for k in range(6):
+        a = math.radians(60.0 * k)
+        bpy.ops.mesh.primitive_plane_add(size=1.0, location=(7.0 * math.cos(a), 7.0 * math.sin(a), 5.0))
+        strip = bpy.context.active_object
+        strip.scale = (0.8, 3.0, 1.0)
+        # The plane faces +z: turn it to face -x (towards the stone), tilted 35.5 degrees down, then around z.
+        strip.rotation_euler = Euler((0.0, math.radians(-90.0 + 35.5), a), "XYZ")
+        strip.data.materials.append(emitter(f"strip-{k}", 1.3))
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.sensor_fit = "VERTICAL"
+    cam_data.angle = math.radians(18.0)
+    cam = bpy.data.objects.new("camera", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (0.0, -4.95, 4.95)
+    cam.rotation_euler = (Vector((0.0, 0.0, 0.02)) - cam.location).to_track_quat("-Z", "Y").to_euler()
+    scene.camera = cam
+    export(os.path.join(ROOT, "scenes/gltf/gem.glb"))
+
+
+def dispersive_prism():
+    reset()
+    h = math.sqrt(3.0)
+    tri = [(-1.0, -h / 3.0), (1.0, -h / 3.0), (0.0, 2.0 * h / 3.0)]  # (x, z) in glTF
+    verts = [(x, y, z) for (x, z) in tri for y in (-1.0, 1.0)]  # vertex 2i: y = -1, 2i + 1: y = 1
+    # Faces wound outwards (Blender computes normals from the winding; the exporter writes them).
+    faces = [(0, 2, 4), (1, 5, 3), (0, 1, 3, 2), (2, 3, 5, 4), (4, 5, 1, 0)]
+    obj = mesh_object("prism", verts, faces, glass("N-SF11-like", 1.78472, 25.68))
+    # Outward normals whatever the winding above: let Blender make them consistent.
+    bpy.context.view_layer.objects.active = obj
+    obj.select_set(True)
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.mesh.normals_make_consistent(inside=False)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    export(os.path.join(ROOT, "crates/prismatic/tests/fixtures/gltf/dispersive-prism.glb"))
+
+
+if __name__ == "__main__":
+    gem()
+    dispersive_prism()
