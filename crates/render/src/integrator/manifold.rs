@@ -783,14 +783,7 @@ mod tests {
             0.0,
             1e6,
         );
-        RenderScene::new(
-            std::sync::Arc::new(SceneGeometry::new(accel, vec![info])),
-            materials,
-            lights,
-            vec![],
-            None,
-            camera,
-        )
+        RenderScene::new(Arc::new(SceneGeometry::new(accel, vec![info])), materials, lights, vec![], None, camera)
     }
 
     /// The chains from the floor point under `x` to `y` at the wavelengths of `wl`: (slot of the group, solution).
@@ -980,14 +973,7 @@ mod tests_support {
             1e6,
         );
         (
-            RenderScene::new(
-                std::sync::Arc::new(SceneGeometry::new(accel, vec![info])),
-                materials,
-                lights,
-                vec![],
-                None,
-                camera,
-            ),
+            RenderScene::new(Arc::new(SceneGeometry::new(accel, vec![info])), materials, lights, vec![], None, camera),
             Vec3::new(0.7, 0.0, 0.05),
         )
     }
