@@ -673,6 +673,23 @@ fn choose_camera(
     }
 }
 
+/// An environment light from the image at `path` (EXR or PFM; a 2:1 latitude–longitude map or a square equal-area
+/// one), scaled by `strength`, for the command line's `--env`. With `y_up` (glTF scenes) the map's top is +y, else
+/// +z (pbrt-v4's convention).
+pub fn environment_light(path: &Path, strength: f64, y_up: bool) -> LightEntity {
+    let loc = Loc::new(Arc::from(path), 0, 0);
+    let mut params = ParamSet::new();
+    params.push(string("filename", &path.display().to_string(), &loc));
+    params.push(float("scale", strength, &loc));
+    // The map's +z (its top row) turned to +y: a rotation of -90 degrees about x.
+    let render_from_light = if y_up {
+        Transform::rotate(-90.0, DVec3::X).expect("a rotation about a unit axis")
+    } else {
+        Transform::IDENTITY
+    };
+    LightEntity { entity: Entity::new("infinite", params, loc), render_from_light, medium: None }
+}
+
 /// The pbrt-v4 camera of a glTF one and its aspect ratio, if it gives one.
 fn camera_entity(model: &CameraModel, loc: Loc) -> (Entity, Option<f64>) {
     let mut params = ParamSet::new();

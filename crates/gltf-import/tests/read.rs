@@ -412,3 +412,41 @@ fn the_blender_diamond_has_fire_from_dispersion() {
     let plain = colourfulness(&desc);
     assert!(fire > 3.0 * plain && fire > 0.01, "colourfulness with dispersion {fire}, without {plain}");
 }
+
+/// `--env`'s light: a latitude–longitude map whose upper half is white and lower half black lights a glTF scene
+/// from above (+y), its top row turned from pbrt's +z to glTF's up.
+#[test]
+fn an_environment_map_has_its_top_towards_gltf_up() {
+    let d = dir("env");
+    // PFM, 8×4, rows written bottom to top: the two bottom rows black, the two top rows white.
+    let mut pfm = b"PF\n8 4\n-1.0\n".to_vec();
+    for row in 0..4 {
+        for _ in 0..8 {
+            let v: f32 = if row >= 2 { 1.0 } else { 0.0 };
+            for _ in 0..3 {
+                pfm.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    let env = d.join("sky.pfm");
+    std::fs::write(&env, pfm).unwrap();
+    let look = |rotation: [f64; 4]| {
+        let doc = document(
+            &[[100.0f32, 100.0, 100.0], [100.1, 100.0, 100.0], [100.0, 100.1, 100.0]],
+            &[0, 1, 2],
+            json!({
+                "cameras": [ { "type": "perspective", "perspective": { "yfov": 0.3, "aspectRatio": 1.0, "znear": 0.01 } } ],
+                "scenes": [ { "nodes": [0, 1] } ],
+                "nodes": [ { "mesh": 0 }, { "camera": 0, "rotation": rotation } ]
+            }),
+        );
+        let path = write(&d, "env.gltf", &doc);
+        let mut desc = gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap();
+        desc.lights.push(gltf_import::environment_light(&env, 1.0, true));
+        let film = render(&desc, 4, (4, 4));
+        (0..4).flat_map(|y| (0..4).map(move |x| (x, y))).map(|(x, y)| film.pixel_xyz(x, y).y).sum::<f64>() / 16.0
+    };
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let (up, down) = (look([h, 0.0, 0.0, h]), look([-h, 0.0, 0.0, h]));
+    assert!((up - 1.0).abs() < 0.02 && down < 1e-6, "looking up {up}, down {down}");
+}

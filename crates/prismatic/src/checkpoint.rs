@@ -120,6 +120,10 @@ pub struct Plan {
     pub camera: Option<String>,
     /// `--integrator`: the integrator's arguments instead of the scene's (recorded only when given).
     pub integrator: Option<String>,
+    /// `--env`: an environment image (recorded only when given, with `--env-strength`).
+    pub env: Option<PathBuf>,
+    /// `--env-strength`.
+    pub env_strength: f64,
 }
 
 fn join<T: ToString>(v: &[T]) -> String {
@@ -164,6 +168,10 @@ impl Plan {
         if let Some(i) = &self.integrator {
             out.push(("integrator".into(), i.clone()));
         }
+        if let Some(e) = &self.env {
+            out.push(("env".into(), e.display().to_string()));
+            out.push(("env-strength".into(), format!("{:?}", self.env_strength)));
+        }
         out
     }
 
@@ -197,6 +205,11 @@ impl Plan {
         let colorspace = pairs.get("colorspace").cloned();
         let camera = pairs.get("camera").cloned();
         let integrator = pairs.get("integrator").cloned();
+        let env = pairs.get("env").map(PathBuf::from);
+        let env_strength = match pairs.get("env-strength") {
+            Some(v) => v.parse().map_err(|_| bad("env-strength", v))?,
+            None => 1.0,
+        };
         Ok(Plan {
             scene: PathBuf::from(get("scene")?),
             output: pairs.get("output").map(PathBuf::from),
@@ -216,6 +229,8 @@ impl Plan {
             colorspace,
             camera,
             integrator,
+            env,
+            env_strength,
         })
     }
 
@@ -251,6 +266,11 @@ impl Plan {
         if self.integrator != other.integrator {
             out.push(format!("integrator: {} vs {}", c(&self.integrator), c(&other.integrator)));
         }
+        if self.env != other.env || self.env_strength != other.env_strength {
+            let e =
+                |p: &Plan| p.env.as_ref().map_or("none".into(), |e| format!("{} × {}", e.display(), p.env_strength));
+            out.push(format!("env: {} vs {}", e(self), e(other)));
+        }
         out
     }
 }
@@ -277,6 +297,9 @@ pub fn options_hash(plan: &Plan, resolved: &str) -> u64 {
     }
     if let Some(i) = &plan.integrator {
         h.write(format!("integrator={i}\n").as_bytes());
+    }
+    if let Some(e) = &plan.env {
+        h.write(format!("env={} {:?}\n", e.display(), plan.env_strength).as_bytes());
     }
     h.write(resolved.as_bytes());
     h.finish()
@@ -525,6 +548,8 @@ mod tests {
             colorspace: Some("dci-p3".into()),
             camera: Some("front".into()),
             integrator: Some("\"path\" \"integer maxdepth\" 20".into()),
+            env: Some("/e/sky.exr".into()),
+            env_strength: 0.5,
         };
         assert_eq!(Plan::from_text(&plan.to_text()).unwrap(), plan);
         let other = Plan { seed: 8, spp: None, ..plan.clone() };

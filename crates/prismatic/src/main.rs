@@ -28,6 +28,8 @@ struct Cli {
     command: Command,
 }
 
+// One value per process, parsed once: the size of its largest variant costs nothing worth a box.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Print the index of refraction n(λ) (and k for metals) of a catalogue material, then n_d and V_d.
@@ -36,7 +38,7 @@ enum Command {
     Lens(lens_cmd::LensArgs),
     /// Print the colour of a spectrum: CIE XYZ, chromaticity xy and linear RGB.
     Spectrum(spectrum_cmd::SpectrumArgs),
-    /// Render a pbrt-v4 scene to EXR, PNG or PFM (spectral path tracing with dispersion).
+    /// Render a pbrt-v4 or glTF 2.0 scene to EXR, PNG or PFM (spectral path tracing with dispersion).
     Render(render_cmd::RenderArgs),
     /// Merge the parts of a sharded render (render --shard K/N) into the image one process would have rendered.
     Merge(merge_cmd::MergeArgs),

@@ -133,6 +133,15 @@ pub struct RenderArgs {
     #[arg(long, value_name = "INTEGRATOR")]
     pub integrator: Option<String>,
 
+    /// An environment around the scene: an EXR or PFM image, 2:1 latitude–longitude (or square equal-area), its
+    /// top towards +y in a glTF scene (+z in a pbrt-v4 one). Radiance .hdr files are not read yet.
+    #[arg(long, value_name = "FILE")]
+    pub env: Option<PathBuf>,
+
+    /// Multiplies the environment's radiance.
+    #[arg(long, value_name = "S", default_value_t = 1.0, requires = "env")]
+    pub env_strength: f64,
+
     /// A glTF scene's camera, by name or index (the first one by default).
     #[arg(long, value_name = "NAME|INDEX")]
     pub camera: Option<String>,
@@ -262,6 +271,18 @@ impl Setup {
     pub fn new(plan: &Plan) -> Result<Self> {
         let start = Instant::now();
         let mut desc = read_scene_file(&plan.scene, plan.camera.as_deref())?;
+        if let Some(env) = &plan.env {
+            let ext = env.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+            if !matches!(ext.as_deref(), Some("exr" | "pfm")) {
+                bail!("--env {}: an EXR or PFM image is needed (Radiance .hdr files are not read yet)", env.display());
+            }
+            if !(plan.env_strength.is_finite() && plan.env_strength >= 0.0) {
+                bail!("--env-strength must be a number ≥ 0, got {}", plan.env_strength);
+            }
+            let ext = plan.scene.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+            let y_up = matches!(ext.as_deref(), Some("gltf" | "glb"));
+            desc.lights.push(gltf_import::environment_light(env, plan.env_strength, y_up));
+        }
         if let Some(args) = &plan.integrator {
             desc.integrator = pbrt::parse_integrator(args, Path::new("<--integrator>"))
                 .map_err(|e| anyhow!("--integrator: {}", e.message))?;
@@ -403,6 +424,8 @@ fn plan_from_args(args: &RenderArgs, scene: &Path) -> Result<Plan> {
         colorspace: args.colorspace.clone(),
         camera: args.camera.clone(),
         integrator: args.integrator.clone(),
+        env: args.env.as_deref().map(absolute).transpose()?,
+        env_strength: args.env_strength,
     })
 }
 
