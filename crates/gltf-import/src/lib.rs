@@ -296,6 +296,13 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
 /// The document and its binary chunk: parsed, checked where the gltf crate's validation would index out of bounds
 /// (a primitive's attribute naming an accessor that does not exist), then validated by the crate.
 fn parse(bytes: &[u8]) -> Result<gltf::Gltf, (String, String)> {
+    // A GLB header whose length is shorter than the header itself (the gltf crate subtracts the header's size).
+    if bytes.starts_with(b"glTF") {
+        let length = bytes.get(8..12).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        if length.is_none_or(|l| l < 12) {
+            return Err((String::new(), "the GLB header is truncated or gives a length under 12 bytes".into()));
+        }
+    }
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| (String::new(), gltf_message(&e)))?;
     let json = document.into_json();
@@ -382,11 +389,19 @@ fn check_accessor(a: &gltf::Accessor<'_>, buffers: &[Vec<u8>], json: &str) -> Re
     }
     let element = a.size();
     let stride = view.stride().unwrap_or(element);
-    if a.count() > 0 {
-        let end = (a.count() - 1).checked_mul(stride).and_then(|v| v.checked_add(a.offset() + element));
-        if end.is_none_or(|e| e > view.length()) {
-            return Err(bad(format!("{} elements reach past the end of bufferViews[{}]", a.count(), view.index())));
-        }
+    // The specification's minimum count is 1, and a stride shorter than an element would overlap elements.
+    if a.count() == 0 {
+        return Err(bad("an accessor must have at least one element".into()));
+    }
+    if stride < element {
+        return Err(bad(format!(
+            "bufferViews[{}]'s byteStride {stride} is shorter than an element ({element} bytes)",
+            view.index()
+        )));
+    }
+    let end = (a.count() - 1).checked_mul(stride).and_then(|v| v.checked_add(a.offset() + element));
+    if end.is_none_or(|e| e > view.length()) {
+        return Err(bad(format!("{} elements reach past the end of bufferViews[{}]", a.count(), view.index())));
     }
     Ok(())
 }

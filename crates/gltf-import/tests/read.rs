@@ -273,6 +273,15 @@ fn bad_files_are_errors_that_name_the_json_path() {
     float_indices["accessors"][1]["componentType"] = json!(5126);
     let e = read("float-indices.gltf", &float_indices).unwrap_err();
     assert_eq!(e.path, "meshes[0].primitives[0].indices", "{e}");
+    // Also found by fuzzing: an accessor of no elements (the gltf crate computes count − 1).
+    let mut empty = document(&tri, &[0, 1, 2], json!({}));
+    empty["accessors"][1]["count"] = json!(0);
+    let e = read("empty-accessor.gltf", &empty).unwrap_err();
+    assert!(e.path == "meshes[0].primitives[0].indices" && e.message.contains("at least one"), "{e}");
+    // And a GLB header whose length is shorter than the header.
+    std::fs::write(d.join("short.glb"), b"glTF\x02\0\0\0\x04\0\0\0").unwrap();
+    let e = gltf_import::read_scene(&d.join("short.glb"), &Default::default()).unwrap_err();
+    assert!(e.message.contains("GLB header"), "{e}");
     std::fs::write(d.join("broken.gltf"), b"{ \"asset\": ").unwrap();
     assert!(gltf_import::read_scene(&d.join("broken.gltf"), &Default::default()).is_err());
     let e = gltf_import::read_scene(
