@@ -110,8 +110,8 @@ class Spectrum:
     ) -> Tuple[float, float, float]:
         """Linear RGB of `xyz` in srgb, dci-p3, rec2020 or aces2065-1."""
 
-def load(path: Union[str, PathLike[str]]) -> Scene:
-    """Parses a pbrt-v4 scene file (SceneError with file, line and column if it cannot be read)."""
+def load(path: Union[str, PathLike[str]], camera: Optional[str] = None) -> Scene:
+    """Reads a pbrt-v4 scene file, or a glTF 2.0 file (camera: by name or index); SceneError if it cannot be read."""
 
 def loads(text: str, base_dir: Union[None, str, PathLike[str]] = None) -> Scene:
     """Parses pbrt-v4 scene text; file names resolve from `base_dir`."""

@@ -35,6 +35,12 @@ pub fn parse_error(py: Python<'_>, e: pbrt::ParseError) -> PyErr {
     scene_error(py, Some(&e.loc), e.to_string(), e.message.clone())
 }
 
+/// A glTF reader's error as a SceneError: the file, no line or column, the JSON path in the message.
+pub fn gltf_error(py: Python<'_>, e: gltf_import::GltfError) -> PyErr {
+    let loc = scene::Loc::new(std::sync::Arc::from(e.file.as_path()), 0, 0);
+    scene_error(py, Some(&loc), e.to_string(), e.to_string())
+}
+
 /// A build error as a SceneError.
 pub fn build_error(py: Python<'_>, e: render::RenderError) -> PyErr {
     match &e {

@@ -9,14 +9,27 @@ mod image;
 mod scene;
 mod tools;
 
-use errors::{parse_error, SceneError};
+use errors::{gltf_error, parse_error, SceneError};
 use scene::Scene;
 
-/// Parses the pbrt-v4 scene file at `path` (and the files it includes). Raises SceneError for a scene that cannot
-/// be read, with the file, line and column.
+/// Reads the scene file at `path`: a pbrt-v4 file (and the files it includes), or a glTF 2.0 file (`.gltf`,
+/// `.glb`; `camera` picks its camera by name or index, the first by default). Raises SceneError for a scene that
+/// cannot be read: with the file, line and column, or for glTF the JSON path in the message.
 #[pyfunction]
-fn load(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Scene> {
-    let desc = py.detach(|| pbrt::parse_file(&path)).map_err(|e| parse_error(py, e))?;
+#[pyo3(signature = (path, camera=None))]
+fn load(py: Python<'_>, path: std::path::PathBuf, camera: Option<String>) -> PyResult<Scene> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let desc = if matches!(ext.as_deref(), Some("gltf" | "glb")) {
+        let options = gltf_import::ReadOptions { camera };
+        py.detach(|| gltf_import::read_scene(&path, &options)).map_err(|e| gltf_error(py, e))?
+    } else {
+        if camera.is_some() {
+            return Err(pyo3::exceptions::PyValueError::new_err(
+                "camera: picks a glTF scene's camera; a pbrt-v4 file has its own Camera directive",
+            ));
+        }
+        py.detach(|| pbrt::parse_file(&path)).map_err(|e| parse_error(py, e))?
+    };
     Ok(Scene::new(desc, Some(path)))
 }
 

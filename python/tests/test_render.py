@@ -318,3 +318,18 @@ for w in workers:
 assert results == {{s: (s, s, 3) for s in (8, 12, 16, 20)}}, results
 """
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
+
+
+def test_a_gltf_file_renders_as_the_command_line_renders_it(tmp_path):
+    gem = ROOT / "scenes" / "gltf" / "gem.glb"
+    scene = prismatic.load(gem)
+    image = scene.render(spp=2, resolution=(56, 42), seed=3, integrator='"path" "integer maxdepth" 12')
+    out = tmp_path / "gem.pfm"
+    subprocess.run([cli_binary(), "render", str(gem), "--spp", "2", "--resolution", "56x42", "--seed", "3",
+                    "--integrator", '"path" "integer maxdepth" 12', "--quiet", "-o", str(out)], check=True)
+    assert image.rgb.mean() > 0.005 and np.array_equal(image.rgb, read_pfm(out))
+    with pytest.raises(prismatic.SceneError) as e:
+        prismatic.load(gem, camera="nope")
+    assert "no camera named or numbered 'nope'" in str(e.value) and e.value.file.endswith("gem.glb")
+    with pytest.raises(ValueError, match="camera"):
+        prismatic.load(SCENE, camera="front")
