@@ -413,6 +413,7 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &M
                         "dielectric",
                         "thindielectric",
                         "thinfilm",
+                        "metallicroughness",
                         "coateddiffuse",
                         "coatedconductor",
                         "mix",
