@@ -229,6 +229,17 @@ fn glass_dispersion_and_volume_map_to_the_abbe_model_and_beer_lambert() {
         assert!((s - (-(c as f32 as f64).ln() / 2.0)).abs() < 1e-6, "{sigma:?}");
     }
     assert_eq!(desc.shapes[0].inside_medium.as_deref(), Some(medium.medium_name.as_str()));
+    // Partial transmission on a half-metallic material: the dielectric part's share, transmission × (1 − metallic),
+    // picks the glass in a mix with the opaque material.
+    let mut partial = doc.clone();
+    partial["materials"][0]["pbrMetallicRoughness"]["metallicFactor"] = json!(0.5);
+    partial["materials"][0]["extensions"]["KHR_materials_transmission"]["transmissionFactor"] = json!(0.4);
+    let p = gltf_import::read_scene(&write(&d, "partial.gltf", &partial), &Default::default()).unwrap();
+    let (name, mix) = p.named_materials.last().unwrap();
+    assert_eq!(mix.name, "mix");
+    assert!((mix.params.get_float("amount", 0.0).unwrap() - 0.2).abs() < 1e-6);
+    let parts = mix.params.get_strings("materials").unwrap();
+    assert_eq!(parts, [format!("{name}/opaque"), format!("{name}/transmission")]);
     // n(λ) through the builder is the Abbe model `prismatic ior` prints for 1.7847/25.68.
     let built = render::build_scene(&desc, &render::BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     // Only the warning that the file has no camera: every parameter written was read.
