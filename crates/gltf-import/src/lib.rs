@@ -136,7 +136,9 @@ pub struct Imported {
 /// `Import "model.glb"` under the current transform); returns the cameras it found.
 pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Transform) -> Result<Imported, GltfError> {
     let err = |json: &str, message: String| GltfError { file: path.to_path_buf(), path: json.to_string(), message };
-    let bytes = std::fs::read(path).map_err(|e| err("", format!("cannot read the file: {e}")))?;
+    // Files are read to at most 2 GiB, as every other reader does (a name leading to `/dev/zero` is an error).
+    let bytes = geometry::gzip::read_bounded(path, geometry::gzip::MAX_DECOMPRESSED_BYTES)
+        .map_err(|e| err("", format!("cannot read the file: {e}")))?;
     let gltf = parse(&bytes).map_err(|(json, message)| err(&json, message))?;
     let file: Arc<Path> = Arc::from(path);
     let loc = Loc::new(file.clone(), 0, 0);
@@ -359,8 +361,13 @@ fn load_buffers(gltf: &gltf::Gltf, path: &Path, files: &mut Vec<PathBuf>) -> Res
                 } else {
                     let name = uri.replace("%20", " ");
                     let file = dir.join(&name);
-                    let data =
-                        std::fs::read(&file).map_err(|e| err(i, format!("cannot read {}: {e}", file.display())))?;
+                    // Only the buffer's declared length is read (at most 2 GiB): an endless file is no hazard,
+                    // and a shorter one is refused below.
+                    let limit = (buffer.length() as u64).min(geometry::gzip::MAX_DECOMPRESSED_BYTES);
+                    let mut data = Vec::new();
+                    std::fs::File::open(&file)
+                        .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, limit), &mut data))
+                        .map_err(|e| err(i, format!("cannot read {}: {e}", file.display())))?;
                     files.push(file);
                     data
                 }

@@ -293,6 +293,15 @@ fn bad_files_are_errors_that_name_the_json_path() {
     std::fs::write(d.join("short.glb"), b"glTF\x02\0\0\0\x04\0\0\0").unwrap();
     let e = gltf_import::read_scene(&d.join("short.glb"), &Default::default()).unwrap_err();
     assert!(e.message.contains("GLB header"), "{e}");
+    // A buffer naming an endless file is read only to its declared length (not until memory runs out): here that
+    // gives zeros, so the file reads (a triangle at the origin), and a length past 2 GiB is refused.
+    let mut endless = document(&tri, &[0, 1, 2], json!({}));
+    endless["buffers"][0]["uri"] = json!("/dev/zero");
+    read("endless.gltf", &endless).unwrap();
+    let mut short_file = document(&tri, &[0, 1, 2], json!({}));
+    short_file["buffers"][0]["uri"] = json!("/dev/null");
+    let e = read("short-file.gltf", &short_file).unwrap_err();
+    assert!(e.path == "buffers[0]" && e.message.contains("fewer than its byteLength"), "{e}");
     std::fs::write(d.join("broken.gltf"), b"{ \"asset\": ").unwrap();
     assert!(gltf_import::read_scene(&d.join("broken.gltf"), &Default::default()).is_err());
     let e = gltf_import::read_scene(
