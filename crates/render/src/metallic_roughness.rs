@@ -152,6 +152,21 @@ mod tests {
         (1.0 - metallic) * dielectric + metallic * metal
     }
 
+    /// The directional albedo ∫ f cos θᵢ dωᵢ of the specification's BRDF for `wo`, by the midpoint rule on an
+    /// (n_μ, n_φ) grid in (cos θᵢ, φᵢ): fine enough for α ≥ 0.09.
+    fn reference_albedo(c: f64, m: f64, r: f64, ior: f64, wo: [f64; 3], (nt, np): (usize, usize)) -> f64 {
+        let mut sum = 0.0;
+        for i in 0..nt {
+            let mu = (i as f64 + 0.5) / nt as f64;
+            let s = (1.0 - mu * mu).sqrt();
+            for j in 0..np {
+                let phi = 2.0 * PI * (j as f64 + 0.5) / np as f64;
+                sum += reference_f(c, m, r, ior, wo, [s * phi.cos(), s * phi.sin(), mu]) * mu;
+            }
+        }
+        sum * 2.0 * PI / (nt * np) as f64
+    }
+
     fn dir(theta: f64, phi: f64) -> [f64; 3] {
         [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()]
     }
@@ -200,18 +215,7 @@ mod tests {
             let brdf = MetallicRoughness::new(SampledSpectrum::splat(c as f32), m as f32, r as f32, ior as f32);
             for theta_o in [0.2f64, 0.9, 1.35] {
                 let wo = dir(theta_o, 0.4);
-                // Quadrature in (cos θ, φ): midpoints, fine enough for α ≥ 0.09.
-                let (nt, np) = (600, 600);
-                let mut quad = 0.0;
-                for i in 0..nt {
-                    let mu = (i as f64 + 0.5) / nt as f64;
-                    for j in 0..np {
-                        let phi = 2.0 * PI * (j as f64 + 0.5) / np as f64;
-                        let s = (1.0 - mu * mu).sqrt();
-                        quad += reference_f(c, m, r, ior, wo, [s * phi.cos(), s * phi.sin(), mu]) * mu;
-                    }
-                }
-                quad *= 2.0 * PI / (nt * np) as f64;
+                let quad = reference_albedo(c, m, r, ior, wo, (600, 600));
                 let n = 200_000;
                 let (mut sum, mut sum2) = (0.0f64, 0.0f64);
                 for _ in 0..n {
@@ -257,18 +261,7 @@ mod tests {
             let desc = pbrt::parse_str(&scene, std::path::Path::new("furnace.pbrt")).unwrap();
             let built = crate::build_scene(&desc, &crate::BuildOptions::default()).unwrap();
             let y = crate::tests::support::mean_y(&built, 1, 0..4);
-            let wo = [0.0, 0.0, 1.0];
-            let (nt, np) = (1000, 400);
-            let mut albedo = 0.0;
-            for i in 0..nt {
-                let mu = (i as f64 + 0.5) / nt as f64;
-                for j in 0..np {
-                    let phi = 2.0 * PI * (j as f64 + 0.5) / np as f64;
-                    let s = (1.0 - mu * mu).sqrt();
-                    albedo += reference_f(c, m, r, ior, wo, [s * phi.cos(), s * phi.sin(), mu]) * mu;
-                }
-            }
-            albedo *= 2.0 * PI / (nt * np) as f64;
+            let albedo = reference_albedo(c, m, r, ior, [0.0, 0.0, 1.0], (1000, 400));
             assert!((y / albedo - 1.0).abs() < 0.015, "{c} {m} {r}: rendered {y}, specification {albedo}");
         }
     }

@@ -114,7 +114,7 @@ pub fn build_scene(desc: &SceneDescription, options: &BuildOptions) -> Result<Bu
 /// changes a glass, a medium or a light pays only for what changed). If a change reaches what the BVH records (a
 /// material becomes or stops being an `interface` or a `subsurface`, or the names change) the shapes are built
 /// again; [`BuiltScene::built_shapes`] says which happened. The shapes, textures and area lights of `desc` must be
-/// those `previous` was built from: they are not compared.
+/// those `previous` was built from: they are not compared (nor read again: their parameters count as used).
 pub fn build_scene_reusing(
     desc: &SceneDescription,
     options: &BuildOptions,
@@ -171,7 +171,16 @@ fn build(desc: &SceneDescription, options: &BuildOptions, previous: Option<&Arc<
         media_names: media.names().clone(),
     };
     let (shapes, shapes_made) = match previous.filter(|p| p.bindings == bindings) {
-        Some(p) => (p.clone(), false),
+        Some(p) => {
+            // The shapes' parameters were read by the build that made them; a description parsed anew must not
+            // report them unused.
+            let world = desc.shapes.iter().chain(desc.objects.iter().flat_map(|o| o.shapes.iter()));
+            for se in world {
+                let area = se.area_light.iter().flat_map(|a| a.params.iter());
+                se.entity.params.iter().chain(area).for_each(|param| param.mark_used());
+            }
+            (p.clone(), false)
+        }
         None => {
             let (mut area_lights, mut area_light_media) = (vec![], vec![]);
             let built = shapes::make_geometry(

@@ -131,6 +131,7 @@ fn a_build_reusing_shapes_renders_what_a_fresh_build_renders() {
         assert!(!reused.built_shapes(), "{text}");
         assert!(std::sync::Arc::ptr_eq(&reused.scene.geometry, &first.scene.geometry));
         let fresh = build_scene(&desc, &options).unwrap();
+        assert!(reused.warnings.is_empty() && fresh.warnings.is_empty(), "{:?} {:?}", reused.warnings, fresh.warnings);
         let rows = 0..reused.film.height;
         let (a, b) = (super::support::mean_y(&reused, 1, rows.clone()), super::support::mean_y(&fresh, 1, rows));
         assert!(a > 0.0 && a == b, "{text}: reused {a}, fresh {b}");
