@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Coverage-guided fuzzing of the input readers with AFL++ through `cargo afl` (stable Rust).
 #
-#   scripts/fuzz.sh TARGET [SECONDS]   fuzz one target (pbrt, ply, png, exr, pfm, tga, bsdf, lens, gltf) from fuzz/corpus/TARGET until
+#   scripts/fuzz.sh TARGET [SECONDS]   fuzz one target (pbrt, ply, png, exr, pfm, tga, bsdf, lens, gltf, jpeg, hdr) from fuzz/corpus/TARGET until
 #                                      ten million executions (or SECONDS, whichever comes first); an existing run in
 #                                      fuzz/out/TARGET is resumed, so repeated calls add up
 #   scripts/fuzz.sh seeds              regenerate the raw seeds (scenes of the repository, generated meshes and
@@ -19,7 +19,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
-targets="pbrt ply png exr pfm tga bsdf lens gltf"
+targets="pbrt ply png exr pfm tga bsdf lens gltf jpeg hdr"
 execs=${FUZZ_EXECS:-10000000}
 
 usage() {
@@ -74,6 +74,11 @@ seeds)
     find scenes crates -name '*.png' -size -8k -exec cp {} "$raw/png/" \;
     # glTF: the committed seeds (small files of each feature the reader reads, as its tests write them).
     mkdir -p "$raw/gltf" && cp fuzz/corpus/gltf/* "$raw/gltf/"
+    # JPEG (and in-memory PNG): the committed seeds, written by Pillow (baseline, progressive, grey, CMYK, restart
+    # markers, odd sizes, PNGs with alpha).
+    mkdir -p "$raw/jpeg" && cp fuzz/corpus/jpeg/* "$raw/jpeg/"
+    # Radiance HDR: the committed seeds (flat, old and adaptive run-length, XYZE, bottom-up).
+    mkdir -p "$raw/hdr" && cp fuzz/corpus/hdr/* "$raw/hdr/"
     for t in $targets; do
         rm -rf "fuzz/corpus/$t"
         cmin "$raw/$t" "fuzz/corpus/$t" "$t"

@@ -17,11 +17,15 @@ awk '/^test result:/ { p += $4; f += $6 } END { printf "total (Rust): %d passed,
 [[ "${1:-}" == "--rust-only" ]] && exit 0
 
 echo "== the Python package: a wheel into a fresh virtual environment, then pytest"
-cargo build --profile quick-release -q -p prismatic
+# The command line the Python tests compare against: the cargo tests built it (the prismatic crate's integration
+# tests need it). A separate `cargo build -p prismatic` would resolve features for that crate alone, without what
+# the workspace's dev-dependencies enable (render's `internals`), and compile render and the binary again.
+[[ -x target/quick-release/prismatic ]] || { echo "target/quick-release/prismatic was not built" >&2; exit 1; }
 python3 -m venv "$venv_dir/venv"
 py="$venv_dir/venv/bin/python"
 "$py" -m pip install -q --disable-pip-version-check "maturin>=1.5,<2" numpy pytest matplotlib pyoidn OpenEXR
-# The workspace's quick-release profile: the crates the cargo tests just built are reused.
-(cd python && "$py" -m maturin build -q --profile quick-release --out "$venv_dir/dist")
+# The workspace's quick-release profile and the features the cargo tests' build unified (render's `internals`, from
+# dev-dependencies), so the crates it built are reused: only PyO3 (with `extension-module`) and the package compile.
+(cd python && "$py" -m maturin build -q --profile quick-release --features render/internals --out "$venv_dir/dist")
 "$py" -m pip install -q --disable-pip-version-check "$venv_dir"/dist/prismatic-*.whl
 PRISMATIC_BIN="$PWD/target/quick-release/prismatic" "$py" -m pytest -q -p no:cacheprovider python/tests

@@ -62,6 +62,29 @@ fn png_pixels(data: &[u8]) -> Option<u64> {
     (data.get(12..16) == Some(b"IHDR")).then(|| Some(be(16)? * be(20)?)).flatten()
 }
 
+/// The in-memory image decoder that glTF textures and JPEG files go through (it recognises PNG and JPEG by their
+/// signatures), then the conversion a texture makes, with every channel selection. Inputs whose JPEG frame header
+/// claims more than 2^18 pixels are skipped, as for the `png` target.
+pub fn jpeg(data: &[u8]) {
+    if jpeg_pixels(data).is_some_and(|p| p > 1 << 18) || png_pixels(data).is_some_and(|p| p > 1 << 18) {
+        return;
+    }
+    let decoded = film::decode_image_bytes(data, Path::new("fuzz.jpg"));
+    if let Ok(img) = &decoded {
+        for select in [film::ChannelSelect::Rgb, film::ChannelSelect::One(1), film::ChannelSelect::One(3)] {
+            std::hint::black_box(img.to_rgb(film::ColorEncoding::Srgb, select));
+        }
+    }
+    report("jpeg", decoded);
+}
+
+/// Height × width from the first JPEG start-of-frame marker (SOF0–SOF15 but DHT, JPG and DAC) in the data.
+fn jpeg_pixels(data: &[u8]) -> Option<u64> {
+    let at = data.windows(2).position(|w| w[0] == 0xff && (0xc0..=0xcf).contains(&w[1]) && ![0xc4, 0xc8, 0xcc].contains(&w[1]))?;
+    let be = |i: usize| data.get(i..i + 2).map(|b| u16::from_be_bytes([b[0], b[1]]) as u64);
+    Some(be(at + 5)? * be(at + 7)?)
+}
+
 /// The OpenEXR readers: RGB (textures, `compare`, `convert`), the spectral layout and the colour space.
 pub fn exr(data: &[u8]) {
     let file = Scratch::new("exr", data);
@@ -74,6 +97,11 @@ pub fn exr(data: &[u8]) {
 pub fn pfm(data: &[u8]) {
     let file = Scratch::new("pfm", data);
     report("pfm", film::read_pfm(&file.0));
+}
+
+/// The Radiance HDR (RGBE) decoder, from memory.
+pub fn hdr(data: &[u8]) {
+    report("hdr", film::hdr::decode_hdr(data, Path::new("fuzz.hdr")));
 }
 
 /// The TGA decoder and its conversion to linear RGB.
@@ -162,5 +190,12 @@ pub fn lens(data: &[u8]) {
 /// scene: buffers, accessors, the node graph, cameras, lights and materials.
 pub fn gltf(data: &[u8]) {
     let file = Scratch::new("glb", data);
-    report("gltf", gltf_import::read_scene(&file.0, &gltf_import::ReadOptions::default()));
+    let scene = gltf_import::read_scene(&file.0, &gltf_import::ReadOptions::default());
+    // The images the file embeds, decoded as the scene's build would (small ones: see `jpeg`).
+    if let Ok(desc) = &scene {
+        for image in &desc.images {
+            jpeg(&image.bytes);
+        }
+    }
+    report("gltf", scene);
 }

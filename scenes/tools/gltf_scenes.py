@@ -9,6 +9,11 @@ them with Blender's own glTF exporter, so that Prismatic is tested on what Blend
 - crates/prismatic/tests/fixtures/gltf/dispersive-prism.glb: the equilateral N-SF11-like prism of the caustics
   tests (side 2, centroid at the origin, extruded from y = -1 to 1 in glTF's y-up coordinates), transmissive with
   IOR 1.78472 and KHR_materials_dispersion 20/25.68 (an Abbe number of 25.68), nothing else.
+- crates/gltf-import/tests/fixtures/textured-plane.glb: a 2 m plane (Blender's default UVs) whose Principled BSDF
+  reads a 2×2 image (red, green / blue, white from the top; closest-texel interpolation) as base colour, and a
+  second, repeated 4 times by a Mapping node, through a Round node (the exporter's Alpha Clip) as a cut-out (alpha 0 and 1 in a checker); seen
+  from above by an orthographic camera, under a sun straight down. Blender's exporter writes the images into the
+  GLB and the Mapping node as KHR_texture_transform.
 
 Blender is z-up and its exporter converts to glTF's y-up: a glTF point (x, y, z) is Blender's (x, -z, y).
 Blender has no dispersion input of its own: the exporter reads Dispersion (and Thickness, which makes it write
@@ -137,6 +142,62 @@ def dispersive_prism():
     export(os.path.join(ROOT, "crates/prismatic/tests/fixtures/gltf/dispersive-prism.glb"))
 
 
+def image(name, pixels, size):
+    """A packed Blender image of `size` (w, h) from RGBA `pixels` listed from the top row (Blender stores rows from
+    the bottom)."""
+    w, h = size
+    img = bpy.data.images.new(name, width=w, height=h, alpha=True)
+    rows = [pixels[r * w:(r + 1) * w] for r in range(h)]
+    img.pixels = [c for row in reversed(rows) for px in row for c in px]
+    img.file_format = "PNG"
+    img.pack()
+    return img
+
+
+def textured_plane():
+    reset()
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    plane = bpy.context.active_object
+    m = bpy.data.materials.new("textured")
+    m.use_nodes = True
+    nodes, links = m.node_tree.nodes, m.node_tree.links
+    bsdf = nodes["Principled BSDF"]
+    bsdf.inputs["Roughness"].default_value = 1.0
+    # Red and white opaque, green and blue transparent; repeated twice across the plane by a Mapping node.
+    colours = image("colours", [(0.8, 0.05, 0.05, 1), (0.05, 0.8, 0.05, 0), (0.05, 0.05, 0.8, 0), (0.9, 0.9, 0.9, 1)],
+                    (2, 2))
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.image = colours
+    tex.interpolation = "Closest"
+    uv = nodes.new("ShaderNodeTexCoord")
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.inputs["Scale"].default_value = (2.0, 2.0, 1.0)
+    links.new(uv.outputs["UV"], mapping.inputs["Vector"])
+    links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
+    # Blender's exporter writes alphaMode MASK (cutoff 0.5) for an alpha passed through a Math "Round" node.
+    round_node = nodes.new("ShaderNodeMath")
+    round_node.operation = "ROUND"
+    links.new(tex.outputs["Alpha"], round_node.inputs[0])
+    links.new(round_node.outputs["Value"], bsdf.inputs["Alpha"])
+    plane.data.materials.append(m)
+    sun = bpy.data.lights.new("sun", "SUN")
+    sun.energy = 1.0
+    sun_obj = bpy.data.objects.new("sun", sun)
+    scene.collection.objects.link(sun_obj)
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = 2.0
+    cam = bpy.data.objects.new("camera", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (0.0, 0.0, 5.0)
+    scene.camera = cam
+    scene.render.resolution_x, scene.render.resolution_y = 64, 64
+    export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/textured-plane.glb"))
+
+
 if __name__ == "__main__":
     gem()
     dispersive_prism()
+    textured_plane()

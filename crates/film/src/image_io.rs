@@ -966,6 +966,14 @@ pub fn read_rgb_encoded(path: &Path, encoding: ColorEncoding) -> Result<(u32, u3
         // does not reach TGA, so the staircase scenes' wood is as dark in pbrt-v4 as sRGB decoding makes it.
         return crate::tga::read_tga_linear(path);
     }
+    if is_jpeg_name(path) {
+        // JPEGs take the same stb_image path in pbrt-v4 as TGAs, so they are sRGB-decoded the same way.
+        return read_jpeg_linear(path);
+    }
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("hdr") || e.eq_ignore_ascii_case("pic")) {
+        // Radiance images are linear floats.
+        return crate::hdr::read_hdr(path);
+    }
     match ImageFormat::from_path(path)? {
         ImageFormat::Png => {
             let png = read_png_samples(path)?;
@@ -988,6 +996,17 @@ pub fn read_rgb_encoded(path: &Path, encoding: ColorEncoding) -> Result<(u32, u3
     }
 }
 
+/// Whether `path` names a JPEG (`.jpg` or `.jpeg`, any case).
+fn is_jpeg_name(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"))
+}
+
+/// Reads a JPEG file as linear RGB, sRGB-decoded ([`crate::decode`] decodes it).
+fn read_jpeg_linear(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
+    let img = crate::decode::decode_jpeg(&open_read(path)?, path)?;
+    Ok((img.width, img.height, img.to_rgb(ColorEncoding::Srgb, crate::decode::ChannelSelect::Rgb)))
+}
+
 /// A PNG's samples as stored (grey replicated to three channels, alpha dropped).
 struct PngSamples {
     width: u32,
@@ -1000,13 +1019,13 @@ struct PngSamples {
 
 /// The most bytes one byte of a deflate stream can expand to (RFC 1951: a 258-byte match coded in two bits); zlib's
 /// technical notes give the same 1032:1.
-const DEFLATE_MAX_RATIO: u64 = 1032;
+pub(crate) const DEFLATE_MAX_RATIO: u64 = 1032;
 
 /// Refuses a `PLTE` chunk that is not 1 to 256 whole RGB entries (PNG spec. §11.2.3), which the png crate (0.17)
 /// lets through to a panic when it expands the palette into its 256-entry table: a fractional last entry
 /// (image-rs/image-png issue 694) or more than 256 entries (found by fuzzing). Walks the chunks up to `IEND`;
 /// anything else malformed is left to the decoder.
-fn check_png_palette(bytes: &[u8]) -> Result<(), String> {
+pub(crate) fn check_png_palette(bytes: &[u8]) -> Result<(), String> {
     let mut rest = bytes.get(8..).unwrap_or_default();
     while let Some(head) = rest.get(..8) {
         let len = u32::from_be_bytes([head[0], head[1], head[2], head[3]]) as usize;
@@ -1026,73 +1045,15 @@ fn check_png_palette(bytes: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
-/// Decodes a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette) without touching the samples' values.
-///
-/// The size in the header is checked against the file's bytes before the image is allocated: its filtered rows
-/// come out of a deflate stream held in the file, so they cannot exceed [`DEFLATE_MAX_RATIO`] times its length.
+/// A PNG file's samples as stored, grey replicated to three channels and alpha dropped ([`crate::decode`] reads
+/// the bytes, checking the header's size against them before anything is allocated).
 fn read_png_samples(path: &Path) -> Result<PngSamples, ImageError> {
-    let png_err = |e: png::DecodingError| ImageError::Png { path: path.to_path_buf(), message: e.to_string() };
     let bytes = open_read(path)?;
-    check_png_palette(&bytes).map_err(|message| ImageError::Png { path: path.to_path_buf(), message })?;
-    let mut decoder = png::Decoder::new(bytes.as_slice());
-    decoder.set_transformations(png::Transformations::EXPAND);
-    let mut reader = decoder.read_info().map_err(png_err)?;
-    let info = reader.info();
-    let raw = info.height as u128 * info.raw_row_length() as u128;
-    if raw > (DEFLATE_MAX_RATIO * bytes.len() as u64) as u128 {
-        return Err(ImageError::Malformed {
-            path: path.to_path_buf(),
-            message: format!(
-                "a {}×{} PNG needs {raw} bytes of image data, more than its {} bytes can hold",
-                info.width,
-                info.height,
-                bytes.len()
-            ),
-        });
-    }
-    let mut buf = vec![0u8; reader.output_buffer_size()];
-    let info = reader.next_frame(&mut buf).map_err(png_err)?;
-    let (w, h) = (info.width, info.height);
-    let channels = match info.color_type {
-        png::ColorType::Grayscale => 1,
-        png::ColorType::GrayscaleAlpha => 2,
-        png::ColorType::Rgb => 3,
-        png::ColorType::Rgba => 4,
-        png::ColorType::Indexed => {
-            return Err(ImageError::Malformed { path: path.to_path_buf(), message: "unexpanded palette".into() })
-        }
-    };
-    let sixteen = match info.bit_depth {
-        png::BitDepth::Eight => false,
-        png::BitDepth::Sixteen => true,
-        d @ (png::BitDepth::One | png::BitDepth::Two | png::BitDepth::Four) => {
-            return Err(ImageError::Malformed {
-                path: path.to_path_buf(),
-                message: format!("unexpected bit depth {d:?} after expansion"),
-            })
-        }
-    };
-    let bytes_per_sample = if sixteen { 2 } else { 1 };
-    let stride = info.line_size;
-    let n = w as usize * h as usize;
-    let mut out = Vec::with_capacity(n);
-    for y in 0..h as usize {
-        let line = buf
-            .get(y * stride..(y + 1) * stride)
-            .ok_or_else(|| ImageError::Malformed { path: path.to_path_buf(), message: "short image data".into() })?;
-        for x in 0..w as usize {
-            let sample = |c: usize| -> u16 {
-                let o = (x * channels + c) * bytes_per_sample;
-                if sixteen {
-                    u16::from_be_bytes([line[o], line[o + 1]])
-                } else {
-                    line[o] as u16
-                }
-            };
-            out.push(if channels < 3 { [sample(0); 3] } else { [sample(0), sample(1), sample(2)] });
-        }
-    }
-    Ok(PngSamples { width: w, height: h, sixteen, samples: out })
+    let img = crate::decode::decode_png(&bytes, path)?;
+    let c = img.channels;
+    let rgb = |p: &[u16]| if c < 3 { [p[0]; 3] } else { [p[0], p[1], p[2]] };
+    let samples = img.samples.chunks_exact(c).map(rgb).collect();
+    Ok(PngSamples { width: img.width, height: img.height, sixteen: img.sixteen, samples })
 }
 
 /// Reads a PFM (`PF` colour or `Pf` grey, either byte order; values multiplied by |scale| when it is not 1):
@@ -1150,12 +1111,18 @@ pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
     Ok((w, h, out))
 }
 
-/// Reads a linear RGB image by extension: EXR (`R`, `G`, `B`), PNG or TGA (8-bit sRGB-decoded, [`crate::tga`]) or
-/// PFM — for textures.
+/// Reads a linear RGB image by extension: EXR (`R`, `G`, `B`), PNG, JPEG or TGA (8-bit sRGB-decoded,
+/// [`crate::tga`]), PFM or Radiance HDR ([`crate::hdr`]) — for textures and environment maps.
 pub fn read_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
     // TGA is read, never written, so it is not an `ImageFormat`.
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("tga")) {
         return crate::tga::read_tga_linear(path);
+    }
+    if is_jpeg_name(path) {
+        return read_jpeg_linear(path);
+    }
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("hdr") || e.eq_ignore_ascii_case("pic")) {
+        return crate::hdr::read_hdr(path);
     }
     match ImageFormat::from_path(path)? {
         ImageFormat::Exr => read_exr_rgb(path),

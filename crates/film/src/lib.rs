@@ -34,14 +34,17 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod decode;
 mod error;
 pub mod film;
 pub mod filter;
+pub mod hdr;
 mod icc;
 pub mod image_io;
 pub mod tga;
 pub mod view;
 
+pub use decode::{decode_image_bytes, ChannelSelect, DecodedImage};
 pub use error::{FilmError, ImageError};
 pub use film::{
     AovImages, CameraResponse, Film, FilmKind, FilmRow, FilmSpec, FilmState, GBuffer, GBufferCoordinates,

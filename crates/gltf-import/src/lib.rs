@@ -16,6 +16,9 @@
 //!   `KHR_materials_dispersion`: n(λ) from the Abbe model with n_d = ior and V_d = 20/dispersion), mixed with the
 //!   opaque material by the transmission factor; `KHR_materials_volume`'s attenuation as the glass's absorption;
 //!   emission (`emissiveFactor` × `KHR_materials_emissive_strength`) as a diffuse area light on the mesh.
+//! - **Textures** ([`textures`]): base colour, metallic-roughness, normal and transmission textures as image maps of
+//!   the file's PNG and JPEG images (kept encoded in [`SceneDescription::images`]; the renderer decodes them), with
+//!   their samplers and `KHR_texture_transform`; alpha from the base colour texture for `MASK` and `BLEND`.
 //!
 //! Errors name the file and the JSON path of what is wrong (`meshes[3].primitives[0].attributes.POSITION`).
 
@@ -27,10 +30,14 @@ use base64::Engine;
 use geometry::{MeshData, Transform};
 use glam::{DMat4, DVec3, Vec2, Vec3};
 use rayon::prelude::*;
+use textures::{ImageTable, TextureMaker, TextureRef};
+
+mod textures;
 use scene::{
     CameraEntity, Diagnostic, Entity, LightEntity, Loc, MaterialRef, MediumEntity, Param, ParamSet, ParamType,
-    SceneDescription, ShapeEntity,
+    SceneDescription, ShapeEntity, TextureValueType,
 };
+pub use textures::uv_transform;
 
 /// A glTF file that cannot be read: the file, the JSON path of the offending element (empty for the file as a
 /// whole) and what is wrong.
@@ -54,8 +61,9 @@ pub struct ReadOptions {
 
 /// The extensions this reader understands; any other in `extensionsRequired` is an error, in `extensionsUsed` a
 /// warning.
-pub const SUPPORTED_EXTENSIONS: [&str; 6] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 7] = [
     "KHR_lights_punctual",
+    "KHR_texture_transform",
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_materials_volume",
@@ -188,6 +196,7 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
     type Made = (String, Option<String>);
     let mut material_names: Vec<Option<Made>> = vec![None; gltf.materials().len()];
     let mut default_material: Option<Made> = None;
+    let mut images = ImageTable::default();
     let mut material_ref = |desc: &mut SceneDescription, m: gltf::Material<'_>| -> Result<Made, GltfError> {
         let slot = match m.index() {
             Some(i) => &mut material_names[i],
@@ -197,7 +206,8 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
             return Ok(made.clone());
         }
         let name = format!("{}#{}", path.display(), m.index().map_or("default".into(), |i| format!("materials[{i}]")));
-        let medium = add_material(desc, &name, &m, &loc, path)?;
+        let mut textures = TextureMaker { desc, buffers: &buffers, path, images: &mut images, loc: &loc };
+        let medium = add_material(&mut textures, &name, &m)?;
         *slot = Some((name.clone(), medium.clone()));
         Ok((name, medium))
     };
@@ -242,22 +252,8 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
                 let (name, medium) = material_ref(desc, material.clone())?;
                 let mut params = ParamSet::new();
                 params.push(ints("mesh", &[index as i64], &loc));
-                // alphaMode with the base colour factor's alpha (textures come later): MASK keeps or drops the
-                // whole primitive at the cutoff; BLEND is stochastic transparency, pbrt's "float alpha".
-                let a = f64::from(material.pbr_metallic_roughness().base_color_factor()[3]).clamp(0.0, 1.0);
-                let alpha = match material.alpha_mode() {
-                    gltf::material::AlphaMode::Opaque => 1.0,
-                    gltf::material::AlphaMode::Mask => {
-                        if a >= f64::from(material.alpha_cutoff().unwrap_or(0.5)) {
-                            1.0
-                        } else {
-                            0.0
-                        }
-                    }
-                    gltf::material::AlphaMode::Blend => a,
-                };
-                if alpha < 1.0 {
-                    params.push(float("alpha", alpha, &loc));
+                if let Some(alpha) = alpha_param(&material, &name, &loc) {
+                    params.push(alpha);
                 }
                 let area_light = emission(&material, &loc);
                 desc.shapes.push(ShapeEntity {
@@ -352,15 +348,9 @@ fn load_buffers(gltf: &gltf::Gltf, path: &Path, files: &mut Vec<PathBuf>) -> Res
             }
             gltf::buffer::Source::Uri(uri) => {
                 if let Some(rest) = uri.strip_prefix("data:") {
-                    let (_, payload) = rest
-                        .split_once(";base64,")
-                        .ok_or_else(|| err(i, "a data URI must be base64-encoded".into()))?;
-                    base64::engine::general_purpose::STANDARD
-                        .decode(payload)
-                        .map_err(|e| err(i, format!("the data URI is not valid base64: {e}")))?
+                    decode_data_uri(rest).map_err(|m| err(i, m))?
                 } else {
-                    let name = uri.replace("%20", " ");
-                    let file = dir.join(&name);
+                    let file = dir.join(percent_decode(uri));
                     // Only the buffer's declared length is read (at most 2 GiB): an endless file is no hazard,
                     // and a shorter one is refused below.
                     let limit = (buffer.length() as u64).min(geometry::gzip::MAX_DECOMPRESSED_BYTES);
@@ -379,6 +369,36 @@ fn load_buffers(gltf: &gltf::Gltf, path: &Path, files: &mut Vec<PathBuf>) -> Res
         out.push(data);
     }
     Ok(out)
+}
+
+/// The bytes of a data URI (after `data:`), which must be base64-encoded.
+fn decode_data_uri(rest: &str) -> Result<Vec<u8>, String> {
+    let (_, payload) = rest.split_once(";base64,").ok_or("a data URI must be base64-encoded")?;
+    base64::engine::general_purpose::STANDARD
+        .decode(payload)
+        .map_err(|e| format!("the data URI is not valid base64: {e}"))
+}
+
+/// A relative URI's path with its `%XX` escapes decoded (RFC 3986 §2.1: glTF URIs escape spaces and other
+/// reserved characters); an escape that is not two hex digits stays as written.
+fn percent_decode(uri: &str) -> String {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = bytes.get(i + 1..i + 3).and_then(|h| std::str::from_utf8(h).ok());
+        match (bytes[i], hex.and_then(|h| u8::from_str_radix(h, 16).ok())) {
+            (b'%', Some(v)) => {
+                out.push(v);
+                i += 3;
+            }
+            (b, _) => {
+                out.push(b);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
 }
 
 /// Checks that accessor `a` lies inside its buffer view and the view inside its buffer, so that reading it cannot go
@@ -529,20 +549,22 @@ fn rgb(name: &str, c: [f64; 3], loc: &Loc) -> Param {
     floats(ParamType::Rgb, name, &c, loc)
 }
 
+fn texture_param(name: &str, texture: &str, loc: &Loc) -> Param {
+    let mut p = param(ParamType::Texture, name, loc);
+    p.strings = vec![texture.to_string()];
+    p
+}
+
 /// A number from a material's raw extension object (`extensions.NAME.KEY`).
 fn extension_number(m: &gltf::Material<'_>, name: &str, key: &str) -> Option<f64> {
     m.extensions()?.get(name)?.get(key)?.as_f64()
 }
 
-/// Adds material `m` as named material `name` (and the parts a transmissive one is mixed from); returns the name of
-/// the medium inside it, for a transmissive material with `KHR_materials_volume`'s attenuation.
-fn add_material(
-    desc: &mut SceneDescription,
-    name: &str,
-    m: &gltf::Material<'_>,
-    loc: &Loc,
-    path: &Path,
-) -> Result<Option<String>, GltfError> {
+/// Adds material `m` as named material `name` (and the parts a transmissive one is mixed from, and its textures,
+/// named after it); returns the name of the medium inside it, for a transmissive material with
+/// `KHR_materials_volume`'s attenuation.
+fn add_material(t: &mut TextureMaker<'_>, name: &str, m: &gltf::Material<'_>) -> Result<Option<String>, GltfError> {
+    let loc = t.loc.clone();
     let json = m.index().map_or("materials (the default)".to_string(), |i| format!("materials[{i}]"));
     let pbr = m.pbr_metallic_roughness();
     let [r, g, b, a] = pbr.base_color_factor().map(f64::from);
@@ -551,42 +573,110 @@ fn add_material(
     let ior = m.ior().map_or(1.5, f64::from);
     let values = [r, g, b, a, metallic, roughness, ior];
     if values.iter().any(|v| !v.is_finite()) {
-        return Err(GltfError { file: path.to_path_buf(), path: json, message: "factors must be finite".into() });
+        return Err(GltfError { file: t.path.to_path_buf(), path: json, message: "factors must be finite".into() });
     }
-    let textures = [
-        pbr.base_color_texture().is_some(),
-        pbr.metallic_roughness_texture().is_some(),
-        m.normal_texture().is_some(),
-        m.emissive_texture().is_some(),
-    ];
-    if textures.iter().any(|&t| t) {
-        desc.warnings.push(Diagnostic::new(
+    let (metallic, roughness, a) = (metallic.clamp(0.0, 1.0), roughness.clamp(0.0, 1.0), a.clamp(0.0, 1.0));
+    let texture_json = |what: &str| format!("{json}.{what}");
+    let mut opaque = ParamSet::new();
+    // Base colour: the texture (sRGB) times the factor, uplifted as one RGB (glTF multiplies before shading).
+    match pbr.base_color_texture() {
+        Some(info) => {
+            let tex = TextureRef::info(&info, texture_json("pbrMetallicRoughness.baseColorTexture"));
+            let tname = format!("{name}/basecolor");
+            let extra = vec![rgb("tint", [r, g, b], &loc), string("encoding", "sRGB", &loc)];
+            t.imagemap(&tname, TextureValueType::Spectrum, &tex, extra)?;
+            opaque.push(texture_param("basecolor", &tname, &loc));
+            if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+                // The texture's alpha (linear) times the factor's; MASK compares it with the cutoff.
+                let blend = format!("{name}/alpha");
+                let coverage = match m.alpha_mode() {
+                    gltf::material::AlphaMode::Mask => format!("{name}/alpha/coverage"),
+                    gltf::material::AlphaMode::Blend | gltf::material::AlphaMode::Opaque => blend.clone(),
+                };
+                let extra =
+                    vec![string("channel", "a", &loc), float("scale", a, &loc), string("encoding", "linear", &loc)];
+                t.imagemap(&coverage, TextureValueType::Float, &tex, extra)?;
+                if coverage != blend {
+                    let mut p = ParamSet::new();
+                    p.push(texture_param("tex", &coverage, &loc));
+                    p.push(float("cutoff", f64::from(m.alpha_cutoff().unwrap_or(0.5)), &loc));
+                    t.desc.textures.push(scene::TextureEntity {
+                        entity: Entity::new("threshold", p, loc.clone()),
+                        texture_name: blend,
+                        value_type: TextureValueType::Float,
+                        render_from_texture: Transform::IDENTITY,
+                    });
+                }
+            }
+        }
+        None => opaque.push(rgb("basecolor", [r, g, b], &loc)),
+    }
+    // Metalness in the blue channel and roughness in the green one, linear, times the factors.
+    match pbr.metallic_roughness_texture() {
+        Some(info) => {
+            let tex = TextureRef::info(&info, texture_json("pbrMetallicRoughness.metallicRoughnessTexture"));
+            for (param_name, channel, factor) in [("metallic", "b", metallic), ("roughness", "g", roughness)] {
+                let tname = format!("{name}/{param_name}");
+                let extra = vec![
+                    string("channel", channel, &loc),
+                    float("scale", factor, &loc),
+                    string("encoding", "linear", &loc),
+                ];
+                t.imagemap(&tname, TextureValueType::Float, &tex, extra)?;
+                opaque.push(texture_param(param_name, &tname, &loc));
+            }
+        }
+        None => {
+            opaque.push(float("metallic", metallic, &loc));
+            opaque.push(float("roughness", roughness, &loc));
+        }
+    }
+    opaque.push(float("ior", ior.max(1.0), &loc));
+    // The normal map tilts the shading normal of every part (the glass too).
+    let mut normal_map = vec![];
+    if let Some(info) = m.normal_texture() {
+        let tex = TextureRef::normal(&info, texture_json("normalTexture"));
+        let tname = format!("{name}/normal");
+        t.imagemap(&tname, TextureValueType::Spectrum, &tex, vec![string("encoding", "linear", &loc)])?;
+        normal_map.push(texture_param("normalmap", &tname, &loc));
+        normal_map.push(float("normalscale", f64::from(info.scale()), &loc));
+    }
+    if m.occlusion_texture().is_some() {
+        t.desc.warnings.push(Diagnostic::new(
             loc.clone(),
-            format!("{json}: textures are not read yet; the material's factors are used"),
+            format!("{json}.occlusionTexture is ignored: tracing light computes occlusion, which the texture bakes"),
         ));
     }
-    let mut opaque = ParamSet::new();
-    opaque.push(rgb("basecolor", [r, g, b], loc));
-    opaque.push(float("metallic", metallic.clamp(0.0, 1.0), loc));
-    opaque.push(float("roughness", roughness.clamp(0.0, 1.0), loc));
-    opaque.push(float("ior", ior.max(1.0), loc));
+    if m.emissive_texture().is_some() {
+        t.desc.warnings.push(Diagnostic::new(
+            loc.clone(),
+            format!("{json}.emissiveTexture is not read yet: the emissive factor lights the whole surface"),
+        ));
+    }
+    for p in &normal_map {
+        opaque.push(p.clone());
+    }
     let opaque = Entity::new("metallicroughness", opaque, loc.clone());
-    let transmission = m.transmission().map_or(0.0, |t| f64::from(t.transmission_factor())).clamp(0.0, 1.0);
+    let transmission_ext = m.transmission();
+    let transmission = transmission_ext.as_ref().map_or(0.0, |x| f64::from(x.transmission_factor())).clamp(0.0, 1.0);
     // Transmission applies to the dielectric part only: the metal never transmits.
-    let amount = transmission * (1.0 - metallic.clamp(0.0, 1.0));
+    let amount = transmission * (1.0 - metallic);
     if amount <= 0.0 {
-        desc.named_materials.push((name.to_string(), opaque));
+        t.desc.named_materials.push((name.to_string(), opaque));
         return Ok(None);
     }
     let mut glass = ParamSet::new();
-    glass.push(float("eta", ior.max(1.0), loc));
+    glass.push(float("eta", ior.max(1.0), &loc));
     if let Some(d) = extension_number(m, "KHR_materials_dispersion", "dispersion").filter(|d| *d > 0.0) {
         // KHR_materials_dispersion: V_d = 20 / dispersion, with n_d the material's ior.
-        glass.push(float("abbe", 20.0 / d, loc));
+        glass.push(float("abbe", 20.0 / d, &loc));
     }
     // GGX α = roughness², given directly.
-    glass.push(float("roughness", roughness * roughness, loc));
-    glass.push(boolean("remaproughness", false, loc));
+    glass.push(float("roughness", roughness * roughness, &loc));
+    glass.push(boolean("remaproughness", false, &loc));
+    for p in normal_map {
+        glass.push(p);
+    }
     let mut medium = None;
     if let Some(v) = m.volume() {
         let distance = f64::from(v.attenuation_distance());
@@ -596,10 +686,10 @@ fn add_material(
             // rasterisers, which have no volume to trace.)
             let c = v.attenuation_color().map(|c| f64::from(c).clamp(1e-6, 1.0));
             let mut params = ParamSet::new();
-            params.push(rgb("sigma_a", c.map(|c| -c.ln() / distance), loc));
-            params.push(rgb("sigma_s", [0.0; 3], loc));
+            params.push(rgb("sigma_a", c.map(|c| -c.ln() / distance), &loc));
+            params.push(rgb("sigma_s", [0.0; 3], &loc));
             let medium_name = format!("{name}/volume");
-            desc.media.push(MediumEntity {
+            t.desc.media.push(MediumEntity {
                 entity: Entity::new("homogeneous", params, loc.clone()),
                 medium_name: medium_name.clone(),
                 render_from_medium: Transform::IDENTITY,
@@ -608,18 +698,57 @@ fn add_material(
         }
     }
     let glass = Entity::new("dielectric", glass, loc.clone());
-    if amount >= 1.0 {
-        desc.named_materials.push((name.to_string(), glass));
+    // The transmission texture's red channel scales the factor.
+    let amount_texture = transmission_ext.as_ref().and_then(|x| x.transmission_texture());
+    if amount >= 1.0 && amount_texture.is_none() {
+        t.desc.named_materials.push((name.to_string(), glass));
         return Ok(medium);
     }
     let (opaque_name, glass_name) = (format!("{name}/opaque"), format!("{name}/transmission"));
-    desc.named_materials.push((opaque_name.clone(), opaque));
-    desc.named_materials.push((glass_name.clone(), glass));
+    t.desc.named_materials.push((opaque_name.clone(), opaque));
+    t.desc.named_materials.push((glass_name.clone(), glass));
     let mut mix = ParamSet::new();
-    mix.push(strings("materials", &[opaque_name, glass_name], loc));
-    mix.push(float("amount", amount, loc));
-    desc.named_materials.push((name.to_string(), Entity::new("mix", mix, loc.clone())));
+    mix.push(strings("materials", &[opaque_name, glass_name], &loc));
+    match amount_texture {
+        Some(info) => {
+            let tex =
+                TextureRef::info(&info, texture_json("extensions.KHR_materials_transmission.transmissionTexture"));
+            let tname = format!("{name}/transmissionamount");
+            let extra =
+                vec![string("channel", "r", &loc), float("scale", amount, &loc), string("encoding", "linear", &loc)];
+            t.imagemap(&tname, TextureValueType::Float, &tex, extra)?;
+            mix.push(texture_param("amount", &tname, &loc));
+        }
+        None => mix.push(float("amount", amount, &loc)),
+    }
+    t.desc.named_materials.push((name.to_string(), Entity::new("mix", mix, loc.clone())));
     Ok(medium)
+}
+
+/// A primitive's `alpha` under its material's `alphaMode`, if it is not opaque: with a base colour texture, the
+/// texture's alpha times the factor's, which the material made as `{material}/alpha` (MASK's cutoff applied by a
+/// `threshold` texture); without one, the factor's alpha as a constant (MASK keeps or drops the whole primitive).
+/// BLEND is stochastic transparency, pbrt's `alpha`.
+fn alpha_param(m: &gltf::Material<'_>, material_name: &str, loc: &Loc) -> Option<Param> {
+    if m.alpha_mode() == gltf::material::AlphaMode::Opaque {
+        return None;
+    }
+    if m.pbr_metallic_roughness().base_color_texture().is_some() {
+        return Some(texture_param("alpha", &format!("{material_name}/alpha"), loc));
+    }
+    let a = f64::from(m.pbr_metallic_roughness().base_color_factor()[3]).clamp(0.0, 1.0);
+    let alpha = match m.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => 1.0,
+        gltf::material::AlphaMode::Mask => {
+            if a >= f64::from(m.alpha_cutoff().unwrap_or(0.5)) {
+                1.0
+            } else {
+                0.0
+            }
+        }
+        gltf::material::AlphaMode::Blend => a,
+    };
+    (alpha < 1.0).then(|| float("alpha", alpha, loc))
 }
 
 /// The area light of an emissive material (emissive factor × `KHR_materials_emissive_strength`), if any.
@@ -695,7 +824,7 @@ fn choose_camera(
     }
 }
 
-/// An environment light from the image at `path` (EXR or PFM; a 2:1 latitude–longitude map or a square equal-area
+/// An environment light from the image at `path` (EXR, Radiance HDR or PFM; a 2:1 latitude–longitude map or a square equal-area
 /// one), scaled by `strength`, for the command line's `--env`. With `y_up` (glTF scenes) the map's top is +y, else
 /// +z (pbrt-v4's convention).
 pub fn environment_light(path: &Path, strength: f64, y_up: bool) -> LightEntity {

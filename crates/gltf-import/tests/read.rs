@@ -6,12 +6,8 @@ use std::path::{Path, PathBuf};
 use base64::Engine;
 use serde_json::{json, Value};
 
-/// A directory of its own for a test's files.
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gltf-import-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+mod common;
+use common::{dir, render, write};
 
 /// Positions (f32 triples) and u32 indices as one little-endian buffer: (bytes, positions' length in bytes).
 fn geometry(positions: &[[f32; 3]], indices: &[u32]) -> (Vec<u8>, usize) {
@@ -67,21 +63,6 @@ fn merge(doc: &mut Value, extra: Value) {
         }
         (a, b) => *a = b,
     }
-}
-
-fn write(dir: &Path, name: &str, doc: &Value) -> PathBuf {
-    let path = dir.join(name);
-    std::fs::write(&path, serde_json::to_vec_pretty(doc).unwrap()).unwrap();
-    path
-}
-
-/// Renders `desc` at its film's size, `spp` samples, seed 1; the film.
-fn render(desc: &scene::SceneDescription, spp: u32, resolution: (u32, u32)) -> film::Film {
-    let options = render::BuildOptions { spp: Some(spp), resolution: Some(resolution), ..Default::default() };
-    let built = render::build_scene(desc, &options).unwrap_or_else(|e| panic!("{e}"));
-    let mut film = film::Film::new(built.film.clone()).unwrap();
-    built.integrator.render(&built.scene, &mut film, 0..built.spp, 1, &|_| {}).unwrap();
-    film
 }
 
 /// Mean Y over blocks of `b`×`b` pixels.
@@ -459,7 +440,16 @@ fn an_environment_map_has_its_top_towards_gltf_up() {
     }
     let env = d.join("sky.pfm");
     std::fs::write(&env, pfm).unwrap();
-    let look = |rotation: [f64; 4]| {
+    // The same sky as a Radiance HDR (rows from the top, flat RGBE pixels): (127 + ½)·2^(129 − 136) ≈ 0.996.
+    let mut rgbe = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 8\n".to_vec();
+    for row in 0..4 {
+        for _ in 0..8 {
+            rgbe.extend(if row < 2 { [127, 127, 127, 129] } else { [0, 0, 0, 0] });
+        }
+    }
+    let hdr = d.join("sky.hdr");
+    std::fs::write(&hdr, rgbe).unwrap();
+    let look = |env: &Path, rotation: [f64; 4]| {
         let doc = document(
             &[[100.0f32, 100.0, 100.0], [100.1, 100.0, 100.0], [100.0, 100.1, 100.0]],
             &[0, 1, 2],
@@ -471,11 +461,13 @@ fn an_environment_map_has_its_top_towards_gltf_up() {
         );
         let path = write(&d, "env.gltf", &doc);
         let mut desc = gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap();
-        desc.lights.push(gltf_import::environment_light(&env, 1.0, true));
+        desc.lights.push(gltf_import::environment_light(env, 1.0, true));
         let film = render(&desc, 4, (4, 4));
         (0..4).flat_map(|y| (0..4).map(move |x| (x, y))).map(|(x, y)| film.pixel_xyz(x, y).y).sum::<f64>() / 16.0
     };
     let h = std::f64::consts::FRAC_1_SQRT_2;
-    let (up, down) = (look([h, 0.0, 0.0, h]), look([-h, 0.0, 0.0, h]));
-    assert!((up - 1.0).abs() < 0.02 && down < 1e-6, "looking up {up}, down {down}");
+    for (sky, white) in [(&env, 1.0), (&hdr, 127.5 / 128.0)] {
+        let (up, down) = (look(sky, [h, 0.0, 0.0, h]), look(sky, [-h, 0.0, 0.0, h]));
+        assert!((up - white).abs() < 0.02 * white && down < 1e-6, "{}: looking up {up}, down {down}", sky.display());
+    }
 }

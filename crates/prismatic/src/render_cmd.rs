@@ -133,8 +133,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "INTEGRATOR")]
     pub integrator: Option<String>,
 
-    /// An environment around the scene: an EXR or PFM image, 2:1 latitude–longitude (or square equal-area), its
-    /// top towards +y in a glTF scene (+z in a pbrt-v4 one). Radiance .hdr files are not read yet.
+    /// An environment around the scene: an EXR, Radiance HDR or PFM image, 2:1 latitude–longitude (or square
+    /// equal-area), its top towards +y in a glTF scene (+z in a pbrt-v4 one).
     #[arg(long, value_name = "FILE")]
     pub env: Option<PathBuf>,
 

@@ -100,7 +100,20 @@ Texture "albedo" "spectrum" "scale" "texture tex" "sdm" "texture scale" "dots"
 #[test]
 fn bad_texture_parameters_are_errors_naming_them() {
     let cases: &[(&str, &str)] = &[
-        (r#"Texture "t" "float" "imagemap" "string filename" "x.png" "string wrap" "mirror""#, "'mirror'"),
+        (r#"Texture "t" "float" "imagemap" "string filename" "x.png" "string wrap" "spiral""#, "'spiral'"),
+        (r#"Texture "t" "float" "imagemap" "string filename" "x.png" "string wrap" [ "clamp" "black" ]"#, "'black'"),
+        (r#"Texture "t" "float" "imagemap" "string filename" "x.png" "string wrap" [ "a" "b" "c" ]"#, "not 3"),
+        (r#"Texture "t" "float" "imagemap" "string filename" "x.png" "string channel" "q""#, "'q'"),
+        (r#"Texture "t" "float" "imagemap" "integer image" 0"#, "no embedded image 0"),
+        (r#"Texture "t" "float" "imagemap" "integer image" -2"#, "'image'"),
+        (r#"Texture "t" "float" "imagemap" "string filename" "x.png" "integer image" 0"#, "not both"),
+        (r#"Texture "t" "float" "imagemap" "string filename" "x.png" "float uvtransform" [ 1 0 0 0 1 ]"#, "six"),
+        (
+            r#"Texture "t" "float" "imagemap" "string filename" "x.png" "float uvtransform" [ 1 0 0 0 1 0 ] "float uscale" 2"#,
+            "not both",
+        ),
+        (r#"Texture "t" "spectrum" "imagemap" "string filename" "x.png" "rgb tint" [ 1 1 ]"#, "rgb tint"),
+        (r#"Texture "t" "float" "threshold" "float cutoff" 1e40"#, "'cutoff'"),
         (r#"Texture "t" "float" "imagemap" "string filename" "x.png" "string filter" "gauss""#, "'gauss'"),
         (r#"Texture "t" "float" "imagemap" "string filename" "x.png" "string encoding" "gamma -1""#, "'encoding'"),
         (r#"Texture "t" "float" "imagemap" "string filename" "x.png" "float maxanisotropy" 0"#, "'maxanisotropy'"),

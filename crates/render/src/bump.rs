@@ -7,7 +7,7 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use crate::scene::SurfaceHit;
-use crate::texture::{FloatTexture, RgbImage, TextureEvalContext};
+use crate::texture::{FloatTexture, ImageTexture, RgbImage, TextureEvalContext};
 
 /// The step in u and v of bump mapping's finite differences where the hit has no footprint (pbrt-v4's fallback for
 /// rays without differentials).
@@ -82,9 +82,35 @@ pub fn normal_map(image: &RgbImage, g: &ShadingGeometry) -> (Vec3, Vec3) {
     };
     let Some(x) = g.dpdu.try_normalize() else { return (g.dpdu, g.dpdv) };
     let y = g.ns.cross(x);
-    let ns = (local.x * x + local.y * y + local.z * g.ns).normalize_or_zero();
+    tilt(local.x * x + local.y * y + local.z * g.ns, g)
+}
+
+/// Normal mapping as glTF 2.0 defines it (§3.9.3, `normalTexture`): the image's RGB, looked up through the
+/// texture's mapping and filter, is 2·rgb − 1 with x and y multiplied by `scale`, in the frame x = ∂p/∂u
+/// normalised, y = ±ns × x on the side of ∂p/∂v (the bitangent's sign, which MikkTSpace stores as the tangent's
+/// w, follows from the partials, so mirrored texture coordinates keep their bumps), z = ns. Returns shading
+/// partials perpendicular to that normal with the old partials' lengths.
+pub fn normal_map_texture(
+    tex: &ImageTexture,
+    scale: f32,
+    g: &ShadingGeometry,
+    ctx: &TextureEvalContext,
+) -> (Vec3, Vec3) {
+    let at = TextureEvalContext { p: g.p, n: g.n, uv: g.uv, ..*ctx };
+    let rgb = tex.rgb(&at);
+    let tangent = Vec3::new(scale * (2.0 * rgb[0] - 1.0), scale * (2.0 * rgb[1] - 1.0), 2.0 * rgb[2] - 1.0);
+    let Some(local) = tangent.try_normalize() else { return (g.dpdu, g.dpdv) };
+    let Some(x) = g.dpdu.try_normalize() else { return (g.dpdu, g.dpdv) };
+    let y = g.ns.cross(x);
+    let y = if y.dot(g.dpdv) < 0.0 { -y } else { y };
+    tilt(local.x * x + local.y * y + local.z * g.ns, g)
+}
+
+/// Shading partials perpendicular to the new normal `ns` with the lengths of `g`'s partials (Gram–Schmidt: ∂p/∂u
+/// made perpendicular to `ns`, then ∂p/∂v completing the frame); `g`'s own where that degenerates.
+fn tilt(ns: Vec3, g: &ShadingGeometry) -> (Vec3, Vec3) {
+    let Some(ns) = ns.try_normalize() else { return (g.dpdu, g.dpdv) };
     let (ulen, vlen) = (g.dpdu.length(), g.dpdv.length());
-    // Gram–Schmidt: ∂p/∂u made perpendicular to the new normal, then ∂p/∂v completing the frame.
     let Some(dpdu) = (g.dpdu - ns * ns.dot(g.dpdu)).try_normalize() else { return (g.dpdu, g.dpdv) };
     let dpdv = ns.cross(dpdu).normalize_or_zero();
     (dpdu * ulen, dpdv * vlen)
@@ -97,6 +123,14 @@ pub enum NormalPerturbation {
     Bump(FloatTexture),
     /// A tangent-space normal map (`"string normalmap"`), linear RGB.
     NormalMap(Arc<RgbImage>),
+    /// A tangent-space normal map read through an image texture, as glTF's `normalTexture` (`"texture normalmap"`
+    /// naming an `imagemap`, with `"float normalscale"`).
+    NormalTexture {
+        /// The image map (linear).
+        tex: Box<ImageTexture>,
+        /// glTF's `normalTexture.scale`: the factor of the tangent-plane components.
+        scale: f32,
+    },
 }
 
 impl NormalPerturbation {
@@ -105,6 +139,7 @@ impl NormalPerturbation {
         let (dpdu, dpdv) = match self {
             NormalPerturbation::Bump(d) => bump(d, g, ctx),
             NormalPerturbation::NormalMap(img) => normal_map(img, g),
+            NormalPerturbation::NormalTexture { tex, scale } => normal_map_texture(tex, *scale, g, ctx),
         };
         g.with_partials(dpdu, dpdv)
     }

@@ -87,6 +87,9 @@ impl UvMapping {
 pub enum TextureMapping2D {
     /// (s, t) from the surface's (u, v), scaled and offset.
     Uv(UvMapping),
+    /// (s, t) = M·(u, v, 1) for a 2×3 matrix M, rows first: s = m₀u + m₁v + m₂, t = m₃u + m₄v + m₅ (Prismatic's
+    /// `"float uvtransform"`, which glTF's `KHR_texture_transform` becomes: rotations and shears besides scales).
+    UvMatrix([f32; 6]),
     /// s = θ/π and t = φ/2π of the direction from the texture space's origin (pbrt-v4's `SphericalMapping`: s runs
     /// from the +z pole to the −z pole).
     Spherical(Affine3A),
@@ -113,6 +116,10 @@ impl TextureMapping2D {
         use std::f32::consts::PI;
         match self {
             TextureMapping2D::Uv(m) => m.map(ctx),
+            TextureMapping2D::UvMatrix(m) => {
+                let (u, v) = (ctx.uv.x, ctx.uv.y);
+                Vec2::new(m[0] * u + m[1] * v + m[2], m[3] * u + m[4] * v + m[5])
+            }
             TextureMapping2D::Spherical(m) => {
                 let d = m.transform_point3(ctx.p).normalize_or_zero();
                 let theta = d.z.clamp(-1.0, 1.0).acos();
@@ -149,6 +156,13 @@ impl TextureMapping2D {
             TextureMapping2D::Uv(m) => {
                 let [dudx, dudy, dvdx, dvdy] = ctx.duv;
                 (Vec2::new(m.su * dudx, m.sv * dvdx), Vec2::new(m.su * dudy, m.sv * dvdy))
+            }
+            TextureMapping2D::UvMatrix(m) => {
+                let [dudx, dudy, dvdx, dvdy] = ctx.duv;
+                (
+                    Vec2::new(m[0] * dudx + m[1] * dvdx, m[3] * dudx + m[4] * dvdx),
+                    Vec2::new(m[0] * dudy + m[1] * dvdy, m[3] * dudy + m[4] * dvdy),
+                )
             }
             TextureMapping2D::Spherical(m) => {
                 // s = θ/π, t = φ/2π: ∂θ/∂p = (xz/ρ, yz/ρ, −ρ)/r², ∂φ/∂p = (−y, x, 0)/ρ² (ρ² = x² + y²).
@@ -228,6 +242,38 @@ pub enum WrapMode {
     Clamp,
     /// Each edge folded at its midpoint, continuing an equal-area octahedral sphere map across its seams.
     OctahedralSphere,
+    /// One rule along s (the image's columns) and another along t (its rows), as glTF's samplers give them
+    /// (`"string wrap" [s t]`, a Prismatic extension).
+    Axes(AxisWrap, AxisWrap),
+}
+
+/// What an image lookup does beyond the image along one axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AxisWrap {
+    /// The image repeats.
+    Repeat,
+    /// The edge texel continues.
+    Clamp,
+    /// The image repeats, every other copy mirrored (glTF's `MIRRORED_REPEAT`): texel −1 is texel 0.
+    Mirror,
+}
+
+impl AxisWrap {
+    /// The texel index inside 0..n that index `i` reads.
+    pub fn wrap(self, i: i64, n: i64) -> i64 {
+        match self {
+            AxisWrap::Repeat => i.rem_euclid(n),
+            AxisWrap::Clamp => i.clamp(0, n - 1),
+            AxisWrap::Mirror => {
+                let m = i.rem_euclid(2 * n);
+                if m >= n {
+                    2 * n - 1 - m
+                } else {
+                    m
+                }
+            }
+        }
+    }
 }
 
 /// The texel of a `w`×`h` equal-area octahedral image that continues texel (x, y) when that lies one texel beyond
@@ -296,6 +342,7 @@ impl RgbImage {
                 (x, y)
             }
             WrapMode::OctahedralSphere => octahedral_wrap(x, y, w, h),
+            WrapMode::Axes(s, t) => (s.wrap(x, w), t.wrap(y, h)),
         };
         self.pixels[(y * w + x) as usize]
     }
@@ -352,12 +399,22 @@ pub struct ImageTexture {
     pub max_anisotropy: f32,
     /// Multiplier.
     pub scale: f32,
+    /// Per-channel multiplier of the looked-up RGB (Prismatic's `"rgb tint"`, glTF's colour factors; 1, 1, 1 for
+    /// pbrt-v4's image maps).
+    pub tint: [f32; 3],
     /// 1 − value (clamped at zero).
     pub invert: bool,
 }
 
 impl ImageTexture {
-    fn rgb(&self, ctx: &TextureEvalContext) -> [f32; 3] {
+    /// The filtered RGB at `ctx`, times the tint.
+    pub fn rgb(&self, ctx: &TextureEvalContext) -> [f32; 3] {
+        let rgb = self.lookup(ctx);
+        [rgb[0] * self.tint[0], rgb[1] * self.tint[1], rgb[2] * self.tint[2]]
+    }
+
+    /// The filtered RGB at `ctx`.
+    fn lookup(&self, ctx: &TextureEvalContext) -> [f32; 3] {
         match (self.filter, &self.mip) {
             (ImageFilter::Point, Some(mip)) => {
                 let c = self.map.map_footprint(ctx);
@@ -480,6 +537,13 @@ pub enum FloatTexture {
     },
     /// An image map.
     Image(Box<ImageTexture>),
+    /// 1 where `tex` ≥ `cutoff`, else 0 (Prismatic's `"threshold"`: glTF's `MASK` alpha mode on a texture's alpha).
+    Threshold {
+        /// The texture compared.
+        tex: Box<FloatTexture>,
+        /// The value at and above which the result is 1.
+        cutoff: f32,
+    },
 }
 
 impl FloatTexture {
@@ -547,6 +611,13 @@ impl FloatTexture {
                 wind_strength.abs() * wave_height
             }
             FloatTexture::Image(img) => img.value(ctx),
+            FloatTexture::Threshold { tex, cutoff } => {
+                if tex.eval(ctx) >= *cutoff {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
         }
     }
 }

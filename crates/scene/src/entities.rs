@@ -209,6 +209,9 @@ pub struct SceneDescription {
     /// Triangle meshes a reader decoded whole (glTF's primitives), which `importedmesh` shapes name by their index
     /// in `"integer mesh"`; shared by every shape that places the same mesh.
     pub meshes: Vec<Arc<geometry::MeshData>>,
+    /// Images a reader found inside a file (glTF's textures in its binary chunk or data URIs, and the files it
+    /// names), still encoded; `imagemap` textures name them by index in `"integer image"`.
+    pub images: Vec<EmbeddedImage>,
     /// `Option` directives.
     pub options: Vec<OptionEntry>,
     /// Warnings from parsing (deprecated or ignored directives, …). Unused parameters are reported later, by
@@ -217,6 +220,15 @@ pub struct SceneDescription {
     /// Every file the parser read, in the order read: the main file, `Include`d and `Import`ed files, spectrum
     /// files (what a checkpoint's scene hash covers, with the files the builder reads).
     pub files: Vec<PathBuf>,
+}
+
+/// An encoded image (PNG or JPEG bytes) that a reader took out of a scene file, and what errors call it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EmbeddedImage {
+    /// Where it came from, for messages: `model.glb#images[2]`.
+    pub name: String,
+    /// The encoded bytes, shared by the textures that read them.
+    pub bytes: Arc<[u8]>,
 }
 
 impl SceneDescription {
@@ -245,6 +257,7 @@ impl SceneDescription {
             objects: Vec::new(),
             instances: Vec::new(),
             meshes: Vec::new(),
+            images: Vec::new(),
             options: Vec::new(),
             warnings: Vec::new(),
             files: Vec::new(),

@@ -32,8 +32,8 @@ mod loc;
 mod params;
 
 pub use entities::{
-    CameraEntity, Entity, InstanceUse, LightEntity, MaterialRef, MediumEntity, ObjectDefinition, OptionEntry,
-    SceneDescription, ShapeEntity, TextureEntity, TextureValueType, TransformMotion,
+    CameraEntity, EmbeddedImage, Entity, InstanceUse, LightEntity, MaterialRef, MediumEntity, ObjectDefinition,
+    OptionEntry, SceneDescription, ShapeEntity, TextureEntity, TextureValueType, TransformMotion,
 };
 pub use loc::{Diagnostic, Loc, SceneError};
 pub use params::{FloatParam, Param, ParamSet, ParamType, SpectrumKind, SpectrumParam};

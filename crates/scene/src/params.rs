@@ -464,6 +464,16 @@ impl ParamSet {
         self.typed_opt(name, ParamType::Float).map(|p| p.floats.as_slice())
     }
 
+    /// An `rgb` parameter's three values as written (no uplift), `None` when absent; another type or count is an
+    /// error naming the parameter.
+    pub fn get_rgb(&self, name: &str) -> Result<Option<[f64; 3]>, SceneError> {
+        let Some(p) = self.typed(name, &[ParamType::Rgb])? else { return Ok(None) };
+        match p.floats.as_slice() {
+            &[r, g, b] => Ok(Some([r, g, b])),
+            other => Err(SceneError::at(p.loc.clone(), format!("'{name}' needs 3 values, got {}", other.len()))),
+        }
+    }
+
     /// All values of an `integer` parameter (`None` if absent or of another type).
     pub fn get_ints(&self, name: &str) -> Option<&[i64]> {
         self.typed_opt(name, ParamType::Integer).map(|p| p.ints.as_slice())

@@ -10,8 +10,8 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use film::ColorEncoding;
-use scene::{FloatParam, Loc, MaterialRef, ParamSet, SceneError, SpectrumKind, SpectrumParam};
+use film::{ChannelSelect, ColorEncoding};
+use scene::{EmbeddedImage, FloatParam, Loc, MaterialRef, ParamSet, SceneError, SpectrumKind, SpectrumParam};
 use spectral::rgb_uplift::RgbUnboundedSpectrum;
 use spectral::{Observer, Spectrum};
 
@@ -19,7 +19,7 @@ use crate::bump::NormalPerturbation;
 use crate::material::Material;
 use crate::medium::{HomogeneousMedium, Medium};
 use crate::scene::NO_MATERIAL;
-use crate::texture::{FloatTexture, MipMap, RgbImage, SpectrumTexture, WrapMode};
+use crate::texture::{FloatTexture, ImageTexture, MipMap, RgbImage, SpectrumTexture, WrapMode};
 use crate::RenderError;
 
 /// Command-line overrides of the scene's settings.
@@ -71,13 +71,36 @@ pub(super) fn unsupported(what: &str, name: &str, supported: &[&str]) -> String 
 
 // Named textures (made by `textures.rs`).
 
+/// Where an image's pixels come from: a file the scene names, or an image a reader embedded in the description.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub(super) enum ImageSource {
+    /// A file (`"string filename"`, `"string normalmap"`).
+    File(PathBuf),
+    /// `SceneDescription::images[i]` (`"integer image"`).
+    Embedded(usize),
+}
+
+impl ImageSource {
+    /// What messages call it.
+    fn describe(&self, embedded: &[EmbeddedImage]) -> String {
+        match self {
+            ImageSource::File(path) => path.display().to_string(),
+            ImageSource::Embedded(i) => {
+                embedded.get(*i).map_or_else(|| format!("embedded image {i}"), |e| e.name.clone())
+            }
+        }
+    }
+}
+
 /// The scene's named textures. A spectrum texture is kept twice, uplifted as an albedo and as an unbounded
 /// spectrum, because which one a parameter needs is only known where it is used.
 pub(super) struct Textures {
     float: HashMap<String, FloatTexture>,
     spectrum: HashMap<String, (SpectrumTexture, SpectrumTexture)>, // (albedo, unbounded) variants
-    /// Images read so far, by file and encoding (textures and normal maps share them).
-    images: RefCell<HashMap<(PathBuf, String), Arc<RgbImage>>>,
+    /// Images read so far, by source, encoding and channels (textures and normal maps share them).
+    images: RefCell<HashMap<(ImageSource, String, ChannelSelect), Arc<RgbImage>>>,
+    /// The encoded images a reader took out of the scene's files (`SceneDescription::images`).
+    embedded: Vec<EmbeddedImage>,
     /// MIP maps built so far, by image (its address in `images`) and wrap mode.
     mipmaps: RefCell<HashMap<(usize, WrapMode), Arc<MipMap>>>,
     /// The named float and spectrum textures that contain an image map (directly or through textures they use).
@@ -89,11 +112,12 @@ pub(super) struct Textures {
 
 impl Textures {
     /// No textures yet.
-    pub(super) fn new() -> Self {
+    pub(super) fn new(embedded: Vec<EmbeddedImage>) -> Self {
         Textures {
             float: HashMap::new(),
             spectrum: HashMap::new(),
             images: RefCell::default(),
+            embedded,
             mipmaps: RefCell::default(),
             float_with_image: HashSet::new(),
             spectrum_with_image: HashSet::new(),
@@ -124,26 +148,53 @@ impl Textures {
         self.image_used.replace(false)
     }
 
-    /// The image at `path` read with `encoding` (named `enc_name`), from the cache if it was read before.
+    /// The image at `source` read with `encoding` (named `enc_name`) into the channels `select` picks, from the
+    /// cache if it was read so before; `loc` is where the scene names it.
     pub(super) fn image(
         &self,
-        path: &Path,
+        source: &ImageSource,
         encoding: ColorEncoding,
         enc_name: &str,
+        select: ChannelSelect,
         loc: &Loc,
     ) -> Result<Arc<RgbImage>> {
-        let key = (path.to_path_buf(), enc_name.to_ascii_lowercase());
+        let key = (source.clone(), enc_name.to_ascii_lowercase(), select);
         if let Some(img) = self.images.borrow().get(&key) {
             return Ok(img.clone());
         }
-        let (w, h, pixels) = film::read_rgb_encoded(path, encoding)
-            .map_err(|e| file_err(loc, path, format!("cannot read image {}: {e}", path.display())))?;
+        let (w, h, pixels) = match source {
+            ImageSource::File(path) => {
+                let (w, h, pixels) = film::read_rgb_encoded(path, encoding)
+                    .map_err(|e| file_err(loc, path, format!("cannot read image {}: {e}", path.display())))?;
+                if select != ChannelSelect::Rgb {
+                    return err(loc, "'channel' picks a channel of an embedded image ('integer image') only");
+                }
+                (w, h, pixels)
+            }
+            ImageSource::Embedded(i) => {
+                let Some(image) = self.embedded.get(*i) else {
+                    return err(loc, format!("no embedded image {i}: the scene has {}", self.embedded.len()));
+                };
+                let name = Path::new(&image.name);
+                let decoded = film::decode_image_bytes(&image.bytes, name)
+                    .map_err(|e| file_err(loc, name, format!("cannot read image {}: {e}", image.name)))?;
+                (decoded.width, decoded.height, decoded.to_rgb(encoding, select))
+            }
+        };
         if w == 0 || h == 0 {
-            return Err(file_err(loc, path, format!("image {} is empty", path.display())));
+            return err(loc, format!("image {} is empty", source.describe(&self.embedded)));
         }
         let img = Arc::new(RgbImage { width: w as usize, height: h as usize, pixels });
         self.images.borrow_mut().insert(key, img.clone());
         Ok(img)
+    }
+
+    /// The image map that spectrum texture `name` is, if it is one (a normal map reads its RGB as it is); counts as
+    /// a use of an image.
+    pub(super) fn image_texture(&self, name: &str) -> Option<ImageTexture> {
+        let Some((SpectrumTexture::Image { tex, .. }, _)) = self.spectrum.get(name) else { return None };
+        self.image_used.set(true);
+        Some((**tex).clone())
     }
 
     /// The MIP map of `image` (one of `images`) under `wrap`, built once; counts as a use of an image.

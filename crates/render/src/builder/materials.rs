@@ -12,14 +12,14 @@ use std::sync::Arc;
 use scene::{Entity, Loc, ParamSet, ParamType, SceneDescription, SceneError, SpectrumKind};
 use spectral::Spectrum;
 
-use super::context::{err, file_err, finite_positive, unsupported, Materials, Result, Textures};
+use super::context::{err, file_err, finite_positive, unsupported, ImageSource, Materials, Result, Textures};
 use crate::bump::NormalPerturbation;
 use crate::coating::{Coating, CoatingLayer, LayerIndex};
 use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
 use crate::measured::MeasuredBrdf;
 use crate::medium::HomogeneousMedium;
 use crate::texture::{FloatTexture, SpectrumTexture};
-use film::ColorEncoding;
+use film::{ChannelSelect, ColorEncoding};
 
 /// How a `subsurface` material is made: its boundary material and interior medium, from the directive and the
 /// roughness read here.
@@ -81,9 +81,23 @@ pub(super) fn build(desc: &SceneDescription, textures: &Textures, subsurface: Ma
 fn normal_perturbation(t: &Textures, e: &Entity) -> Result<Option<NormalPerturbation>> {
     let p = &e.params;
     let displacement = if p.contains("displacement") { Some(t.float_param(p, "displacement", 0.0)?) } else { None };
+    if p.param_type("normalmap") == Some(ParamType::Texture) {
+        let loc = p.loc_of("normalmap", &e.loc);
+        let name = p.get_texture("normalmap").unwrap_or_default();
+        let Some(tex) = t.image_texture(&name) else {
+            return err(&loc, format!("'normalmap' must name an imagemap spectrum texture; '{name}' is not one"));
+        };
+        let scale = p.get_float("normalscale", 1.0)?;
+        if !scale.is_finite() {
+            return err(&p.loc_of("normalscale", &e.loc), format!("'normalscale' must be finite, got {scale}"));
+        }
+        return Ok(Some(NormalPerturbation::NormalTexture { tex: Box::new(tex), scale: scale as f32 }));
+    }
     if let Some(path) = p.get_filename("normalmap")? {
         let loc = p.loc_of("normalmap", &e.loc);
-        return Ok(Some(NormalPerturbation::NormalMap(t.image(&path, ColorEncoding::Linear, "linear", &loc)?)));
+        let source = ImageSource::File(path);
+        let image = t.image(&source, ColorEncoding::Linear, "linear", ChannelSelect::Rgb, &loc)?;
+        return Ok(Some(NormalPerturbation::NormalMap(image)));
     }
     Ok(displacement.map(NormalPerturbation::Bump))
 }

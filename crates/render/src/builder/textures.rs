@@ -4,20 +4,20 @@
 //! into the scene's [`Textures`] (in `context.rs`, with the lookups materials make when a parameter names a texture
 //! instead of giving a value, and the images, read once per file and encoding).
 
-use film::ColorEncoding;
+use film::{ChannelSelect, ColorEncoding};
 use geometry::Transform;
 use glam::{Affine3A, DVec3, Vec3};
 use scene::{Loc, ParamSet, SceneDescription, SceneError, SpectrumKind};
 use scene::{TextureEntity, TextureValueType};
 use spectral::Spectrum;
 
-use super::context::{err, unsupported, Result, Textures};
+use super::context::{err, unsupported, ImageSource, Result, Textures};
 use crate::texture::{
-    CheckerMapping, FloatTexture, ImageFilter, ImageTexture, PointMapping, RgbKind, SpectrumTexture, TextureMapping2D,
-    UvMapping, WrapMode,
+    AxisWrap, CheckerMapping, FloatTexture, ImageFilter, ImageTexture, PointMapping, RgbKind, SpectrumTexture,
+    TextureMapping2D, UvMapping, WrapMode,
 };
 
-/// Float texture classes Prismatic reads (pbrt-v4's, `ptex` aside).
+/// Float texture classes Prismatic reads (pbrt-v4's, `ptex` aside, and its own `threshold`).
 const FLOAT_CLASSES: &[&str] = &[
     "constant",
     "scale",
@@ -30,6 +30,7 @@ const FLOAT_CLASSES: &[&str] = &[
     "wrinkled",
     "windy",
     "imagemap",
+    "threshold",
 ];
 /// Spectrum texture classes Prismatic reads (pbrt-v4's, `ptex` aside).
 const SPECTRUM_CLASSES: &[&str] =
@@ -70,6 +71,20 @@ fn texture_from_render(render_from_texture: &Transform) -> Affine3A {
 /// pbrt-v4's `TextureMapping2D::Create`: `"string mapping"` with its parameters.
 fn mapping_2d(p: &ParamSet, loc: &Loc, render_from_texture: &Transform) -> Result<TextureMapping2D> {
     let mapping = p.get_string("mapping", "uv")?;
+    if let Some(m) = p.get_floats("uvtransform") {
+        let at = p.loc_of("uvtransform", loc);
+        if mapping != "uv" {
+            return err(&at, "'uvtransform' belongs to the \"uv\" mapping");
+        }
+        if ["uscale", "vscale", "udelta", "vdelta"].iter().any(|n| p.contains(n)) {
+            return err(&at, "give 'uvtransform' or 'uscale'/'vscale'/'udelta'/'vdelta', not both");
+        }
+        let m: Vec<f32> = m.iter().map(|&v| v as f32).collect();
+        if m.len() != 6 || !m.iter().all(|v| v.is_finite()) {
+            return err(&at, "'uvtransform' must be six finite numbers: s = m0·u + m1·v + m2, t = m3·u + m4·v + m5");
+        }
+        return Ok(TextureMapping2D::UvMatrix([m[0], m[1], m[2], m[3], m[4], m[5]]));
+    }
     Ok(match mapping.as_str() {
         "uv" => TextureMapping2D::Uv(UvMapping {
             su: finite(p, loc, "uscale", 1.0)?,
@@ -150,25 +165,39 @@ fn image_texture(t: &Textures, e: &TextureEntity) -> Result<ImageTexture> {
     if aniso <= 0.0 {
         return err(&p.loc_of("maxanisotropy", loc), format!("'maxanisotropy' must be positive, got {aniso}"));
     }
-    let wrap = match p.get_string("wrap", "repeat")?.as_str() {
-        "repeat" => WrapMode::Repeat,
-        "black" => WrapMode::Black,
-        "clamp" => WrapMode::Clamp,
-        "octahedralsphere" => WrapMode::OctahedralSphere,
-        other => {
-            return err(
-                &p.loc_of("wrap", loc),
-                unsupported("wrap mode", other, &["repeat", "black", "clamp", "octahedralsphere"]),
-            )
-        }
-    };
+    let wrap = wrap_mode(p, loc)?;
     let scale = finite(p, loc, "scale", 1.0)?;
     let invert = p.get_bool("invert", false)?;
-    let Some(path) = p.get_filename("filename")? else {
-        return err(loc, format!("imagemap texture '{}' needs a 'string filename'", e.texture_name));
+    let tint = match p.get_rgb("tint")? {
+        None => [1.0; 3],
+        Some(c) if c.iter().all(|c| c.is_finite() && c.abs() <= f32::MAX as f64) => c.map(|c| c as f32),
+        Some(_) => return err(&p.loc_of("tint", loc), "'tint' must be three finite numbers"),
     };
-    // pbrt-v4: PNGs are sRGB-encoded unless said otherwise, other files linear.
-    let png = path.extension().is_some_and(|x| x.eq_ignore_ascii_case("png"));
+    let channel = match p.get_string("channel", "rgb")?.as_str() {
+        "rgb" => ChannelSelect::Rgb,
+        "r" => ChannelSelect::One(0),
+        "g" => ChannelSelect::One(1),
+        "b" => ChannelSelect::One(2),
+        "a" => ChannelSelect::One(3),
+        other => {
+            return err(&p.loc_of("channel", loc), unsupported("image channel", other, &["rgb", "r", "g", "b", "a"]))
+        }
+    };
+    let embedded = if p.contains("image") { Some(p.get_int("image", 0)?) } else { None };
+    let (source, source_loc, png) = match (p.get_filename("filename")?, embedded) {
+        (Some(_), Some(_)) => return err(&p.loc_of("image", loc), "give 'filename' or 'image', not both"),
+        (Some(path), None) => {
+            let png = path.extension().is_some_and(|x| x.eq_ignore_ascii_case("png"));
+            (ImageSource::File(path), p.loc_of("filename", loc), png)
+        }
+        (None, Some(i)) if i >= 0 => (ImageSource::Embedded(i as usize), p.loc_of("image", loc), true),
+        (None, Some(i)) => return err(&p.loc_of("image", loc), format!("'image' must be an index ≥ 0, got {i}")),
+        (None, None) => {
+            return err(loc, format!("imagemap texture '{}' needs a 'string filename'", e.texture_name));
+        }
+    };
+    // pbrt-v4: PNGs are sRGB-encoded unless said otherwise, other files linear. Embedded images are 8- or 16-bit
+    // PNGs and JPEGs, sRGB by default like PNG files.
     let enc_name = p.get_string("encoding", if png { "sRGB" } else { "linear" })?;
     let Some(encoding) = parse_encoding(&enc_name) else {
         return err(
@@ -176,9 +205,42 @@ fn image_texture(t: &Textures, e: &TextureEntity) -> Result<ImageTexture> {
             format!("'encoding' must be \"linear\", \"sRGB\" or \"gamma <value>\", got \"{enc_name}\""),
         );
     };
-    let image = t.image(&path, encoding, &enc_name, &p.loc_of("filename", loc))?;
+    let image = t.image(&source, encoding, &enc_name, channel, &source_loc)?;
     let mip = Some(t.mipmap(&image, wrap));
-    Ok(ImageTexture { map, image, wrap, filter, mip, max_anisotropy: aniso, scale, invert })
+    Ok(ImageTexture { map, image, wrap, filter, mip, max_anisotropy: aniso, scale, tint, invert })
+}
+
+/// An image map's `"string wrap"`: one of pbrt-v4's modes for both axes, or (a Prismatic extension, for glTF's
+/// samplers) two of `repeat`, `clamp` and `mirror`, along s then t.
+fn wrap_mode(p: &ParamSet, loc: &Loc) -> Result<WrapMode> {
+    let at = || p.loc_of("wrap", loc);
+    let values = p.get_strings("wrap").unwrap_or_default();
+    let axis = |v: &str| -> Result<AxisWrap> {
+        Ok(match v {
+            "repeat" => AxisWrap::Repeat,
+            "clamp" => AxisWrap::Clamp,
+            "mirror" => AxisWrap::Mirror,
+            other => return err(&at(), unsupported("wrap mode of one axis", other, &["repeat", "clamp", "mirror"])),
+        })
+    };
+    Ok(match values {
+        [] => WrapMode::Repeat,
+        [one] => match one.as_str() {
+            "repeat" => WrapMode::Repeat,
+            "black" => WrapMode::Black,
+            "clamp" => WrapMode::Clamp,
+            "octahedralsphere" => WrapMode::OctahedralSphere,
+            "mirror" => WrapMode::Axes(AxisWrap::Mirror, AxisWrap::Mirror),
+            other => {
+                return err(
+                    &at(),
+                    unsupported("wrap mode", other, &["repeat", "black", "clamp", "octahedralsphere", "mirror"]),
+                )
+            }
+        },
+        [s, t] => WrapMode::Axes(axis(s)?, axis(t)?),
+        more => return err(&at(), format!("'wrap' takes one mode, or one per axis (two), not {}", more.len())),
+    })
 }
 
 /// The error for a texture class pbrt-v4 reads with its Ptex library.
@@ -195,7 +257,7 @@ fn ptex_error(e: &TextureEntity) -> SceneError {
 
 /// Reads every `Texture` directive in order, so a texture can use those defined before it.
 pub(super) fn build(desc: &SceneDescription) -> Result<Textures> {
-    let mut t = Textures::new();
+    let mut t = Textures::new(desc.images.clone());
     for te in &desc.textures {
         t.take_image_use();
         match te.value_type {
@@ -269,6 +331,9 @@ fn float_texture(t: &Textures, te: &TextureEntity) -> Result<FloatTexture> {
         },
         "windy" => FloatTexture::Windy { map: Box::new(mapping_3d(rft)) },
         "imagemap" => FloatTexture::Image(Box::new(image_texture(t, te)?)),
+        "threshold" => {
+            FloatTexture::Threshold { tex: b(t.float_param(p, "tex", 1.0)?), cutoff: finite(p, loc, "cutoff", 0.5)? }
+        }
         "ptex" => return Err(ptex_error(te).into()),
         other => return err(loc, unsupported("float texture", other, FLOAT_CLASSES)),
     })

@@ -188,6 +188,7 @@ fn image_textures_scale_invert_and_read_channels_as_pbrt_does() {
         mip: None,
         max_anisotropy: 8.0,
         scale,
+        tint: [1.0; 3],
         invert,
     };
     let ctx = at_uv(0.3, 0.6);
@@ -461,4 +462,43 @@ fn mappings_carry_the_footprint_into_texture_space() {
             assert!((got - want).length() < 1e-2 * want.length(), "{map:?}: {got} vs {want}");
         }
     }
+}
+
+/// glTF's wrap modes per axis: mirrored repeat reflects about each edge (texel −1 is texel 0, texel n is n − 1),
+/// clamp holds the edge texel, repeat tiles; s and t wrap independently.
+#[test]
+fn per_axis_wrap_modes_mirror_clamp_and_repeat() {
+    let (m, c, r) = (AxisWrap::Mirror, AxisWrap::Clamp, AxisWrap::Repeat);
+    let mirrored: Vec<i64> = (-5..9).map(|i| m.wrap(i, 3)).collect();
+    assert_eq!(mirrored, vec![1, 2, 2, 1, 0, 0, 1, 2, 2, 1, 0, 0, 1, 2]);
+    assert_eq!((-2..5).map(|i| c.wrap(i, 3)).collect::<Vec<_>>(), vec![0, 0, 0, 1, 2, 2, 2]);
+    assert_eq!((-2..5).map(|i| r.wrap(i, 3)).collect::<Vec<_>>(), vec![1, 2, 0, 1, 2, 0, 1]);
+    // A 2×2 image read at texel (3, −1): mirrored along s (→ 0), clamped along t (→ row 0).
+    let img = RgbImage { width: 2, height: 2, pixels: vec![[1.0; 3], [2.0; 3], [3.0; 3], [4.0; 3]] };
+    assert_eq!(img.texel(3, -1, WrapMode::Axes(m, c)), [1.0; 3]);
+    assert_eq!(img.texel(3, 2, WrapMode::Axes(r, m)), [4.0; 3]);
+}
+
+/// The `uvtransform` mapping is the affine map it names, and its footprint is the map's linear part applied to
+/// the surface's (u, v) derivatives.
+#[test]
+fn the_uv_matrix_mapping_maps_points_and_footprints() {
+    let m = TextureMapping2D::UvMatrix([0.0, -2.0, 0.5, 3.0, 0.0, -1.0]);
+    let ctx = TextureEvalContext { duv: [0.1, 0.2, 0.3, 0.4], ..at_uv(0.25, 0.5) };
+    assert_eq!(m.map(&ctx), Vec2::new(-0.5, -0.25));
+    let f = m.map_footprint(&ctx);
+    // ∂s/∂x = −2·∂v/∂x, ∂t/∂x = 3·∂u/∂x; likewise in y.
+    assert!(
+        (f.dst_dx - Vec2::new(-0.6, 0.3)).length() < 1e-6 && (f.dst_dy - Vec2::new(-0.8, 0.6)).length() < 1e-6,
+        "{f:?}"
+    );
+}
+
+/// `threshold` is 1 at and above the cutoff, 0 below (glTF's MASK).
+#[test]
+fn threshold_keeps_values_at_or_above_the_cutoff() {
+    let t = |v: f32| {
+        FloatTexture::Threshold { tex: Box::new(FloatTexture::Constant(v)), cutoff: 0.5 }.eval(&at_uv(0.0, 0.0))
+    };
+    assert_eq!([t(0.49), t(0.5), t(0.9)], [0.0, 1.0, 1.0]);
 }

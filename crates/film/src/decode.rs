@@ -1,0 +1,281 @@
+//! Decoding PNG and JPEG images held in memory: the textures a glTF file embeds (in its binary chunk or as data
+//! URIs) or names, and JPEG textures of pbrt-v4 scenes. The format is recognised by its signature, not a name.
+//!
+//! [`decode_image_bytes`] keeps the samples as stored (8 or 16 bits, 1 to 4 channels, alpha included);
+//! [`DecodedImage::to_rgb`] turns them into the linear RGB a texture reads, through a colour encoding and a choice
+//! of channels (glTF's metallic-roughness texture keeps metalness in blue and roughness in green; its alpha lives
+//! in the base colour texture's fourth channel).
+
+use std::path::Path;
+
+use crate::image_io::{check_png_palette, ColorEncoding, DEFLATE_MAX_RATIO};
+use crate::ImageError;
+
+/// The most pixels a decoded JPEG may have: 2^28, an image of 16384 × 16384 (the JPEG decoder's own default limit
+/// on each side). JPEG's entropy coding can describe a large flat image in very few bytes, so, unlike PNG's, its
+/// size cannot be bounded by the file's.
+pub const MAX_JPEG_PIXELS: u64 = 1 << 28;
+
+/// An image's samples as stored: `channels` per pixel (1 grey, 2 grey and alpha, 3 RGB, 4 RGBA), rows from the top,
+/// each left to right; 8-bit values are held in the low byte.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DecodedImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Samples per pixel: 1 to 4.
+    pub channels: usize,
+    /// 16-bit samples (else 8-bit).
+    pub sixteen: bool,
+    /// `width · height · channels` samples.
+    pub samples: Vec<u16>,
+}
+
+/// Which of an image's channels a texture reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ChannelSelect {
+    /// Red, green and blue (grey replicated).
+    Rgb,
+    /// One channel (0 red, 1 green, 2 blue, 3 alpha), replicated to all three: a grey image's one value stands for
+    /// red, green and blue, and an image without alpha is opaque (alpha 1).
+    One(usize),
+}
+
+impl DecodedImage {
+    /// Whether the image stores an alpha channel.
+    pub fn has_alpha(&self) -> bool {
+        self.channels == 2 || self.channels == 4
+    }
+
+    /// Stored sample `c` (0 R, 1 G, 2 B, 3 A) of pixel `i` in [0, 1]: grey stands for R, G and B; a missing alpha
+    /// is 1.
+    fn sample(&self, i: usize, c: usize) -> f64 {
+        let index = match (self.channels, c) {
+            (1 | 2, 0..=2) => 0,
+            (2, _) => 1,
+            (4, _) | (3, 0..=2) => c,
+            _ => return 1.0,
+        };
+        let max = if self.sixteen { 65535.0 } else { 255.0 };
+        f64::from(self.samples[i * self.channels + index]) / max
+    }
+
+    /// Linear RGB pixels (rows from the top): colour channels through `encoding`, alpha as stored (alpha is linear
+    /// in PNG and glTF alike).
+    pub fn to_rgb(&self, encoding: ColorEncoding, select: ChannelSelect) -> Vec<[f32; 3]> {
+        let n = self.width as usize * self.height as usize;
+        // 8-bit values go through a table: 256 evaluations of the transfer function instead of one per sample.
+        let table: Vec<f32> = if self.sixteen {
+            vec![]
+        } else {
+            (0..256).map(|v| encoding.to_linear(f64::from(v) / 255.0) as f32).collect()
+        };
+        let colour = |i: usize, c: usize| -> f32 {
+            if self.sixteen {
+                encoding.to_linear(self.sample(i, c)) as f32
+            } else {
+                let index = match self.channels {
+                    1 | 2 => 0,
+                    _ => c,
+                };
+                table[usize::from(self.samples[i * self.channels + index] & 0xff)]
+            }
+        };
+        (0..n)
+            .map(|i| match select {
+                ChannelSelect::Rgb => [colour(i, 0), colour(i, 1), colour(i, 2)],
+                ChannelSelect::One(3) => [self.sample(i, 3) as f32; 3],
+                ChannelSelect::One(c) => [colour(i, c.min(2)); 3],
+            })
+            .collect()
+    }
+}
+
+/// What format `bytes` hold, by signature: `"png"`, `"jpeg"`, or `None`.
+pub fn sniff_format(bytes: &[u8]) -> Option<&'static str> {
+    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        Some("png")
+    } else if bytes.starts_with(&[0xff, 0xd8, 0xff]) {
+        Some("jpeg")
+    } else {
+        None
+    }
+}
+
+/// Decodes a PNG or JPEG held in `bytes` (`name` is what errors call it: a file, or a glTF image's JSON path).
+pub fn decode_image_bytes(bytes: &[u8], name: &Path) -> Result<DecodedImage, ImageError> {
+    match sniff_format(bytes) {
+        Some("png") => decode_png(bytes, name),
+        Some("jpeg") => decode_jpeg(bytes, name),
+        _ => Err(ImageError::Malformed {
+            path: name.to_path_buf(),
+            message: "not a PNG or JPEG image (neither signature is present)".into(),
+        }),
+    }
+}
+
+/// Decodes a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette, expanded) without touching the samples'
+/// values.
+///
+/// The size in the header is checked against the bytes before the image is allocated: its filtered rows come out
+/// of a deflate stream held in them, so they cannot exceed [`DEFLATE_MAX_RATIO`] times their length.
+pub(crate) fn decode_png(bytes: &[u8], name: &Path) -> Result<DecodedImage, ImageError> {
+    let png_err = |e: png::DecodingError| ImageError::Png { path: name.to_path_buf(), message: e.to_string() };
+    let malformed = |message: String| ImageError::Malformed { path: name.to_path_buf(), message };
+    check_png_palette(bytes).map_err(|message| ImageError::Png { path: name.to_path_buf(), message })?;
+    let mut decoder = png::Decoder::new(bytes);
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().map_err(png_err)?;
+    let info = reader.info();
+    let raw = info.height as u128 * info.raw_row_length() as u128;
+    if raw > (DEFLATE_MAX_RATIO * bytes.len() as u64) as u128 {
+        return Err(malformed(format!(
+            "a {}×{} PNG needs {raw} bytes of image data, more than its {} bytes can hold",
+            info.width,
+            info.height,
+            bytes.len()
+        )));
+    }
+    let mut buf = vec![0u8; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).map_err(png_err)?;
+    let (w, h) = (info.width, info.height);
+    let channels = match info.color_type {
+        png::ColorType::Grayscale => 1,
+        png::ColorType::GrayscaleAlpha => 2,
+        png::ColorType::Rgb => 3,
+        png::ColorType::Rgba => 4,
+        png::ColorType::Indexed => return Err(malformed("unexpanded palette".into())),
+    };
+    let sixteen = match info.bit_depth {
+        png::BitDepth::Eight => false,
+        png::BitDepth::Sixteen => true,
+        d @ (png::BitDepth::One | png::BitDepth::Two | png::BitDepth::Four) => {
+            return Err(malformed(format!("unexpected bit depth {d:?} after expansion")))
+        }
+    };
+    let bytes_per_sample = if sixteen { 2 } else { 1 };
+    let row = w as usize * channels;
+    let stride = info.line_size;
+    let mut samples = Vec::with_capacity(row * h as usize);
+    for y in 0..h as usize {
+        let line = buf
+            .get(y * stride..y * stride + row * bytes_per_sample)
+            .ok_or_else(|| malformed("short image data".into()))?;
+        if sixteen {
+            samples.extend(line.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])));
+        } else {
+            samples.extend(line.iter().map(|&b| u16::from(b)));
+        }
+    }
+    Ok(DecodedImage { width: w, height: h, channels, sixteen, samples })
+}
+
+/// Decodes a baseline or progressive JPEG (grey, YCbCr, CMYK or YCCK) into 8-bit RGB with the `zune-jpeg` crate,
+/// refusing images of more than [`MAX_JPEG_PIXELS`] before their pixels are allocated.
+pub(crate) fn decode_jpeg(bytes: &[u8], name: &Path) -> Result<DecodedImage, ImageError> {
+    use zune_jpeg::zune_core::bytestream::ZCursor;
+    use zune_jpeg::zune_core::colorspace::ColorSpace;
+    use zune_jpeg::zune_core::options::DecoderOptions;
+    let jpeg_err = |e: zune_jpeg::errors::DecodeErrors| ImageError::Malformed {
+        path: name.to_path_buf(),
+        message: format!("JPEG: {e:?}"),
+    };
+    let options = DecoderOptions::default().jpeg_set_out_colorspace(ColorSpace::RGB);
+    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
+    decoder.decode_headers().map_err(jpeg_err)?;
+    let (w, h) = decoder
+        .dimensions()
+        .ok_or_else(|| ImageError::Malformed { path: name.to_path_buf(), message: "JPEG: no frame header".into() })?;
+    let pixels = w as u64 * h as u64;
+    if pixels == 0 || pixels > MAX_JPEG_PIXELS {
+        return Err(ImageError::Malformed {
+            path: name.to_path_buf(),
+            message: format!("a {w}×{h} JPEG: images of 1 to {MAX_JPEG_PIXELS} pixels are read"),
+        });
+    }
+    let data = decoder.decode().map_err(jpeg_err)?;
+    if data.len() != pixels as usize * 3 {
+        return Err(ImageError::Malformed {
+            path: name.to_path_buf(),
+            message: format!("JPEG: {} bytes decoded for a {w}×{h} RGB image", data.len()),
+        });
+    }
+    Ok(DecodedImage {
+        width: w as u32,
+        height: h as u32,
+        channels: 3,
+        sixteen: false,
+        samples: data.into_iter().map(u16::from).collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A PNG of `w`×`h` pixels of colour type `color` holding `data`.
+    fn png_bytes(w: u32, h: u32, color: png::ColorType, depth: png::BitDepth, data: &[u8]) -> Vec<u8> {
+        let mut out = vec![];
+        let mut enc = png::Encoder::new(&mut out, w, h);
+        enc.set_color(color);
+        enc.set_depth(depth);
+        enc.write_header().unwrap().write_image_data(data).unwrap();
+        out
+    }
+
+    #[test]
+    fn png_alpha_and_channels_are_kept_and_selected() {
+        // Two RGBA pixels: (255, 128, 0, 64) and (0, 0, 255, 255).
+        let bytes = png_bytes(2, 1, png::ColorType::Rgba, png::BitDepth::Eight, &[255, 128, 0, 64, 0, 0, 255, 255]);
+        let img = decode_image_bytes(&bytes, Path::new("t.png")).unwrap();
+        assert_eq!((img.width, img.height, img.channels, img.has_alpha()), (2, 1, 4, true));
+        let alpha = img.to_rgb(ColorEncoding::Srgb, ChannelSelect::One(3));
+        // Alpha is linear whatever the colour encoding: 64/255.
+        assert!((alpha[0][0] - 64.0 / 255.0).abs() < 1e-6, "{alpha:?}");
+        assert_eq!(alpha[1], [1.0; 3]);
+        let green = img.to_rgb(ColorEncoding::Linear, ChannelSelect::One(1));
+        assert!((green[0][2] - 128.0 / 255.0).abs() < 1e-6);
+        let rgb = img.to_rgb(ColorEncoding::Srgb, ChannelSelect::Rgb);
+        // sRGB 128/255 decodes to 0.2158605 (IEC 61966-2-1).
+        assert!((rgb[0][1] - 0.215_860_5).abs() < 1e-5, "{rgb:?}");
+        assert_eq!(rgb[1], [0.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn grey_sixteen_bit_png_stands_for_all_three_channels_and_is_opaque() {
+        let bytes = png_bytes(1, 1, png::ColorType::Grayscale, png::BitDepth::Sixteen, &[0x80, 0x00]);
+        let img = decode_image_bytes(&bytes, Path::new("g.png")).unwrap();
+        assert!(img.sixteen && !img.has_alpha());
+        let v = 32768.0 / 65535.0;
+        assert!(img.to_rgb(ColorEncoding::Linear, ChannelSelect::Rgb)[0].iter().all(|c| (c - v).abs() < 1e-6));
+        assert_eq!(img.to_rgb(ColorEncoding::Linear, ChannelSelect::One(3))[0], [1.0; 3]);
+        assert!((img.to_rgb(ColorEncoding::Linear, ChannelSelect::One(2))[0][0] - v).abs() < 1e-6);
+    }
+
+    #[test]
+    fn jpeg_of_flat_colours_decodes_to_them() {
+        // A committed 16×8 baseline JPEG (quality 95, 4:4:4): the left half sRGB (200, 40, 40), the right half
+        // (40, 40, 200), written by Pillow.
+        let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/two-colours.jpg")).unwrap();
+        assert_eq!(sniff_format(&bytes), Some("jpeg"));
+        let img = decode_image_bytes(&bytes, Path::new("two-colours.jpg")).unwrap();
+        assert_eq!((img.width, img.height, img.channels), (16, 8, 3));
+        let at = |x: usize, y: usize| &img.samples[(y * 16 + x) * 3..(y * 16 + x) * 3 + 3];
+        for (x, want) in [(2, [200, 40, 40]), (13, [40, 40, 200])] {
+            for (got, want) in at(x, 4).iter().zip(want) {
+                assert!(got.abs_diff(want) <= 3, "pixel ({x}, 4): {:?} against {want:?}", at(x, 4));
+            }
+        }
+    }
+
+    #[test]
+    fn damaged_and_unknown_images_are_errors() {
+        let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/two-colours.jpg")).unwrap();
+        for cut in [3, 20, 200] {
+            assert!(decode_image_bytes(&bytes[..cut], Path::new("cut.jpg")).is_err(), "cut at {cut}");
+        }
+        let e = decode_image_bytes(b"GIF89a....", Path::new("images[3]")).unwrap_err().to_string();
+        assert!(e.contains("images[3]") && e.contains("not a PNG or JPEG"), "{e}");
+    }
+}

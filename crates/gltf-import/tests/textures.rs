@@ -1,0 +1,493 @@
+//! glTF textures: a textured unit quad filling an orthographic camera's view, lit head on by a sun along the view,
+//! so each pixel shows the material at one texel. Textures are checked against the same quad with the texel's
+//! value given as a factor (the specification multiplies texture and factor before shading), transforms and wrap
+//! modes against KHR_texture_transform's matrix worked out here, alpha against MASK's cutoff, and normal maps
+//! against geometry tilted to the mapped normal.
+
+use base64::Engine;
+use serde_json::{json, Value};
+
+mod common;
+use common::{dir, render, write};
+
+/// The side of the rendered image in pixels.
+const SIDE: u32 = 32;
+
+/// A PNG of `w`×`h` RGBA pixels (rows from the top) as bytes.
+fn png_rgba(w: u32, h: u32, pixels: &[[u8; 4]]) -> Vec<u8> {
+    let mut out = vec![];
+    let mut enc = png::Encoder::new(&mut out, w, h);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header().unwrap().write_image_data(&pixels.concat()).unwrap();
+    out
+}
+
+fn data_uri(mime: &str, bytes: &[u8]) -> String {
+    format!("data:{mime};base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes))
+}
+
+/// The unit quad about the origin in z = 0 (normal +z) with glTF texture coordinates putting the image upright: its
+/// top-left corner (uv 0, 0) at (−0.5, 0.5, 0). Positions, texture coordinates, then indices, in one buffer.
+fn quad_buffer() -> Vec<u8> {
+    let positions = [[-0.5f32, -0.5, 0.0], [0.5, -0.5, 0.0], [0.5, 0.5, 0.0], [-0.5, 0.5, 0.0]];
+    let uvs = [[0f32, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+    let mut bytes: Vec<u8> =
+        positions.iter().flatten().chain(uvs.iter().flatten()).flat_map(|c| c.to_le_bytes()).collect();
+    bytes.extend([0u32, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+    bytes
+}
+
+/// A document with the quad (node 0, turned by `rotation`, a quaternion, about its centre at (0.5, 0.5, 0)), an
+/// orthographic camera on +z seeing
+/// exactly [0, 1]², a sun shining down −z (683 lx: 1 W/m²) and `material` (with `textures`, `samplers`, `images`).
+fn quad_document(material: Value, rest: Value, rotation: [f64; 4]) -> Value {
+    let bytes = quad_buffer();
+    let mut doc = json!({
+        "asset": { "version": "2.0" },
+        "buffers": [ { "byteLength": bytes.len(), "uri": data_uri("application/octet-stream", &bytes) } ],
+        "bufferViews": [
+            { "buffer": 0, "byteOffset": 0, "byteLength": 48 },
+            { "buffer": 0, "byteOffset": 48, "byteLength": 32 },
+            { "buffer": 0, "byteOffset": 80, "byteLength": 24 }
+        ],
+        "accessors": [
+            { "bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-0.5, -0.5, 0], "max": [0.5, 0.5, 0] },
+            { "bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2" },
+            { "bufferView": 2, "componentType": 5125, "count": 6, "type": "SCALAR" }
+        ],
+        "meshes": [ { "primitives": [ { "attributes": { "POSITION": 0, "TEXCOORD_0": 1 }, "indices": 2, "material": 0 } ] } ],
+        "materials": [ material ],
+        "extensionsUsed": ["KHR_lights_punctual", "KHR_texture_transform"],
+        "extensions": { "KHR_lights_punctual": { "lights": [ { "type": "directional", "intensity": 683.0 } ] } },
+        "cameras": [ { "type": "orthographic", "orthographic": { "xmag": 0.5, "ymag": 0.5, "znear": 0.01, "zfar": 100 } } ],
+        "scene": 0,
+        "scenes": [ { "nodes": [0, 1, 2] } ],
+        "nodes": [
+            { "mesh": 0, "rotation": rotation, "translation": [0.5, 0.5, 0.0] },
+            { "camera": 0, "translation": [0.5, 0.5, 5.0] },
+            { "extensions": { "KHR_lights_punctual": { "light": 0 } } }
+        ]
+    });
+    for (k, v) in rest.as_object().cloned().unwrap_or_default() {
+        doc[k] = v;
+    }
+    doc
+}
+
+/// The rendered film's linear XYZ at the centre of each of `SIDE`² pixels, rows from the top.
+fn render_doc(name: &str, doc: &Value) -> (film::Film, scene::SceneDescription) {
+    let d = dir("textures");
+    let path = write(&d, name, doc);
+    let desc = gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    (render(&desc, 4, (SIDE, SIDE)), desc)
+}
+
+/// How far from a pixel's centre its samples reach: the default Gaussian pixel filter's radius, 1.5 pixels.
+const FILTER_RADIUS: f64 = 1.5;
+
+/// The mean XYZ over the pixels whose filter footprints lie in the quad region [x0, x1] × [y0, y1] (scene units,
+/// y up).
+fn region(film: &film::Film, x0: f64, x1: f64, y0: f64, y1: f64) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    let mut n = 0.0;
+    for py in 0..SIDE {
+        for px in 0..SIDE {
+            let (x, y) = ((f64::from(px) + 0.5) / f64::from(SIDE), 1.0 - (f64::from(py) + 0.5) / f64::from(SIDE));
+            let margin = FILTER_RADIUS / f64::from(SIDE);
+            if x > x0 + margin && x < x1 - margin && y > y0 + margin && y < y1 - margin {
+                let c = film.pixel_xyz(px, py);
+                sum = [sum[0] + c.x, sum[1] + c.y, sum[2] + c.z];
+                n += 1.0;
+            }
+        }
+    }
+    assert!(n > 0.0, "no pixel in the region");
+    sum.map(|v| v / n)
+}
+
+fn close(a: [f64; 3], b: [f64; 3], tolerance: f64) -> bool {
+    a.iter().zip(&b).all(|(x, y)| (x - y).abs() <= tolerance * y.abs().max(1e-3))
+}
+
+/// Four texels, sRGB: top-left, top-right, bottom-left, bottom-right (rows from the top).
+const TEXELS: [[u8; 4]; 4] = [[200, 30, 30, 255], [30, 200, 30, 255], [30, 30, 200, 255], [230, 230, 230, 255]];
+
+fn srgb_to_linear(v: u8) -> f64 {
+    let c = f64::from(v) / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// A material with the 2×2 texture as base colour (nearest filtering, so each quadrant is one texel) and `factor`.
+fn textured(factor: [f64; 4], sampler: Value, transform: Option<Value>) -> (Value, Value) {
+    let png = png_rgba(2, 2, &TEXELS);
+    let mut info = json!({ "index": 0 });
+    if let Some(t) = transform {
+        info["extensions"] = json!({ "KHR_texture_transform": t });
+    }
+    let material = json!({
+        "pbrMetallicRoughness": { "baseColorTexture": info, "baseColorFactor": factor, "metallicFactor": 0.0, "roughnessFactor": 1.0 }
+    });
+    let rest = json!({
+        "textures": [ { "source": 0, "sampler": 0 } ],
+        "samplers": [ sampler ],
+        "images": [ { "uri": data_uri("image/png", &png) } ]
+    });
+    (material, rest)
+}
+
+/// Each quadrant of the textured quad renders as the untextured quad whose base colour factor is the texel's
+/// (linear) colour times the factor: texture × factor, uplifted once, as the specification's shading does.
+#[test]
+fn a_base_colour_texture_times_its_factor_renders_as_that_colour() {
+    let factor = [0.5, 1.0, 0.8, 1.0];
+    let (material, rest) = textured(factor, json!({ "magFilter": 9728, "minFilter": 9728 }), None);
+    let (film, desc) = render_doc("base.gltf", &quad_document(material, rest, [0.0, 0.0, 0.0, 1.0]));
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    let quadrants = [(0.0, 0.5, 0.5, 1.0), (0.5, 1.0, 0.5, 1.0), (0.0, 0.5, 0.0, 0.5), (0.5, 1.0, 0.0, 0.5)];
+    for (texel, (x0, x1, y0, y1)) in TEXELS.iter().zip(quadrants) {
+        let colour: Vec<f64> = (0..3).map(|c| srgb_to_linear(texel[c]) * factor[c]).collect();
+        let plain = json!({ "pbrMetallicRoughness": { "baseColorFactor": [colour[0], colour[1], colour[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 } });
+        let (reference, _) = render_doc("plain.gltf", &quad_document(plain, json!({}), [0.0, 0.0, 0.0, 1.0]));
+        // The same pixels: the same samples and wavelengths, so only the material can differ.
+        let (got, want) = (region(&film, x0, x1, y0, y1), region(&reference, x0, x1, y0, y1));
+        assert!(want[1] > 0.01, "the reference is lit: {want:?}");
+        assert!(close(got, want, 1e-4), "texel {texel:?}: textured {got:?}, factor {want:?}");
+    }
+}
+
+/// The texel KHR_texture_transform and the sampler's wrap modes pick for quad point (x, y): glTF's uv there is
+/// (x, 1 − y); the transform is T·R·S with R = [[cos, sin], [−sin, cos]]; s repeats mirrored, t clamps.
+fn expected_texel(x: f64, y: f64, offset: [f64; 2], rotation: f64, scale: [f64; 2]) -> usize {
+    let (u, v) = (x, 1.0 - y);
+    let (sin, cos) = rotation.sin_cos();
+    let (us, vs) = (scale[0] * u, scale[1] * v);
+    let (ut, vt) = (cos * us + sin * vs + offset[0], -sin * us + cos * vs + offset[1]);
+    // Texel columns and rows of the 2×2 image: mirrored repeat along s, clamp along t.
+    let column = {
+        let i = (ut * 2.0).floor() as i64;
+        let m = i.rem_euclid(4);
+        if m >= 2 {
+            3 - m
+        } else {
+            m
+        }
+    };
+    let row = ((vt * 2.0).floor() as i64).clamp(0, 1);
+    (row * 2 + column) as usize
+}
+
+/// A rotated, scaled and offset texture with mirrored repeat along s and clamping along t shows, at points across
+/// the quad, the texel the extension's matrix and the wrap modes pick.
+#[test]
+fn texture_transforms_and_wrap_modes_land_where_the_specification_says() {
+    let (offset, rotation, scale) = ([0.3, -0.2], 0.6, [1.7, 1.3]);
+    let sampler = json!({ "magFilter": 9728, "minFilter": 9728, "wrapS": 33648, "wrapT": 33071 });
+    let transform = json!({ "offset": offset, "rotation": rotation, "scale": scale });
+    let (material, rest) = textured([1.0; 4], sampler, Some(transform));
+    let (film, _) = render_doc("transform.gltf", &quad_document(material, rest, [0.0, 0.0, 0.0, 1.0]));
+    // Each texel's colour, seen as the renderer shows it: the dominant linear channel of X, Y, Z is not enough to
+    // tell four colours apart, so the pixel is matched to the nearest of four untransformed renders.
+    let (plain_material, plain_rest) = textured([1.0; 4], json!({ "magFilter": 9728, "minFilter": 9728 }), None);
+    let (plain, _) = render_doc("untransformed.gltf", &quad_document(plain_material, plain_rest, [0.0, 0.0, 0.0, 1.0]));
+    let looks: Vec<[f64; 3]> = [(0.0, 0.5, 0.5, 1.0), (0.5, 1.0, 0.5, 1.0), (0.0, 0.5, 0.0, 0.5), (0.5, 1.0, 0.0, 0.5)]
+        .iter()
+        .map(|&(x0, x1, y0, y1)| region(&plain, x0, x1, y0, y1))
+        .collect();
+    let (mut checked, mut wrong) = (0, vec![]);
+    for py in 0..SIDE {
+        for px in 0..SIDE {
+            let (x, y) = ((f64::from(px) + 0.5) / f64::from(SIDE), 1.0 - (f64::from(py) + 0.5) / f64::from(SIDE));
+            // Only pixels whose whole filter footprint lies on the quad and maps into one texel (texels are
+            // parallelograms in (u, v), so the footprint's corners tell).
+            let h = FILTER_RADIUS / f64::from(SIDE);
+            if x - h < 0.0 || x + h > 1.0 || y - h < 0.0 || y + h > 1.0 {
+                continue;
+            }
+            let corners = [(x - h, y - h), (x + h, y - h), (x - h, y + h), (x + h, y + h)];
+            let want = expected_texel(x, y, offset, rotation, scale);
+            if corners.iter().any(|&(cx, cy)| expected_texel(cx, cy, offset, rotation, scale) != want) {
+                continue;
+            }
+            let c = film.pixel_xyz(px, py);
+            let got = looks
+                .iter()
+                .enumerate()
+                .min_by(|a, b| {
+                    let d = |l: &[f64; 3]| (l[0] - c.x).powi(2) + (l[1] - c.y).powi(2) + (l[2] - c.z).powi(2);
+                    d(a.1).total_cmp(&d(b.1))
+                })
+                .map(|(i, _)| i)
+                .unwrap();
+            checked += 1;
+            if got != want {
+                wrong.push((px, py, got, want));
+            }
+        }
+    }
+    assert!(checked > SIDE * SIDE / 4, "many pixels lie inside one texel: {checked}");
+    assert!(wrong.is_empty(), "pixels showing another texel than the transform picks (x, y, got, want): {wrong:?}");
+}
+
+/// MASK with the base colour texture's alpha: texels under the cutoff are holes (the quad is black there: nothing
+/// behind it is lit), texels at or above it are kept; BLEND lets the alpha's fraction of rays hit.
+#[test]
+fn alpha_from_the_base_colour_texture_cuts_out_and_blends() {
+    // Left column alpha 0.2, right column 0.9 (alpha is linear: 51/255 and 230/255).
+    let texels = [[200, 200, 200, 51], [200, 200, 200, 230], [200, 200, 200, 51], [200, 200, 200, 230]];
+    let render_mode = |mode: &str| {
+        let png = png_rgba(2, 2, &texels);
+        let material = json!({
+            "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 }, "metallicFactor": 0.0 },
+            "alphaMode": mode, "alphaCutoff": 0.5
+        });
+        let rest = json!({
+            "textures": [ { "source": 0, "sampler": 0 } ],
+            "samplers": [ { "magFilter": 9728, "minFilter": 9728 } ],
+            "images": [ { "uri": data_uri("image/png", &png) } ]
+        });
+        let (film, _) = render_doc(&format!("alpha-{mode}.gltf"), &quad_document(material, rest, [0.0, 0.0, 0.0, 1.0]));
+        (region(&film, 0.0, 0.5, 0.0, 1.0)[1], region(&film, 0.5, 1.0, 0.0, 1.0)[1])
+    };
+    // Each half against the same half rendered opaque: the same pixels, samples and wavelengths.
+    let (opaque_left, opaque_right) = render_mode("OPAQUE");
+    assert!(opaque_left > 0.05 && opaque_right > 0.05, "lit: {opaque_left} {opaque_right}");
+    let (left, right) = render_mode("MASK");
+    assert!(left == 0.0, "alpha 0.2 is under the cutoff: a hole ({left})");
+    assert!(
+        (right - opaque_right).abs() < 1e-6 * opaque_right,
+        "alpha 0.9 is kept whole: {right} against {opaque_right}"
+    );
+    let (left, right) = render_mode("BLEND");
+    // Stochastic: 4 spp over about 200 pixels per half; the fractions 0.2 and 0.9 within 0.05.
+    assert!((left / opaque_left - 51.0 / 255.0).abs() < 0.05, "BLEND at 0.2: {}", left / opaque_left);
+    assert!((right / opaque_right - 230.0 / 255.0).abs() < 0.05, "BLEND at 0.9: {}", right / opaque_right);
+}
+
+/// The metallic-roughness texture's blue channel is metalness and its green roughness (linear), times the factors:
+/// each half renders as the untextured material with those values.
+#[test]
+fn metalness_is_blue_and_roughness_green_in_the_metallic_roughness_texture() {
+    // Left: metal (blue 255) with roughness 0.6 (green 153); right: dielectric (blue 0), roughness 0.2 (green 51).
+    let texels = [[0, 153, 255, 255], [0, 51, 0, 255], [0, 153, 255, 255], [0, 51, 0, 255]];
+    let png = png_rgba(2, 2, &texels);
+    let base = [0.9, 0.6, 0.3, 1.0];
+    let material = json!({ "pbrMetallicRoughness": {
+        "baseColorFactor": base, "metallicFactor": 1.0, "roughnessFactor": 0.5,
+        "metallicRoughnessTexture": { "index": 0 } } });
+    let rest = json!({
+        "textures": [ { "source": 0, "sampler": 0 } ],
+        "samplers": [ { "magFilter": 9728, "minFilter": 9728 } ],
+        "images": [ { "uri": data_uri("image/png", &png) } ]
+    });
+    // Seen slightly off the sun's direction, so that roughness changes what the camera sees.
+    let tilt = [0.0, 0.087_155_74, 0.0, 0.996_194_7];
+    let (film, _) = render_doc("mr.gltf", &quad_document(material, rest, tilt));
+    for ((x0, x1), metallic, roughness) in
+        [((0.1, 0.45), 1.0, 0.5 * 153.0 / 255.0), ((0.55, 0.9), 0.0, 0.5 * 51.0 / 255.0)]
+    {
+        let plain = json!({ "pbrMetallicRoughness": { "baseColorFactor": base, "metallicFactor": metallic, "roughnessFactor": roughness } });
+        let (reference, _) = render_doc("mr-plain.gltf", &quad_document(plain, json!({}), tilt));
+        let (got, want) = (region(&film, x0, x1, 0.1, 0.9), region(&reference, x0, x1, 0.1, 0.9));
+        assert!(want[1] > 1e-3, "lit: {want:?}");
+        assert!(
+            close(got, want, 1e-3),
+            "metallic {metallic}, roughness {roughness}: textured {got:?}, factors {want:?}"
+        );
+    }
+}
+
+/// A normal map whose texel encodes the tangent-space normal (0.6, 0, 0.8) — tilted towards +u — or (0, 0.6, 0.8)
+/// — towards +v, up the image — shades the flat quad as the quad turned to that normal: the view is orthographic
+/// and the sun distant, so only the normal's direction matters (the sun comes from one side, so the direction of
+/// the tilt shows, not only its angle).
+#[test]
+fn a_normal_map_shades_as_geometry_turned_to_its_normal() {
+    let encode = |n: [f64; 3]| n.map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
+    // The quaternions turning +z to (0.6, 0, 0.8) (about +y) and to (0, 0.6, 0.8) (about −x), by asin 0.6 / 2.
+    let half = 0.6f64.asin() / 2.0;
+    let cases =
+        [([0.6, 0.0, 0.8], [0.0, half.sin(), 0.0, half.cos()]), ([0.0, 0.6, 0.8], [-half.sin(), 0.0, 0.0, half.cos()])];
+    let material = |map: Option<[f64; 3]>| {
+        let mut m = json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.4 } });
+        let mut rest = json!({});
+        if let Some(n) = map {
+            let [r, g, b] = encode(n);
+            m["normalTexture"] = json!({ "index": 0 });
+            let png = png_rgba(1, 1, &[[r, g, b, 255]]);
+            rest = json!({ "textures": [ { "source": 0 } ], "images": [ { "uri": data_uri("image/png", &png) } ] });
+        }
+        (m, rest)
+    };
+    // The sun turned 30° about (1, 1, 0), so that it comes from one side: a normal tilted towards +u or +v is lit
+    // differently from one tilted the other way.
+    let render_lit = |map: Option<[f64; 3]>, rotation: [f64; 4]| {
+        let (m, rest) = material(map);
+        let mut doc = quad_document(m, rest, rotation);
+        let (s, c) = (15f64.to_radians().sin(), 15f64.to_radians().cos());
+        doc["nodes"][2]["rotation"] = json!([s / 2f64.sqrt(), s / 2f64.sqrt(), 0.0, c]);
+        region(&render_doc("normal.gltf", &doc).0, 0.3, 0.7, 0.3, 0.7)
+    };
+    for (normal, rotation) in cases {
+        let got = render_lit(Some(normal), [0.0, 0.0, 0.0, 1.0]);
+        let want = render_lit(None, rotation);
+        // The tilt the other way round shades differently: the comparison sees the tilt's direction.
+        let opposite = render_lit(Some([-normal[0], -normal[1], normal[2]]), [0.0, 0.0, 0.0, 1.0]);
+        assert!((opposite[1] - want[1]).abs() > 0.05 * want[1], "{normal:?}: {opposite:?} against {want:?}");
+        // The encoded normal is quantised to 8 bits: within 1%.
+        assert!(close(got, want, 0.01), "normal {normal:?}: mapped {got:?}, turned geometry {want:?}");
+    }
+}
+
+/// Images in a GLB's binary chunk (as Blender writes them) are read as data URIs are, and a texture that is not an
+/// image is an error naming the image.
+#[test]
+fn images_in_a_glb_buffer_view_and_bad_images() {
+    let png = png_rgba(2, 2, &TEXELS);
+    let (material, rest) = textured([1.0; 4], json!({ "magFilter": 9728, "minFilter": 9728 }), None);
+    let doc = quad_document(material, rest, [0.0, 0.0, 0.0, 1.0]);
+    let (by_uri, _) = render_doc("uri.gltf", &doc);
+    // The same document as a GLB: the quad's buffer stays a data URI; the image moves into the binary chunk.
+    let mut glb_doc = doc.clone();
+    let mut bin = png.clone();
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    // The binary chunk is the first buffer (the one without a URI); the quad's buffer becomes the second.
+    glb_doc["buffers"] = json!([{ "byteLength": bin.len() }, glb_doc["buffers"][0].clone()]);
+    for view in glb_doc["bufferViews"].as_array_mut().unwrap() {
+        view["buffer"] = json!(1);
+    }
+    glb_doc["bufferViews"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({ "buffer": 0, "byteOffset": 0, "byteLength": png.len() }));
+    glb_doc["images"] = json!([ { "bufferView": 3, "mimeType": "image/png" } ]);
+    let mut text = serde_json::to_vec(&glb_doc).unwrap();
+    while !text.len().is_multiple_of(4) {
+        text.push(b' ');
+    }
+    let mut glb = vec![];
+    glb.extend(b"glTF");
+    glb.extend(2u32.to_le_bytes());
+    glb.extend(((12 + 8 + text.len() + 8 + bin.len()) as u32).to_le_bytes());
+    glb.extend((text.len() as u32).to_le_bytes());
+    glb.extend(b"JSON");
+    glb.extend(&text);
+    glb.extend((bin.len() as u32).to_le_bytes());
+    glb.extend(b"BIN\0");
+    glb.extend(&bin);
+    let d = dir("textures");
+    let path = d.join("binary.glb");
+    std::fs::write(&path, &glb).unwrap();
+    let desc = gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let by_view = render(&desc, 4, (SIDE, SIDE));
+    for (a, b) in [(4, 4), (28, 4), (4, 28), (28, 28)].map(|(x, y)| (by_uri.pixel_xyz(x, y), by_view.pixel_xyz(x, y))) {
+        assert!((a.y - b.y).abs() < 1e-9 && (a.x - b.x).abs() < 1e-9, "{a:?} {b:?}");
+    }
+    // Not an image: the error names the glTF image.
+    let mut bad = doc.clone();
+    bad["images"] = json!([ { "uri": data_uri("image/png", b"GIF89a not really") } ]);
+    let path = write(&d, "bad-image.gltf", &bad);
+    let desc = gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap();
+    let e = render::build_scene(&desc, &render::BuildOptions::default())
+        .err()
+        .expect("a bad image is an error")
+        .to_string();
+    assert!(e.contains("images[0]") && e.contains("not a PNG or JPEG"), "{e}");
+}
+
+/// KHR_texture_transform's matrix in the reader's (u, v) (v = 1 − glTF's v, t from the image's bottom) against
+/// the extension's T·R·S worked through the same flips here.
+#[test]
+fn the_uv_transform_is_the_extensions_matrix_in_flipped_coordinates() {
+    let (offset, rotation, scale) = ([0.25, -0.5], 1.1, [2.0, 0.5]);
+    let m = gltf_import::uv_transform(offset, rotation, scale);
+    for (u, v) in [(0.0, 0.0), (1.0, 0.0), (0.3, 0.7), (-2.0, 5.0)] {
+        let (vg, (sin, cos)) = (1.0 - v, rotation.sin_cos());
+        let ut = cos * scale[0] * u + sin * scale[1] * vg + offset[0];
+        let vt = -sin * scale[0] * u + cos * scale[1] * vg + offset[1];
+        let (s, t) = (m[0] * u + m[1] * v + m[2], m[3] * u + m[4] * v + m[5]);
+        assert!(
+            (s - ut).abs() < 1e-12 && (t - (1.0 - vt)).abs() < 1e-12,
+            "({u}, {v}): ({s}, {t}) against ({ut}, {})",
+            1.0 - vt
+        );
+    }
+}
+
+/// Linear sRGB of an XYZ value (IEC 61966-2-1).
+fn srgb_of([x, y, z]: [f64; 3]) -> [f64; 3] {
+    [
+        3.240_97 * x - 1.537_383 * y - 0.498_611 * z,
+        -0.969_244 * x + 1.875_968 * y + 0.041_555 * z,
+        0.055_63 * x - 0.203_977 * y + 1.056_972 * z,
+    ]
+}
+
+/// What Blender's own exporter writes for a textured plane (scenes/tools/gltf_scenes.py): an RGBA image in the
+/// GLB, a Mapping node's scale as KHR_texture_transform and a clipped alpha as MASK. Each pixel shows the texel
+/// Blender's shading picks there: its UVs run from (0, 0) at the plane's (−1, −1) corner to (1, 1), scaled by 2;
+/// the image's rows count from the bottom; the transparent texels are holes.
+#[test]
+fn a_blender_textured_plane_shows_its_texels_where_blender_puts_them() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/textured-plane.glb");
+    let desc = gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    assert_eq!(desc.images.len(), 1, "one image, in the GLB");
+    let n = 64;
+    let film = render(&desc, 16, (n, n));
+    // 0 red, 1 green, 2 blue, 3 white at Blender UV (u, v) after the Mapping node.
+    let texel = |x: f64, y: f64| {
+        let (u, v) = (2.0 * (x + 1.0) / 2.0, 2.0 * (y + 1.0) / 2.0);
+        let (column, row_from_bottom) =
+            (((u * 2.0).floor() as i64).rem_euclid(2), ((v * 2.0).floor() as i64).rem_euclid(2));
+        match (row_from_bottom, column) {
+            (1, 0) => 0,
+            (1, _) => 1,
+            (_, 0) => 2,
+            _ => 3,
+        }
+    };
+    // The plane shows 4 × 4 copies of texels; each copy's pixels (those whose filter footprint lies inside it) are
+    // averaged, which leaves little of the per-pixel colour noise of sampling four wavelengths at a time.
+    let mut copies: std::collections::HashMap<(i64, i64), (usize, [f64; 3], u32)> = Default::default();
+    for py in 0..n {
+        for px in 0..n {
+            let at = |dx: f64, dy: f64| {
+                let x = -1.0 + 2.0 * (f64::from(px) + 0.5 + dx) / f64::from(n);
+                let y = 1.0 - 2.0 * (f64::from(py) + 0.5 + dy) / f64::from(n);
+                (texel(x, y), (((x + 1.0) * 2.0).floor() as i64, ((y + 1.0) * 2.0).floor() as i64))
+            };
+            let (want, copy) = at(0.0, 0.0);
+            let r = FILTER_RADIUS;
+            let inside = |d: f64, p: u32| f64::from(p) + 0.5 + d >= 0.0 && f64::from(p) + 0.5 + d <= f64::from(n);
+            if !(inside(-r, px) && inside(r, px) && inside(-r, py) && inside(r, py))
+                || [(-r, -r), (r, -r), (-r, r), (r, r)].iter().any(|&(dx, dy)| at(dx, dy).1 != copy)
+            {
+                continue;
+            }
+            let c = film.pixel_xyz(px, py);
+            let entry = copies.entry(copy).or_insert((want, [0.0; 3], 0));
+            entry.1 = [entry.1[0] + c.x, entry.1[1] + c.y, entry.1[2] + c.z];
+            entry.2 += 1;
+        }
+    }
+    assert_eq!(copies.len(), 16, "every copy of a texel is seen");
+    for (copy, (want, sum, count)) in copies {
+        assert!(count >= 60, "copy {copy:?}: {count} pixels");
+        let [r, g, b] = srgb_of(sum.map(|v| v / f64::from(count)));
+        let ok = match want {
+            // The red texel is sRGB (204, 13, 13): more saturated than a smooth reflectance spectrum can be, so its
+            // uplift reflects some green and blue too (as in pbrt-v4); still plainly red.
+            0 => r > 2.5 * g.abs().max(b.abs()) && r > 0.02,
+            3 => r > 0.05 && (r - g).abs() < 0.03 * r && (r - b).abs() < 0.03 * r,
+            _ => sum[1] == 0.0,
+        };
+        assert!(ok, "copy {copy:?} should show texel {want}: linear sRGB {:?}", [r, g, b]);
+    }
+}
