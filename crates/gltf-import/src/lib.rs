@@ -677,6 +677,13 @@ fn add_material(t: &mut TextureMaker<'_>, name: &str, m: &gltf::Material<'_>) ->
     for p in normal_map {
         glass.push(p);
     }
+    // The specification's transmission BTDF is multiplied by the base colour (KHR_materials_transmission,
+    // "specular_btdf(α) * baseColor"): light is tinted at each crossing of the surface.
+    if pbr.base_color_texture().is_some() {
+        glass.push(texture_param("transmissiontint", &format!("{name}/basecolor"), &loc));
+    } else if [r, g, b] != [1.0; 3] {
+        glass.push(rgb("transmissiontint", [r, g, b], &loc));
+    }
     let mut medium = None;
     if let Some(v) = m.volume() {
         let distance = f64::from(v.attenuation_distance());

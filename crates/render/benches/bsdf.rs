@@ -36,8 +36,11 @@ fn bxdfs() -> Vec<(&'static str, Bxdf)> {
                 ))),
             },
         ),
-        ("smooth dielectric", Bxdf::Dielectric { eta: 1.5, distrib: TrowbridgeReitz::new(0.0, 0.0), coating: None }),
-        ("rough dielectric", Bxdf::Dielectric { eta: 1.5, distrib: rough, coating: None }),
+        (
+            "smooth dielectric",
+            Bxdf::Dielectric { eta: 1.5, distrib: TrowbridgeReitz::new(0.0, 0.0), coating: None, tint: None },
+        ),
+        ("rough dielectric", Bxdf::Dielectric { eta: 1.5, distrib: rough, coating: None, tint: None }),
         (
             "coated diffuse",
             Bxdf::Layered(Box::new(Layered::coated_diffuse(SampledSpectrum::splat(0.5), 1.5, rough, 0.01, 10, 1))),

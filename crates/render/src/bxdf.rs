@@ -148,6 +148,9 @@ pub enum Bxdf {
         distrib: TrowbridgeReitz,
         /// Thin films on the outside, whose R and T replace the bare Fresnel terms (`None`: bare).
         coating: Option<Box<CoatingAt>>,
+        /// What transmitted light is multiplied by at each crossing (glTF's base colour on a transmissive
+        /// material; `None`: untinted).
+        tint: Option<SampledSpectrum>,
     },
     /// A smooth dielectric whose index differs per carried wavelength. Reflection keeps every wavelength (its
     /// direction does not depend on λ); refraction follows one slot chosen uniformly, which the path then keeps.
@@ -158,6 +161,8 @@ pub enum Bxdf {
         active: [bool; N_WAVELENGTHS],
         /// Thin films on the outside (`None`: bare).
         coating: Option<Box<CoatingAt>>,
+        /// What transmitted light is multiplied by (`None`: untinted).
+        tint: Option<SampledSpectrum>,
     },
     /// A diffuse or conductor base under a dielectric coating with a medium between them, evaluated by a
     /// stochastic random walk between the layers (`coateddiffuse`, `coatedconductor`).
@@ -248,11 +253,15 @@ impl Bxdf {
                 let fr = conductor_reflectance(wo.dot(wm).abs(), eta, k, coating.as_deref());
                 fr * (distrib.d(wm) * distrib.g(wo, wi) / (4.0 * cos_i * cos_o))
             }
-            Bxdf::Dielectric { eta, distrib, coating } => {
+            Bxdf::Dielectric { eta, distrib, coating, tint } => {
                 if *eta == 1.0 || distrib.effectively_smooth() {
                     return SampledSpectrum::zero();
                 }
-                rough_dielectric_f(*eta, distrib, coating.as_deref(), wo, wi, mode)
+                let f = rough_dielectric_f(*eta, distrib, coating.as_deref(), wo, wi, mode);
+                match tint {
+                    Some(t) if !same_hemisphere(wo, wi) => f * *t,
+                    Some(_) | None => f,
+                }
             }
             Bxdf::ThinDielectric { .. } | Bxdf::ThinFilm { .. } | Bxdf::DispersiveDielectric { .. } => {
                 SampledSpectrum::zero()
@@ -332,7 +341,7 @@ impl Bxdf {
                 let wm = if wm.z < 0.0 { -wm } else { wm };
                 distrib.pdf(wo, wm) / (4.0 * wo.dot(wm).abs())
             }
-            Bxdf::Dielectric { eta, distrib, coating } => {
+            Bxdf::Dielectric { eta, distrib, coating, .. } => {
                 if *eta == 1.0 || distrib.effectively_smooth() {
                     return 0.0;
                 }
@@ -407,12 +416,12 @@ impl Bxdf {
                 let f = fr * (distrib.d(wm) * distrib.g(wo, wi) / (4.0 * cos_i * cos_o));
                 Some(BsdfSample::reflection(f, wi, pdf, false))
             }
-            Bxdf::Dielectric { eta, distrib, coating } => {
-                sample_dielectric(*eta, distrib, coating.as_deref(), wo, uc, u, mode, lobes)
+            Bxdf::Dielectric { eta, distrib, coating, tint } => {
+                sample_dielectric(*eta, distrib, coating.as_deref(), wo, uc, u, mode, lobes).map(|s| tinted(s, tint))
             }
             Bxdf::Layered(c) => c.sample_f(wo, uc, u, mode),
-            Bxdf::DispersiveDielectric { eta, active, coating } => {
-                sample_dispersive(eta, active, coating.as_deref(), wo, uc, mode, lobes)
+            Bxdf::DispersiveDielectric { eta, active, coating, tint } => {
+                sample_dispersive(eta, active, coating.as_deref(), wo, uc, mode, lobes).map(|s| tinted(s, tint))
             }
             Bxdf::ThinFilm { film } => {
                 let (r, t) = match film {
@@ -632,7 +641,7 @@ impl Bxdf {
     /// as for [`Bxdf::sample_f`], whose refraction keeps one slot chosen uniformly at k times the weight). `None`
     /// for other BxDFs and when at most one slot is active.
     pub fn sample_dispersive_split(&self, wo: Vec3, uc: f32, mode: TransportMode) -> Option<DispersiveSplit> {
-        let Bxdf::DispersiveDielectric { eta, active, coating } = self else { return None };
+        let Bxdf::DispersiveDielectric { eta, active, coating, tint } = self else { return None };
         let k = active.iter().filter(|&&a| a).count();
         if k < 2 || wo.z == 0.0 {
             return None;
@@ -654,12 +663,21 @@ impl Bxdf {
         }
         Some(DispersiveSplit::Refraction(std::array::from_fn(|i| {
             if active[i] && t[i] > 0.0 {
-                smooth_transmission(wo, eta[i], SampledSpectrum::splat(t[i]), p_refract, mode, Some(i))
+                let t = SampledSpectrum::splat(t[i]) * tint.unwrap_or(SampledSpectrum::splat(1.0));
+                smooth_transmission(wo, eta[i], t, p_refract, mode, Some(i))
             } else {
                 None
             }
         })))
     }
+}
+
+/// A dielectric's sample with its transmission multiplied by `tint`.
+fn tinted(mut s: BsdfSample, tint: &Option<SampledSpectrum>) -> BsdfSample {
+    if let (true, Some(t)) = (s.transmission, tint) {
+        s.f *= *t;
+    }
+    s
 }
 
 /// Refraction through a smooth interface of relative index `eta` with transmittance `t` per slot, chosen with
@@ -1092,7 +1110,7 @@ mod tests {
     #[test]
     fn smooth_dielectric_conserves_energy_from_both_sides() {
         // Importance mode: R + T = 1 exactly for a non-absorbing interface (white furnace of a single event).
-        let b = Bxdf::Dielectric { eta: 1.5, distrib: TrowbridgeReitz::new(0.0, 0.0), coating: None };
+        let b = Bxdf::Dielectric { eta: 1.5, distrib: TrowbridgeReitz::new(0.0, 0.0), coating: None, tint: None };
         for wo in
             [Vec3::new(0.5, 0.0, 0.866), Vec3::new(0.1, 0.3, -0.95).normalize(), Vec3::new(0.9, 0.0, -0.3).normalize()]
         {
@@ -1104,7 +1122,8 @@ mod tests {
     #[test]
     fn rough_dielectric_is_consistent_and_nearly_conserves_energy() {
         for alpha in [0.1, 0.3] {
-            let b = Bxdf::Dielectric { eta: 1.5, distrib: TrowbridgeReitz::new(alpha, alpha), coating: None };
+            let b =
+                Bxdf::Dielectric { eta: 1.5, distrib: TrowbridgeReitz::new(alpha, alpha), coating: None, tint: None };
             for wo in [Vec3::new(0.3, 0.1, 0.95).normalize(), Vec3::new(0.2, -0.3, -0.93).normalize()] {
                 consistent(&b, wo);
                 // Single-scattering microfacet models lose the energy of multiple bounces between microfacets
@@ -1115,6 +1134,40 @@ mod tests {
                 assert!(a <= 1.005 && a > floor, "α {alpha}, {wo}: {a}");
             }
         }
+    }
+
+    /// A tinted rough dielectric transmits the untinted one's f times the tint and reflects as it does, whether
+    /// evaluated or sampled, and with the same densities; the sampler stays consistent with its evaluation.
+    #[test]
+    fn a_tint_multiplies_transmission_only() {
+        let tint = SampledSpectrum([0.9, 0.5, 0.25, 0.1]);
+        let distrib = TrowbridgeReitz::new(0.3, 0.3);
+        let bare = Bxdf::Dielectric { eta: 1.5, distrib, coating: None, tint: None };
+        let tinted = Bxdf::Dielectric { eta: 1.5, distrib, coating: None, tint: Some(tint) };
+        let wo = Vec3::new(0.3, 0.1, 0.95).normalize();
+        consistent(&tinted, wo);
+        let (mut reflections, mut transmissions) = (0, 0);
+        for i in 0..64 {
+            let (uc, u) =
+                ((i as f32 + 0.5) / 64.0, Vec2::new(((i * 7) % 64) as f32 / 64.0, ((i * 13) % 64) as f32 / 64.0));
+            let (Some(a), Some(b)) = (
+                bare.sample_f(wo, uc, u, TransportMode::Radiance),
+                tinted.sample_f(wo, uc, u, TransportMode::Radiance),
+            ) else {
+                continue;
+            };
+            assert_eq!((a.wi, a.pdf, a.transmission), (b.wi, b.pdf, b.transmission));
+            let want = if a.transmission { a.f * tint } else { a.f };
+            assert_eq!(b.f.0, want.0);
+            let (fa, fb) = (bare.f(wo, a.wi, TransportMode::Radiance), tinted.f(wo, a.wi, TransportMode::Radiance));
+            assert_eq!(fb.0, if a.transmission { fa * tint } else { fa }.0);
+            if a.transmission {
+                transmissions += 1;
+            } else {
+                reflections += 1;
+            }
+        }
+        assert!(reflections > 0 && transmissions > 0, "{reflections} {transmissions}");
     }
 
     /// A lossless three-layer anti-reflection stack (MgF₂ / high-index / medium-index, quarter waves near 550 nm),
@@ -1131,8 +1184,8 @@ mod tests {
     fn a_rough_coated_dielectric_is_consistent_and_samples_its_pdf() {
         let threshold = |dof: usize| dof as f64 + 6.0 * (2.0 * dof as f64).sqrt();
         let distrib = TrowbridgeReitz::new(0.3, 0.3);
-        let coated = Bxdf::Dielectric { eta: 1.5, distrib, coating: ar_stack() };
-        let bare = Bxdf::Dielectric { eta: 1.5, distrib, coating: None };
+        let coated = Bxdf::Dielectric { eta: 1.5, distrib, coating: ar_stack(), tint: None };
+        let bare = Bxdf::Dielectric { eta: 1.5, distrib, coating: None, tint: None };
         for wo in [Vec3::new(0.3, 0.1, 0.95).normalize(), Vec3::new(0.5, -0.3, -0.6).normalize()] {
             consistent(&coated, wo);
             let (chi2, dof) = chi_square(&coated, &coated, wo, 400_000);
@@ -1172,7 +1225,7 @@ mod tests {
         // Per slot, E[f·|cos|/pdf] over reflection and kept refractions (weighted by k for the kept slot, as the
         // integrator's density division does) must be 1: R(λ) + T(λ) = 1 for every wavelength.
         let eta = SampledSpectrum([1.80, 1.78, 1.77, 1.76]);
-        let b = Bxdf::DispersiveDielectric { eta, active: [true; 4], coating: None };
+        let b = Bxdf::DispersiveDielectric { eta, active: [true; 4], coating: None, tint: None };
         let mut rng = Pcg32::seed_from_u64(5);
         for wo in [Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.3, 0.2, -0.93).normalize()] {
             let n = 200_000;

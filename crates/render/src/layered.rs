@@ -148,7 +148,7 @@ impl Layered {
         n_samples: u32,
     ) -> Self {
         Self::with_base(
-            Bxdf::Dielectric { eta, distrib, coating: None },
+            Bxdf::Dielectric { eta, distrib, coating: None, tint: None },
             Bxdf::Diffuse { r: reflectance },
             thickness,
             max_depth,
@@ -171,7 +171,7 @@ impl Layered {
         n_samples: u32,
     ) -> Self {
         Self::with_base(
-            Bxdf::Dielectric { eta, distrib: coat, coating: None },
+            Bxdf::Dielectric { eta, distrib: coat, coating: None, tint: None },
             Bxdf::Conductor { eta: conductor_eta, k: conductor_k, distrib: base, coating: None },
             thickness,
             max_depth,

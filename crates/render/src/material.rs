@@ -157,6 +157,9 @@ pub enum Material {
         roughness: Roughness,
         /// Thin films on the outside (Prismatic's `film*` parameters; no layers: bare).
         coating: Coating,
+        /// What transmitted light is multiplied by at each crossing (Prismatic's `transmissiontint`, glTF's base
+        /// colour on a transmissive material; `None`: untinted).
+        tint: Option<SpectrumTexture>,
     },
     /// A thin sheet of glass (no refraction offset).
     ThinDielectric {
@@ -225,7 +228,7 @@ impl Material {
     pub(crate) fn smooth_dielectric_ior(&self, ctx: &TextureEvalContext) -> Option<&DielectricIor> {
         match self {
             // A coated interface's transmittance is the film's, which a specular chain does not carry.
-            Material::Dielectric { ior, roughness, coating }
+            Material::Dielectric { ior, roughness, coating, .. }
                 if coating.layers.is_empty() && roughness.distribution(ctx).effectively_smooth() =>
             {
                 Some(ior)
@@ -275,8 +278,9 @@ impl Material {
                 let (eta, k) = spec.eta_k(ctx, wl);
                 Some(Bxdf::Conductor { eta, k, distrib: distribution(roughness), coating: coating.at(ctx, wl) })
             }
-            Material::Dielectric { ior, roughness, coating } => {
+            Material::Dielectric { ior, roughness, coating, tint } => {
                 let distrib = distribution(roughness);
+                let tint = tint.as_ref().map(|t| clamp01(t.eval(ctx, wl)));
                 if ior.is_dispersive() && distrib.effectively_smooth() && !wl.is_single() {
                     // Keep all wavelengths until the sampled event is a refraction (see DispersiveDielectric).
                     let mut eta = SampledSpectrum::zero();
@@ -285,10 +289,10 @@ impl Material {
                         active[i] = wl.is_active(i);
                         eta[i] = ior.n(wl.lambda(i));
                     }
-                    return Some(Bxdf::DispersiveDielectric { eta, active, coating: coating.at(ctx, wl) });
+                    return Some(Bxdf::DispersiveDielectric { eta, active, coating: coating.at(ctx, wl), tint });
                 }
                 let eta = single_eta(ior, wl, u);
-                Some(Bxdf::Dielectric { eta, distrib, coating: coating.at(ctx, wl) })
+                Some(Bxdf::Dielectric { eta, distrib, coating: coating.at(ctx, wl), tint })
             }
             Material::ThinDielectric { ior } => {
                 let mut eta = SampledSpectrum::zero();
@@ -381,6 +385,7 @@ mod tests {
             ior: DielectricIor::Model(sf11.clone()),
             roughness: Roughness::smooth(),
             coating: Coating::default(),
+            tint: None,
         };
         let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
         let ctx = TextureEvalContext::new(Vec3::ZERO, Vec3::Z, Vec2::ZERO);
@@ -393,6 +398,7 @@ mod tests {
             ior: DielectricIor::Model(sf11.clone()),
             roughness: rough,
             coating: Coating::default(),
+            tint: None,
         };
         let Some(Bxdf::Dielectric { eta, .. }) = m.bxdf(&ctx, &mut wl, 0.6, false) else { panic!() };
         assert!(wl.is_single());
@@ -402,6 +408,7 @@ mod tests {
             ior: DielectricIor::Model(optics::Ior::constant(1.5).unwrap()),
             roughness: Roughness::smooth(),
             coating: Coating::default(),
+            tint: None,
         };
         let mut wl = SampledWavelengths::new([450.0, 550.0, 650.0, 750.0], [4.0; 4]);
         m.bxdf(&ctx, &mut wl, 0.6, false);
@@ -429,6 +436,7 @@ mod tests {
             ior: DielectricIor::Model(sf11),
             roughness: Roughness::smooth(),
             coating: Coating::default(),
+            tint: None,
         };
         let mut w = wl();
         let Some(Bxdf::Dielectric { distrib, .. }) = glass.bxdf(&ctx, &mut w, 0.6, true) else { panic!() };

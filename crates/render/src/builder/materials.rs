@@ -369,6 +369,12 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &M
             ior: dielectric_ior(p, &e.loc, 1.5)?,
             roughness: roughness(t, p)?,
             coating: coating(t, p, &e.loc)?,
+            // Prismatic's `transmissiontint` (glTF's base colour on a transmissive material): an albedo.
+            tint: if p.contains("transmissiontint") {
+                Some(t.spectrum_param(p, "transmissiontint", SpectrumKind::Albedo, 1.0)?)
+            } else {
+                None
+            },
         },
         "thindielectric" => Material::ThinDielectric { ior: dielectric_ior(p, &e.loc, 1.5)? },
         "metallicroughness" => {

@@ -75,6 +75,7 @@ pub(super) fn subsurface(e: &Entity, roughness: Roughness) -> Result<(Material, 
         ),
         roughness,
         coating: Default::default(),
+        tint: None,
     };
     let medium = HomogeneousMedium {
         sigma_a: sigma_a.scaled(scale).into(),

@@ -765,7 +765,12 @@ mod tests {
         let glass = DielectricIor::Model(optics::catalogue::lookup("N-SF11").unwrap().ior);
         let materials = vec![
             Material::Diffuse { reflectance: SpectrumTexture::Constant(Spectrum::Constant(0.5)) },
-            Material::Dielectric { ior: glass, roughness: Roughness::smooth(), coating: Default::default() },
+            Material::Dielectric {
+                ior: glass,
+                roughness: Roughness::smooth(),
+                coating: Default::default(),
+                tint: None,
+            },
         ];
         let mut shapes = vec![horizontal(0.0, 20.0, true)];
         let mut info = vec![ShapeInfo { material: 0, area_light_base: None, media: None }];
@@ -939,7 +944,12 @@ mod tests_support {
         let glass = DielectricIor::Model(optics::catalogue::lookup("N-SF11").unwrap().ior);
         let materials = vec![
             Material::Diffuse { reflectance: SpectrumTexture::Constant(Spectrum::Constant(0.5)) },
-            Material::Dielectric { ior: glass, roughness: Roughness::smooth(), coating: Default::default() },
+            Material::Dielectric {
+                ior: glass,
+                roughness: Roughness::smooth(),
+                coating: Default::default(),
+                tint: None,
+            },
         ];
         let s = 20.0;
         let p = vec![Vec3::new(-s, 0.0, s), Vec3::new(s, 0.0, s), Vec3::new(s, 0.0, -s), Vec3::new(-s, 0.0, -s)];

@@ -124,6 +124,7 @@ fn a_smooth_coated_dielectric_reflects_and_transmits_the_stacks_r_and_t_per_wave
         eta,
         distrib: TrowbridgeReitz::new(0.0, 0.0),
         coating: Some(Box::new(CoatingAt::uniform(lambda, layers))),
+        tint: None,
     };
     let b = coated(&layers);
     // From outside at three angles; from inside below and beyond the critical angle (41.1°).

@@ -136,7 +136,12 @@ fn glass_spheres_in_a_furnace_are_invisible() {
         DielectricIor::Model(optics::catalogue::lookup("N-SF11").unwrap().ior),
     ];
     for ior in glasses {
-        let s = scene(Material::Dielectric { ior, roughness: Roughness::smooth(), coating: Default::default() });
+        let s = scene(Material::Dielectric {
+            ior,
+            roughness: Roughness::smooth(),
+            coating: Default::default(),
+            tint: None,
+        });
         for strategy in WavelengthStrategy::ALL {
             let (y, se) = mean_y(&s, strategy, 256, 64);
             assert!((y - 1.0).abs() < 4.0 * se + 0.01, "{strategy}: Y = {y} ± {se}");
@@ -162,7 +167,8 @@ fn coated_glass_spheres_in_a_furnace_are_invisible() {
         DielectricIor::Model(optics::catalogue::lookup("N-SF11").unwrap().ior),
     ];
     for ior in glasses {
-        let s = scene(Material::Dielectric { ior, roughness: Roughness::smooth(), coating: coating.clone() });
+        let s =
+            scene(Material::Dielectric { ior, roughness: Roughness::smooth(), coating: coating.clone(), tint: None });
         for strategy in WavelengthStrategy::ALL {
             let (y, se) = mean_y(&s, strategy, 256, 64);
             assert!((y - 1.0).abs() < 4.0 * se + 0.01, "{strategy}: Y = {y} ± {se}");

@@ -147,7 +147,12 @@ fn room(extras: Extras) -> RenderScene {
     }
     if extras.glass {
         let ior = DielectricIor::Model(optics::catalogue::lookup("N-SF11").unwrap().ior);
-        materials.push(Material::Dielectric { ior, roughness: Roughness::smooth(), coating: Default::default() });
+        materials.push(Material::Dielectric {
+            ior,
+            roughness: Roughness::smooth(),
+            coating: Default::default(),
+            tint: None,
+        });
         add(sphere([0.6, 0.7, 0.0], 0.7), materials.len() as u32 - 1, None, &mut lights);
     }
     if extras.delta_lights {
