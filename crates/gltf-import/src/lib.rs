@@ -150,11 +150,6 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
     let gltf = parse(&bytes).map_err(|(json, message)| err(&json, message))?;
     let file: Arc<Path> = Arc::from(path);
     let loc = Loc::new(file.clone(), 0, 0);
-    for ext in gltf.extensions_required() {
-        if !SUPPORTED_EXTENSIONS.contains(&ext) {
-            return Err(err("extensionsRequired", format!("extension '{ext}' is required but not supported")));
-        }
-    }
     for ext in gltf.extensions_used() {
         if !SUPPORTED_EXTENSIONS.contains(&ext) {
             desc.warnings.push(Diagnostic::new(loc.clone(), format!("extension '{ext}' is used but ignored")));
@@ -304,6 +299,13 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, (String, String)> {
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| (String::new(), gltf_message(&e)))?;
     let json = document.into_json();
+    // Required extensions first: a file that needs one this reader lacks (compressed meshes or textures, say) is
+    // that error, not whatever the crate's validation finds missing without it (a KTX2 texture has no `source`).
+    for ext in &json.extensions_required {
+        if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
+            return Err(("extensionsRequired".into(), format!("extension '{ext}' is required but not supported")));
+        }
+    }
     for (m, mesh) in json.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
             for (semantic, index) in &prim.attributes {

@@ -240,6 +240,18 @@ fn bad_files_are_errors_that_name_the_json_path() {
         e.to_string().contains("extensionsRequired") && e.to_string().contains("KHR_draco_mesh_compression"),
         "{e}"
     );
+    // A KTX2 texture has no `source` for the crate's validation to find: the missing extension is the error.
+    let basisu = json!({
+        "extensionsRequired": ["KHR_texture_basisu"], "extensionsUsed": ["KHR_texture_basisu"],
+        "images": [ { "uri": "t.ktx2", "mimeType": "image/ktx2" } ],
+        "textures": [ { "extensions": { "KHR_texture_basisu": { "source": 0 } } } ],
+        "materials": [ { "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } } ]
+    });
+    let e = read("basisu.gltf", &document(&tri, &[0, 1, 2], basisu)).unwrap_err();
+    assert!(
+        e.path == "extensionsRequired" && e.message.contains("'KHR_texture_basisu' is required but not supported"),
+        "{e}"
+    );
     let e = read("index.gltf", &document(&tri, &[0, 1, 7], json!({}))).unwrap_err();
     assert_eq!(e.path, "meshes[0].primitives[0].indices", "{e}");
     assert!(e.message.contains("index 7"), "{e}");
