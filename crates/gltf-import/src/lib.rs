@@ -16,7 +16,7 @@
 //!   `KHR_materials_dispersion`: n(λ) from the Abbe model with n_d = ior and V_d = 20/dispersion), mixed with the
 //!   opaque material by the transmission factor; `KHR_materials_volume`'s attenuation as the glass's absorption;
 //!   emission (`emissiveFactor` × `KHR_materials_emissive_strength`) as a diffuse area light on the mesh.
-//! - **Textures** ([`textures`]): base colour, metallic-roughness, normal and transmission textures as image maps of
+//! - **Textures** ([`textures`]): base colour, metallic-roughness, normal, transmission and emissive textures as image maps of
 //!   the file's PNG and JPEG images (kept encoded in [`SceneDescription::images`]; the renderer decodes them), with
 //!   their samplers and `KHR_texture_transform`; alpha from the base colour texture for `MASK` and `BLEND`.
 //!
@@ -250,7 +250,7 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
                 if let Some(alpha) = alpha_param(&material, &name, &loc) {
                     params.push(alpha);
                 }
-                let area_light = emission(&material, &loc);
+                let area_light = emission(&material, &name, &loc);
                 desc.shapes.push(ShapeEntity {
                     entity: Entity::new("importedmesh", params, loc.clone()),
                     render_from_object: world_t,
@@ -649,11 +649,11 @@ fn add_material(t: &mut TextureMaker<'_>, name: &str, m: &gltf::Material<'_>) ->
             format!("{json}.occlusionTexture is ignored: tracing light computes occlusion, which the texture bakes"),
         ));
     }
-    if m.emissive_texture().is_some() {
-        t.desc.warnings.push(Diagnostic::new(
-            loc.clone(),
-            format!("{json}.emissiveTexture is not read yet: the emissive factor lights the whole surface"),
-        ));
+    // The emissive texture (sRGB) times the emission, which the area light reads (`emission`).
+    if let (Some(info), Some(e)) = (m.emissive_texture(), emissive_rgb(m)) {
+        let tex = TextureRef::info(&info, texture_json("emissiveTexture"));
+        let extra = vec![rgb("tint", e, &loc), string("encoding", "sRGB", &loc)];
+        t.imagemap(&format!("{name}/emission"), TextureValueType::Spectrum, &tex, extra)?;
     }
     for p in &normal_map {
         opaque.push(p.clone());
@@ -760,15 +760,23 @@ fn alpha_param(m: &gltf::Material<'_>, material_name: &str, loc: &Loc) -> Option
     (alpha < 1.0).then(|| float("alpha", alpha, loc))
 }
 
-/// The area light of an emissive material (emissive factor × `KHR_materials_emissive_strength`), if any.
-fn emission(m: &gltf::Material<'_>, loc: &Loc) -> Option<Entity> {
+/// An emissive material's emission (emissive factor × `KHR_materials_emissive_strength`), if it has any.
+fn emissive_rgb(m: &gltf::Material<'_>) -> Option<[f64; 3]> {
     let strength = f64::from(m.emissive_strength().unwrap_or(1.0));
     let e = m.emissive_factor().map(|c| f64::from(c) * strength);
-    if !e.iter().all(|c| c.is_finite()) || e.iter().all(|&c| c <= 0.0) {
-        return None;
-    }
+    (e.iter().all(|c| c.is_finite()) && e.iter().any(|&c| c > 0.0)).then_some(e)
+}
+
+/// The area light of an emissive material named `material_name`, if any: its emission, times its emissive texture
+/// (made with the material as `{material_name}/emission`) when it has one.
+fn emission(m: &gltf::Material<'_>, material_name: &str, loc: &Loc) -> Option<Entity> {
+    let e = emissive_rgb(m)?;
     let mut params = ParamSet::new();
-    params.push(rgb("L", e, loc));
+    if m.emissive_texture().is_some() {
+        params.push(texture_param("L", &format!("{material_name}/emission"), loc));
+    } else {
+        params.push(rgb("L", e, loc));
+    }
     // glTF emission is one-sided, on the side of the normal, as pbrt's diffuse area light.
     Some(Entity::new("diffuse", params, loc.clone()))
 }

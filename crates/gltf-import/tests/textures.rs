@@ -491,3 +491,115 @@ fn a_blender_textured_plane_shows_its_texels_where_blender_puts_them() {
         assert!(ok, "copy {copy:?} should show texel {want}: linear sRGB {:?}", [r, g, b]);
     }
 }
+
+/// An emissive texture times the emissive factor and strength: seen directly, each quadrant of an emitting quad
+/// shows what the untextured emitter whose factor is the texel's linear colour times them shows (the same pixels,
+/// so the same wavelengths).
+#[test]
+fn an_emissive_texture_times_its_factor_and_strength_is_the_emission() {
+    let (factor, strength) = ([1.0, 0.5, 0.8], 2.0);
+    let png = png_rgba(2, 2, &TEXELS);
+    let emitter = |emissive: [f64; 3], textured: bool| {
+        let mut m = json!({
+            "pbrMetallicRoughness": { "baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0 },
+            "emissiveFactor": emissive,
+            "extensions": { "KHR_materials_emissive_strength": { "emissiveStrength": strength } }
+        });
+        let mut rest = json!({});
+        if textured {
+            m["emissiveTexture"] = json!({ "index": 0 });
+            rest = json!({
+                "textures": [ { "source": 0, "sampler": 0 } ],
+                "samplers": [ { "magFilter": 9728, "minFilter": 9728 } ],
+                "images": [ { "uri": data_uri("image/png", &png) } ]
+            });
+        }
+        let mut doc = quad_document(m, rest, [0.0, 0.0, 0.0, 1.0]);
+        doc["extensionsUsed"].as_array_mut().unwrap().push(json!("KHR_materials_emissive_strength"));
+        doc
+    };
+    let (film, desc) = render_doc("emissive.gltf", &emitter(factor, true));
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    let quadrants = [(0.0, 0.5, 0.5, 1.0), (0.5, 1.0, 0.5, 1.0), (0.0, 0.5, 0.0, 0.5), (0.5, 1.0, 0.0, 0.5)];
+    for (texel, (x0, x1, y0, y1)) in TEXELS.iter().zip(quadrants) {
+        let colour = [0, 1, 2].map(|c| srgb_to_linear(texel[c]) * factor[c]);
+        let (reference, _) = render_doc("emissive-plain.gltf", &emitter(colour, false));
+        let (got, want) = (region(&film, x0, x1, y0, y1), region(&reference, x0, x1, y0, y1));
+        assert!(want[1] > 0.05, "bright: {want:?}");
+        // The texture's colour is uplifted in single precision, the factor's in double: within 0.1%.
+        assert!(close(got, want, 1e-3), "texel {texel:?}: textured {got:?}, factor {want:?}");
+    }
+}
+
+/// An emissive texture lights the scene through light sampling as it shows: a floor under a downward-facing
+/// emitter with a one-texel texture receives what it receives from the untextured emitter of that colour.
+#[test]
+fn an_emissive_texture_lights_the_scene_as_it_shows() {
+    let texel = [180u8, 120, 60, 255];
+    let png = png_rgba(1, 1, &[texel]);
+    let scene = |textured: bool| {
+        let colour = [0, 1, 2].map(|c| if textured { 1.0 } else { srgb_to_linear(texel[c]) });
+        let floor = json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 } });
+        let mut doc = quad_document(floor, json!({}), [0.0, 0.0, 0.0, 1.0]);
+        let mut emitter = json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0 }, "emissiveFactor": colour });
+        if textured {
+            emitter["emissiveTexture"] = json!({ "index": 0 });
+            doc["textures"] = json!([ { "source": 0 } ]);
+            doc["images"] = json!([ { "uri": data_uri("image/png", &png) } ]);
+        }
+        doc["materials"].as_array_mut().unwrap().push(emitter);
+        let mut second = doc["meshes"][0].clone();
+        second["primitives"][0]["material"] = json!(1);
+        doc["meshes"].as_array_mut().unwrap().push(second);
+        // Half the floor's size, 0.5 above it, turned over to face it; no sun.
+        doc["nodes"].as_array_mut().unwrap().push(json!({ "mesh": 1, "translation": [0.5, 0.5, 0.5], "rotation": [1.0, 0.0, 0.0, 0.0], "scale": [0.5, 0.5, 0.5] }));
+        doc["scenes"][0]["nodes"] = json!([0, 1, 3]);
+        let d = dir("textures");
+        let path = write(&d, &format!("lit-{textured}.gltf"), &doc);
+        let desc =
+            gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        render(&desc, 64, (SIDE, SIDE))
+    };
+    let (textured, plain) = (scene(true), scene(false));
+    // The floor's border, outside the emitter's silhouette.
+    let (got, want) = (region(&textured, 0.0, 0.2, 0.0, 1.0), region(&plain, 0.0, 0.2, 0.0, 1.0));
+    assert!(want[1] > 0.01, "the floor is lit: {want:?}");
+    assert!(close(got, want, 0.02), "textured emitter {got:?}, untextured {want:?}");
+}
+
+/// pbrt-v4's image area light (`AreaLightSource "diffuse" "string filename"`): each quadrant of an emitting quad
+/// shows the texel's colour as an RGB `L` of that colour does (t = 0 at the image's bottom row, as pbrt-v4 flips).
+#[test]
+fn a_pbrt_image_area_light_emits_its_texels() {
+    let d = dir("pbrt-image-light");
+    // 16×16 texels, each quadrant one of the four colours: bilinear lookups (as pbrt-v4's) blend only near the
+    // middle lines.
+    let big: Vec<[u8; 4]> = (0..256).map(|i| TEXELS[(i / 16 / 8) * 2 + (i % 16) / 8]).collect();
+    std::fs::write(d.join("emit.png"), png_rgba(16, 16, &big)).unwrap();
+    let scene = |light: &str| {
+        let text = format!(
+            r#"LookAt 0.5 0.5 5  0.5 0.5 0  0 1 0
+Camera "orthographic" "float screenwindow" [ -0.5 0.5 -0.5 0.5 ]
+Film "rgb" "integer xresolution" {SIDE} "integer yresolution" {SIDE}
+WorldBegin
+AreaLightSource "diffuse" "bool twosided" true {light}
+Material "diffuse" "rgb reflectance" [ 0 0 0 ]
+Shape "trianglemesh" "point3 P" [ 1 0 0  0 0 0  0 1 0  1 1 0 ] "point2 uv" [ 0 0  1 0  1 1  0 1 ]
+    "integer indices" [ 0 1 2 0 2 3 ]
+"#
+        );
+        let desc = pbrt::parse_str(&text, &d.join("scene.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+        render(&desc, 4, (SIDE, SIDE))
+    };
+    // pbrt-v4's camera space is left-handed, so this LookAt shows world +x to the left of the image: the quad's u,
+    // which runs from x = 1 to x = 0, runs left to right in the render, and the image shows upright.
+    let film = scene(r#""string filename" "emit.png""#);
+    let quadrants = [(0.0, 0.4, 0.6, 1.0), (0.6, 1.0, 0.6, 1.0), (0.0, 0.4, 0.0, 0.4), (0.6, 1.0, 0.0, 0.4)];
+    for (texel, (x0, x1, y0, y1)) in TEXELS.iter().zip(quadrants) {
+        let c = [0, 1, 2].map(|c| srgb_to_linear(texel[c]));
+        let reference = scene(&format!(r#""rgb L" [ {} {} {} ]"#, c[0], c[1], c[2]));
+        let (got, want) = (region(&film, x0, x1, y0, y1), region(&reference, x0, x1, y0, y1));
+        assert!(want[1] > 0.01, "bright: {want:?}");
+        assert!(close(got, want, 1e-3), "texel {texel:?}: image {got:?}, rgb L {want:?}");
+    }
+}

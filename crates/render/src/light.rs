@@ -10,7 +10,8 @@ use std::f32::consts::PI;
 
 use crate::error::invalid_data;
 use crate::sampling::{sample_uniform_sphere, Frame};
-use crate::texture::{octahedral_wrap, FloatTexture, TextureEvalContext};
+use crate::texture::{octahedral_wrap, uplift, FloatTexture, ImageTexture, RgbKind, TextureEvalContext};
+
 use crate::RenderError;
 use std::sync::Arc;
 
@@ -167,8 +168,11 @@ pub enum Light {
         shape: Box<geometry::Shape>,
         /// The primitive of the shape (triangle index for meshes).
         element: u32,
-        /// Emitted radiance (scaled).
+        /// Emitted radiance (scaled); with `image`, the factor of the image's.
         l: Spectrum,
+        /// An image of the emitted RGB over the surface's (u, v), uplifted as an illuminant at each point (pbrt-v4's
+        /// `"string filename"`, glTF's emissive texture).
+        image: Option<Arc<EmissionImage>>,
         /// Emit from both sides.
         two_sided: bool,
         /// The shape's alpha texture, if it is a cut-out: points where pbrt-v4's alpha test fails emit nothing.
@@ -177,6 +181,48 @@ pub enum Light {
         /// counts as a delta light for MIS (pbrt-v4's invisible area lights).
         invisible: bool,
     },
+}
+
+/// An area light's image of emitted RGB, and its mean luminance, which stands for the surface's in the light's
+/// power (power only chooses among lights, so the mean serves).
+#[derive(Clone, Debug)]
+pub struct EmissionImage {
+    /// The image map (its tint and scale included).
+    pub tex: ImageTexture,
+    /// The mean of its texels' luminance (Rec. 709 weights), tint and scale applied.
+    pub mean_luminance: f32,
+}
+
+impl EmissionImage {
+    /// The emission image of `tex`, its mean luminance computed once.
+    pub fn new(tex: ImageTexture) -> Self {
+        let n = tex.image.pixels.len().max(1) as f64;
+        let sum = tex
+            .image
+            .pixels
+            .iter()
+            .fold([0.0f64; 3], |m, p| [m[0] + p[0] as f64, m[1] + p[1] as f64, m[2] + p[2] as f64]);
+        let t = tex.tint.map(f64::from);
+        let y = (0.2126 * sum[0] * t[0] + 0.7152 * sum[1] * t[1] + 0.0722 * sum[2] * t[2]) / n * tex.scale as f64;
+        Self { tex, mean_luminance: y.max(0.0) as f32 }
+    }
+}
+
+/// The radiance an area light emits at point `p` (normal `n`, surface coordinates `uv`): its spectrum, times its
+/// image's RGB there uplifted as an illuminant when it has one (pbrt-v4's `DiffuseAreaLight::L`).
+fn emitted(
+    l: &Spectrum,
+    image: &Option<Arc<EmissionImage>>,
+    p: Vec3,
+    n: Vec3,
+    uv: Vec2,
+    wl: &SampledWavelengths,
+) -> SampledSpectrum {
+    let base = l.sample(wl);
+    match image {
+        None => base,
+        Some(img) => base * uplift(img.tex.rgb(&TextureEvalContext::new(p, n, uv)), RgbKind::Illuminant, wl),
+    }
 }
 
 /// pbrt-v4's alpha test for a point of an emitter (`AlphaMasked`): true if the point at `p` (normal `n`), `uv` is cut away, where
@@ -283,17 +329,17 @@ impl Light {
                 let wi = map.frame.from_local(w_local);
                 (pdf > 0.0).then(|| LightLiSample::at_infinity(map.lookup(uv, wl) * *scale, wi, pdf, false))
             }
-            Light::DiffuseArea { shape, element, l, two_sided, alpha, invisible } => {
-                // Only an alpha texture needs the point's uv: without one, the sample skips it.
-                let (p, n, pdf) = if alpha.is_some() {
+            Light::DiffuseArea { shape, element, l, image, two_sided, alpha, invisible } => {
+                // Only an alpha texture or an image needs the point's uv: without them, the sample skips it.
+                let (p, n, pdf, uv) = if alpha.is_some() || image.is_some() {
                     let ss = shape.sample_solid_angle(*element as usize, ctx.p, u)?;
                     if alpha_masked(alpha, ss.p, ss.n, ss.uv) {
                         return None;
                     }
-                    (ss.p, ss.n, ss.pdf)
+                    (ss.p, ss.n, ss.pdf, ss.uv)
                 } else {
                     let ps = shape.sample_solid_angle_point(*element as usize, ctx.p, u)?;
-                    (ps.p, ps.n, ps.pdf)
+                    (ps.p, ps.n, ps.pdf, Vec2::ZERO)
                 };
                 if !(pdf > 0.0 && pdf.is_finite()) {
                     return None;
@@ -308,7 +354,7 @@ impl Light {
                 if !facing && !two_sided {
                     return None;
                 }
-                Some(LightLiSample { l: l.sample(wl), wi, pdf, dist, p, delta: *invisible, n })
+                Some(LightLiSample { l: emitted(l, image, p, n, uv, wl), wi, pdf, dist, p, delta: *invisible, n })
             }
         }
     }
@@ -380,7 +426,7 @@ impl Light {
                 let (o, d, pdf_pos) = from_infinity(map.frame.from_local(w_local));
                 LightLeSample { o, d, l: map.lookup(uv, wl) * *scale, surface: None, pdf_pos, pdf_dir }
             }
-            Light::DiffuseArea { shape, element, l, two_sided, alpha, .. } => {
+            Light::DiffuseArea { shape, element, l, image, two_sided, alpha, .. } => {
                 let ss = shape.sample_area(*element as usize, u_pos)?;
                 if alpha_masked(alpha, ss.p, ss.n, ss.uv) {
                     return None;
@@ -403,7 +449,7 @@ impl Light {
                 LightLeSample {
                     o: ss.p,
                     d,
-                    l: l.sample(wl),
+                    l: emitted(l, image, ss.p, ss.n, ss.uv, wl),
                     surface: Some(geometry::SurfacePoint { p: ss.p, p_error: ss.p_error, n: ss.n }),
                     pdf_pos: ss.pdf,
                     pdf_dir: side_pdf * crate::sampling::cosine_hemisphere_pdf(local.z),
@@ -507,9 +553,9 @@ impl Light {
     /// Radiance emitted from an area light's surface point `p` (surface coordinates `uv`, normal `n`) towards `w`.
     pub fn l_area(&self, p: Vec3, uv: Vec2, n: Vec3, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
-            Light::DiffuseArea { l, two_sided, alpha, .. } => {
+            Light::DiffuseArea { l, image, two_sided, alpha, .. } => {
                 if (*two_sided || n.dot(w) > 0.0) && !alpha_masked(alpha, p, n, uv) {
-                    l.sample(wl)
+                    emitted(l, image, p, n, uv, wl)
                 } else {
                     SampledSpectrum::zero()
                 }
@@ -576,8 +622,9 @@ impl Light {
             Light::ImageInfinite { map, scale, scene_radius } => {
                 4.0 * pi * pi * (*scene_radius as f64).powi(2) * (*scale as f64) * map.average_luminance() as f64
             }
-            Light::DiffuseArea { shape, element, l, two_sided, .. } => {
-                pi * shape.area(*element as usize) as f64 * y(l) * if *two_sided { 2.0 } else { 1.0 }
+            Light::DiffuseArea { shape, element, l, image, two_sided, .. } => {
+                let image_y = image.as_ref().map_or(1.0, |img| img.mean_luminance as f64);
+                pi * shape.area(*element as usize) as f64 * y(l) * image_y * if *two_sided { 2.0 } else { 1.0 }
             }
         }
     }
@@ -773,6 +820,7 @@ mod tests {
                 shape: Box::new(sphere.clone()),
                 element: 0,
                 l: c(1.25),
+                image: None,
                 two_sided: false,
                 alpha: None,
                 invisible: false,
@@ -781,6 +829,7 @@ mod tests {
                 shape: Box::new(sphere),
                 element: 0,
                 l: c(1.25),
+                image: None,
                 two_sided: true,
                 alpha: None,
                 invisible: false,

@@ -11,7 +11,7 @@
 use std::sync::Arc;
 
 use glam::{Affine3A, Vec2, Vec3};
-use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbUnboundedSpectrum};
+use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum};
 use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
 
 pub mod mipmap;
@@ -643,6 +643,8 @@ pub enum RgbKind {
     Albedo,
     /// Any non-negative values.
     Unbounded,
+    /// Emitted radiance: an unbounded RGB times the colour space's illuminant (pbrt-v4's `RGBIlluminantSpectrum`).
+    Illuminant,
 }
 
 /// A spectral texture.
@@ -752,7 +754,7 @@ pub fn marble_rgb(p: Vec3, octaves: u32, omega: f32, scale: f32, variation: f32)
 }
 
 /// An RGB colour as a spectrum at the path's wavelengths (albedo colours are clamped to [0, 1]).
-fn uplift(rgb: [f32; 3], kind: RgbKind, wl: &SampledWavelengths) -> SampledSpectrum {
+pub fn uplift(rgb: [f32; 3], kind: RgbKind, wl: &SampledWavelengths) -> SampledSpectrum {
     let mut s = SampledSpectrum::zero();
     match kind {
         RgbKind::Albedo => {
@@ -763,6 +765,12 @@ fn uplift(rgb: [f32; 3], kind: RgbKind, wl: &SampledWavelengths) -> SampledSpect
         }
         RgbKind::Unbounded => {
             let Ok(sp) = RgbUnboundedSpectrum::new(rgb.map(|c| c.max(0.0) as f64)) else { return s };
+            for i in 0..N_WAVELENGTHS {
+                s[i] = sp.eval(wl.lambda(i) as f64) as f32;
+            }
+        }
+        RgbKind::Illuminant => {
+            let Ok(sp) = RgbIlluminantSpectrum::new(rgb.map(|c| c.max(0.0) as f64)) else { return s };
             for i in 0..N_WAVELENGTHS {
                 s[i] = sp.eval(wl.lambda(i) as f64) as f32;
             }

@@ -10,9 +10,13 @@ use spectral::Spectrum;
 
 use std::sync::Arc;
 
-use super::context::{err, file_err, normalise_emission, unsupported, Result, ShapeAlpha};
-use crate::light::{EnvironmentMap, Light};
+use film::{ChannelSelect, ColorEncoding};
+use scene::ParamType;
+
+use super::context::{err, file_err, normalise_emission, unsupported, ImageSource, Result, ShapeAlpha, Textures};
+use crate::light::{EmissionImage, EnvironmentMap, Light};
 use crate::sampling::Frame;
+use crate::texture::{ImageFilter, ImageTexture, TextureMapping2D, WrapMode};
 
 /// Appends one light per `LightSource` directive to `lights` (after the area lights, which the shapes made).
 pub(super) fn make_lights(
@@ -29,30 +33,84 @@ pub(super) fn make_lights(
 
 /// Creates one area light per primitive of `shape` (whose alpha is `alpha`); returns the index of the first. Called
 /// by `shapes.rs` for each shape it builds (`mod.rs` hands it over), so that area lights come in shape order.
-pub(super) fn area_lights(al: &Entity, shape: &Shape, alpha: &ShapeAlpha, lights: &mut Vec<Light>) -> Result<u32> {
+pub(super) fn area_lights(
+    al: &Entity,
+    shape: &Shape,
+    alpha: &ShapeAlpha,
+    textures: &Textures,
+    lights: &mut Vec<Light>,
+) -> Result<u32> {
     let p = &al.params;
     if al.name != "diffuse" {
         return err(&al.loc, unsupported("area light", &al.name, &["diffuse"]));
     }
-    let l = p.get_spectrum("L", SpectrumKind::Illuminant)?.unwrap_or_else(|| {
-        Spectrum::RgbIlluminant(RgbIlluminantSpectrum::new([1.0, 1.0, 1.0]).expect("white is valid"))
-    });
+    let white = || Spectrum::RgbIlluminant(RgbIlluminantSpectrum::new([1.0, 1.0, 1.0]).expect("white is valid"));
+    // An image of the emission: pbrt-v4's `"string filename"` (read bilinearly, clamped at the edges), or (a Prismatic
+    // extension, glTF's emissive texture) `"texture L"` naming an `imagemap` spectrum texture. Either replaces `L`:
+    // the image's RGB is uplifted as an illuminant, normalised as an RGB `L` is.
+    let image = if p.param_type("L") == Some(ParamType::Texture) {
+        let name = p.get_texture("L").unwrap_or_default();
+        let Some(tex) = textures.image_texture(&name) else {
+            return err(
+                &p.loc_of("L", &al.loc),
+                format!("'L' must name an imagemap spectrum texture; '{name}' is not one"),
+            );
+        };
+        Some(tex)
+    } else if let Some(path) = p.get_filename("filename")? {
+        let at = p.loc_of("filename", &al.loc);
+        if p.contains("L") {
+            return err(&at, "give 'L' or 'filename', not both");
+        }
+        let png = path.extension().is_some_and(|x| x.eq_ignore_ascii_case("png"));
+        let encoding = if png { ColorEncoding::Srgb } else { ColorEncoding::Linear };
+        let image = textures.image(
+            &ImageSource::File(path),
+            encoding,
+            if png { "srgb" } else { "linear" },
+            ChannelSelect::Rgb,
+            &at,
+        )?;
+        Some(ImageTexture {
+            map: TextureMapping2D::default(),
+            image,
+            wrap: WrapMode::Clamp,
+            filter: ImageFilter::Bilinear,
+            mip: None,
+            max_anisotropy: 8.0,
+            scale: 1.0,
+            tint: [1.0; 3],
+            invert: false,
+        })
+    } else {
+        None
+    };
+    let l =
+        if image.is_some() { white() } else { p.get_spectrum("L", SpectrumKind::Illuminant)?.unwrap_or_else(white) };
+    let image = image.map(|tex| Arc::new(EmissionImage::new(tex)));
     let two_sided = p.get_bool("twosided", false)?;
     let mut scale = p.get_float("scale", 1.0)?;
     let power = p.get_float("power", -1.0)?;
-    if p.contains("filename") {
-        return err(&al.loc, "image area lights ('filename') are not supported yet");
-    }
     let n = shape.primitive_count();
     if power > 0.0 {
-        // pbrt-v4: k_e = π · (2 if two-sided) · area, in luminance units.
+        // pbrt-v4: k_e = π · (2 if two-sided) · area, in luminance units (times an image's mean luminance).
         let area: f64 = (0..n).map(|i| shape.area(i) as f64).sum();
-        let k_e = std::f64::consts::PI * if two_sided { 2.0 } else { 1.0 } * area;
+        let image_y = image.as_ref().map_or(1.0, |img| img.mean_luminance as f64);
+        let k_e = std::f64::consts::PI * if two_sided { 2.0 } else { 1.0 } * area * image_y;
         if k_e > 0.0 {
             scale *= power / k_e;
         }
     }
-    let l = normalise_emission(&al.loc, l, scale)?;
+    // An RGB illuminant has unit luminance per unit of its RGB's luminance, so an image's illuminant (uplifted at
+    // each point) needs only the scale: the light's spectrum is the constant `scale`.
+    let l = match image {
+        Some(_) => {
+            // The same checks of the scale as any emission's (the white illuminant has luminance 1).
+            normalise_emission(&al.loc, white(), scale)?;
+            Spectrum::Constant(scale)
+        }
+        None => normalise_emission(&al.loc, l, scale)?,
+    };
     let base = lights.len() as u32;
     let (alpha, invisible) = match alpha {
         ShapeAlpha::Opaque => (None, false),
@@ -64,6 +122,7 @@ pub(super) fn area_lights(al: &Entity, shape: &Shape, alpha: &ShapeAlpha, lights
             shape: Box::new(shape.clone()),
             element: element as u32,
             l: l.clone(),
+            image: image.clone(),
             two_sided,
             alpha: alpha.clone(),
             invisible,

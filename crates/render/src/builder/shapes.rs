@@ -82,7 +82,7 @@ fn shape_alpha(textures: &Textures, p: &ParamSet, loc: &Loc) -> Result<ShapeAlph
 
 /// How the area lights of a shape are made (`lights.rs`'s `area_lights`, handed over by `mod.rs`): from the
 /// `AreaLightSource` directive, the shape and its alpha, appended to the lights; returns the index of the first.
-pub(super) type MakeAreaLights = fn(&Entity, &Shape, &ShapeAlpha, &mut Vec<Light>) -> Result<u32>;
+pub(super) type MakeAreaLights = fn(&Entity, &Shape, &ShapeAlpha, &Textures, &mut Vec<Light>) -> Result<u32>;
 
 /// Builds every shape into the BVH; the world's area lights are made by `area_lights` as each shape is (so that the
 /// first error in the file is the one reported) and appended to `lights`, one per primitive.
@@ -120,7 +120,7 @@ pub(super) fn make_geometry(
                     .then_some(MediumInterface { inside, outside });
                 let area_light_base = match (&se.area_light, lights.as_mut()) {
                     (Some(al), Some((lights, light_media))) => {
-                        let base = area_lights(al, &shape, &alpha, lights)?;
+                        let base = area_lights(al, &shape, &alpha, textures, lights)?;
                         // Emission leaves into the shape's media (none named: vacuum, as pbrt-v4's "").
                         let lm = media.map_or(LightMedium::Fixed(None), LightMedium::Surface);
                         light_media.resize(lights.len(), lm);

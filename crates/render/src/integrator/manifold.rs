@@ -963,6 +963,7 @@ mod tests_support {
             shape: Box::new(lamp.clone()),
             element: 0,
             l: Spectrum::Constant(1.0),
+            image: None,
             two_sided: false,
             alpha: None,
             invisible: false,

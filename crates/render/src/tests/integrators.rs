@@ -107,6 +107,7 @@ fn room(extras: Extras) -> RenderScene {
                     shape: Box::new(shape.clone()),
                     element,
                     l: l.clone(),
+                    image: None,
                     two_sided: false,
                     alpha: None,
                     invisible: false,
