@@ -16,6 +16,9 @@ use crate::ImageError;
 /// size cannot be bounded by the file's.
 pub const MAX_JPEG_PIXELS: u64 = 1 << 28;
 
+/// The most pixels one byte of a JPEG can describe: 64 pixels per block, 8 blocks per byte at one bit each.
+const JPEG_PIXELS_PER_BYTE: u64 = 64 * 8;
+
 /// An image's samples as stored: `channels` per pixel (1 grey, 2 grey and alpha, 3 RGB, 4 RGBA), rows from the top,
 /// each left to right; 8-bit values are held in the low byte.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -194,6 +197,15 @@ pub(crate) fn decode_jpeg(bytes: &[u8], name: &Path) -> Result<DecodedImage, Ima
             message: format!("a {w}×{h} JPEG: images of 1 to {MAX_JPEG_PIXELS} pixels are read"),
         });
     }
+    // Every 8×8 block of the first component takes at least one bit of entropy-coded data (a DC code, in baseline
+    // and progressive JPEG alike), so the file's bytes bound its pixels. The decoder itself fills missing data in:
+    // without this check a 326-byte file claiming 16384×16384 pixels took a minute and 6 GB (found by fuzzing).
+    if pixels > JPEG_PIXELS_PER_BYTE * bytes.len() as u64 {
+        return Err(ImageError::Malformed {
+            path: name.to_path_buf(),
+            message: format!("a {w}×{h} JPEG needs more data than its {} bytes can hold", bytes.len()),
+        });
+    }
     let data = decoder.decode().map_err(jpeg_err)?;
     if data.len() != pixels as usize * 3 {
         return Err(ImageError::Malformed {
@@ -275,6 +287,10 @@ mod tests {
         for cut in [3, 20, 200] {
             assert!(decode_image_bytes(&bytes[..cut], Path::new("cut.jpg")).is_err(), "cut at {cut}");
         }
+        // A 326-byte file (found by fuzzing) whose frame header claims far more pixels than its data can code.
+        let bomb = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/jpeg-size-bomb.jpg")).unwrap();
+        let e = decode_image_bytes(&bomb, Path::new("bomb.jpg")).unwrap_err().to_string();
+        assert!(e.contains("more data than its 326 bytes"), "{e}");
         let e = decode_image_bytes(b"GIF89a....", Path::new("images[3]")).unwrap_err().to_string();
         assert!(e.contains("images[3]") && e.contains("not a PNG or JPEG"), "{e}");
     }
