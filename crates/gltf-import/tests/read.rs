@@ -53,6 +53,24 @@ fn document(positions: &[[f32; 3]], indices: &[u32], extra: Value) -> Value {
     doc
 }
 
+/// A glTF document with one mesh of two primitives over the same `positions`: indices `first` with material 0 and
+/// `second` with material 1, with `extra` (the materials, cameras, nodes, …) merged in at the top.
+fn two_primitives(positions: &[[f32; 3]], first: &[u32], second: &[u32], extra: Value) -> Value {
+    let mut doc = document(positions, &[first, second].concat(), json!({}));
+    let offset = first.len() * 4;
+    doc["accessors"][1] =
+        json!({ "bufferView": 1, "byteOffset": 0, "componentType": 5125, "count": first.len(), "type": "SCALAR" });
+    doc["accessors"].as_array_mut().unwrap().push(
+        json!({ "bufferView": 1, "byteOffset": offset, "componentType": 5125, "count": second.len(), "type": "SCALAR" }),
+    );
+    doc["meshes"] = json!([ { "primitives": [
+        { "attributes": { "POSITION": 0 }, "indices": 1, "material": 0 },
+        { "attributes": { "POSITION": 0 }, "indices": 2, "material": 1 }
+    ] } ]);
+    merge(&mut doc, extra);
+    doc
+}
+
 /// Merges `extra` into `doc`: objects key by key, anything else replaced.
 fn merge(doc: &mut Value, extra: Value) {
     match (doc, extra) {
@@ -359,40 +377,28 @@ fn alpha_modes_cut_out_and_blend() {
             [3.0, 1.0, 3.0],
             [-3.0, 1.0, 3.0],
         ];
-        let (bytes, n) = geometry(&positions, &[0, 2, 1, 0, 3, 2, 4, 6, 5, 4, 7, 6]);
-        let uri = format!(
-            "data:application/octet-stream;base64,{}",
-            base64::engine::general_purpose::STANDARD.encode(&bytes)
+        let doc = two_primitives(
+            &positions,
+            &[0, 2, 1, 0, 3, 2],
+            &[4, 6, 5, 4, 7, 6],
+            json!({
+                "materials": [
+                    { "pbrMetallicRoughness": { "baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0 } },
+                    { "pbrMetallicRoughness": { "baseColorFactor": [0, 0, 0, alpha], "metallicFactor": 0.0 }, "alphaMode": mode, "alphaCutoff": 0.5 }
+                ],
+                "extensionsUsed": ["KHR_lights_punctual"],
+                "extensions": { "KHR_lights_punctual": { "lights": [ { "type": "directional", "intensity": 683.0 } ] } },
+                "cameras": [ { "type": "perspective", "perspective": { "yfov": 0.2, "aspectRatio": 1.0, "znear": 0.01 } } ],
+                "scene": 0,
+                "scenes": [ { "nodes": [0, 1, 2] } ],
+                "nodes": [
+                    { "mesh": 0 },
+                    // Below the blocker, looking straight down at the floor.
+                    { "camera": 0, "translation": [0.0, 0.5, 0.0], "rotation": [-0.707_106_77, 0.0, 0.0, 0.707_106_77] },
+                    { "extensions": { "KHR_lights_punctual": { "light": 0 } }, "rotation": [-0.707_106_77, 0.0, 0.0, 0.707_106_77] }
+                ]
+            }),
         );
-        let doc = json!({
-            "asset": { "version": "2.0" },
-            "buffers": [ { "byteLength": bytes.len(), "uri": uri } ],
-            "bufferViews": [ { "buffer": 0, "byteOffset": 0, "byteLength": n }, { "buffer": 0, "byteOffset": n, "byteLength": bytes.len() - n } ],
-            "accessors": [
-                { "bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3", "min": [-3, 0, -3], "max": [3, 1, 3] },
-                { "bufferView": 1, "byteOffset": 0, "componentType": 5125, "count": 6, "type": "SCALAR" },
-                { "bufferView": 1, "byteOffset": 24, "componentType": 5125, "count": 6, "type": "SCALAR" }
-            ],
-            "meshes": [ { "primitives": [
-                { "attributes": { "POSITION": 0 }, "indices": 1, "material": 0 },
-                { "attributes": { "POSITION": 0 }, "indices": 2, "material": 1 }
-            ] } ],
-            "materials": [
-                { "pbrMetallicRoughness": { "baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0 } },
-                { "pbrMetallicRoughness": { "baseColorFactor": [0, 0, 0, alpha], "metallicFactor": 0.0 }, "alphaMode": mode, "alphaCutoff": 0.5 }
-            ],
-            "extensionsUsed": ["KHR_lights_punctual"],
-            "extensions": { "KHR_lights_punctual": { "lights": [ { "type": "directional", "intensity": 683.0 } ] } },
-            "cameras": [ { "type": "perspective", "perspective": { "yfov": 0.2, "aspectRatio": 1.0, "znear": 0.01 } } ],
-            "scene": 0,
-            "scenes": [ { "nodes": [0, 1, 2] } ],
-            "nodes": [
-                { "mesh": 0 },
-                // Below the blocker, looking straight down at the floor.
-                { "camera": 0, "translation": [0.0, 0.5, 0.0], "rotation": [-0.707_106_77, 0.0, 0.0, 0.707_106_77] },
-                { "extensions": { "KHR_lights_punctual": { "light": 0 } }, "rotation": [-0.707_106_77, 0.0, 0.0, 0.707_106_77] }
-            ]
-        });
         let path = write(&d, &format!("{mode}-{alpha}.gltf"), &doc);
         let desc =
             gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
@@ -501,36 +507,24 @@ fn transmission_is_tinted_by_the_base_colour_at_each_crossing() {
     // The slab's six faces wound outwards, then the emitter facing +z.
     let slab: [u32; 36] =
         [0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4, 1, 2, 6, 1, 6, 5, 2, 3, 7, 2, 7, 6, 3, 0, 4, 3, 4, 7];
-    let mut indices = slab.to_vec();
-    indices.extend([8, 9, 10, 8, 10, 11]);
-    let (bytes, n) = geometry(&positions, &indices);
-    let uri =
-        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bytes));
     let render_grey = |g: f64| {
-        let doc = json!({
-            "asset": { "version": "2.0" },
-            "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior"],
-            "buffers": [ { "byteLength": bytes.len(), "uri": uri } ],
-            "bufferViews": [ { "buffer": 0, "byteOffset": 0, "byteLength": n }, { "buffer": 0, "byteOffset": n, "byteLength": bytes.len() - n } ],
-            "accessors": [
-                { "bufferView": 0, "componentType": 5126, "count": 12, "type": "VEC3", "min": [-3, -3, -2], "max": [3, 3, 0.5] },
-                { "bufferView": 1, "byteOffset": 0, "componentType": 5125, "count": 36, "type": "SCALAR" },
-                { "bufferView": 1, "byteOffset": 144, "componentType": 5125, "count": 6, "type": "SCALAR" }
-            ],
-            "meshes": [ { "primitives": [
-                { "attributes": { "POSITION": 0 }, "indices": 1, "material": 0 },
-                { "attributes": { "POSITION": 0 }, "indices": 2, "material": 1 }
-            ] } ],
-            "materials": [
-                { "pbrMetallicRoughness": { "baseColorFactor": [g, g, g, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0 },
-                  "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 }, "KHR_materials_ior": { "ior": 1.5 } } },
-                { "pbrMetallicRoughness": { "baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0 }, "emissiveFactor": [1.0, 1.0, 1.0] }
-            ],
-            "cameras": [ { "type": "perspective", "perspective": { "yfov": 0.2, "aspectRatio": 1.0, "znear": 0.01 } } ],
-            "scene": 0,
-            "scenes": [ { "nodes": [0, 1] } ],
-            "nodes": [ { "mesh": 0 }, { "camera": 0, "translation": [0.0, 0.0, 5.0] } ]
-        });
+        let doc = two_primitives(
+            &positions,
+            &slab,
+            &[8, 9, 10, 8, 10, 11],
+            json!({
+                "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior"],
+                "materials": [
+                    { "pbrMetallicRoughness": { "baseColorFactor": [g, g, g, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0 },
+                      "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 }, "KHR_materials_ior": { "ior": 1.5 } } },
+                    { "pbrMetallicRoughness": { "baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0 }, "emissiveFactor": [1.0, 1.0, 1.0] }
+                ],
+                "cameras": [ { "type": "perspective", "perspective": { "yfov": 0.2, "aspectRatio": 1.0, "znear": 0.01 } } ],
+                "scene": 0,
+                "scenes": [ { "nodes": [0, 1] } ],
+                "nodes": [ { "mesh": 0 }, { "camera": 0, "translation": [0.0, 0.0, 5.0] } ]
+            }),
+        );
         let path = write(&d, &format!("tint-{g}.gltf"), &doc);
         let desc =
             gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
