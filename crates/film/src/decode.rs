@@ -51,17 +51,22 @@ impl DecodedImage {
         self.channels == 2 || self.channels == 4
     }
 
-    /// Stored sample `c` (0 R, 1 G, 2 B, 3 A) of pixel `i` in [0, 1]: grey stands for R, G and B; a missing alpha
-    /// is 1.
+    /// Where sample `c` (0 R, 1 G, 2 B, 3 A) of a pixel is stored among its channels: grey stands for R, G and B;
+    /// `None` for the alpha of an image without one.
+    fn slot(&self, c: usize) -> Option<usize> {
+        match (self.channels, c) {
+            (1 | 2, 0..=2) => Some(0),
+            (2, _) => Some(1),
+            (4, _) | (3, 0..=2) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// Stored sample `c` of pixel `i` in [0, 1]; a missing alpha is 1.
     fn sample(&self, i: usize, c: usize) -> f64 {
-        let index = match (self.channels, c) {
-            (1 | 2, 0..=2) => 0,
-            (2, _) => 1,
-            (4, _) | (3, 0..=2) => c,
-            _ => return 1.0,
-        };
+        let Some(slot) = self.slot(c) else { return 1.0 };
         let max = if self.sixteen { 65535.0 } else { 255.0 };
-        f64::from(self.samples[i * self.channels + index]) / max
+        f64::from(self.samples[i * self.channels + slot]) / max
     }
 
     /// Linear RGB pixels (rows from the top): colour channels through `encoding`, alpha as stored (alpha is linear
@@ -78,11 +83,9 @@ impl DecodedImage {
             if self.sixteen {
                 encoding.to_linear(self.sample(i, c)) as f32
             } else {
-                let index = match self.channels {
-                    1 | 2 => 0,
-                    _ => c,
-                };
-                table[usize::from(self.samples[i * self.channels + index] & 0xff)]
+                // Colour channels always have a slot.
+                let slot = self.slot(c).unwrap_or(0);
+                table[usize::from(self.samples[i * self.channels + slot] & 0xff)]
             }
         };
         (0..n)

@@ -921,16 +921,7 @@ pub(crate) fn open_read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>, Imag
 /// Reads a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette; alpha ignored), decoding the sRGB transfer
 /// function: (width, height, linear pixels row-major from the top).
 pub fn read_png_linear(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
-    let png = read_png_samples(path)?;
-    let lut8: Vec<f32> = (0..256).map(|v| spectral::color::srgb_decode(v as f64 / 255.0) as f32).collect();
-    let decode = |v: u16| {
-        if png.sixteen {
-            spectral::color::srgb_decode(v as f64 / 65535.0) as f32
-        } else {
-            lut8[v as usize]
-        }
-    };
-    Ok((png.width, png.height, png.samples.iter().map(|s| s.map(decode)).collect()))
+    read_png_encoded(path, ColorEncoding::Srgb)
 }
 
 /// How the integer samples of an 8- or 16-bit image become linear values (pbrt-v4's `ColorEncoding`, the
@@ -957,64 +948,44 @@ impl ColorEncoding {
 }
 
 /// Reads an RGB image for a texture, with `encoding` turning the samples of PNGs (8 or 16 bit) into linear values
-/// as pbrt-v4 does; float formats (EXR, PFM) are linear and ignore it, and so does TGA, which is always sRGB-decoded
+/// as pbrt-v4 does; float formats (EXR, PFM, HDR) are linear and ignore it, and so do TGA and JPEG, which are always sRGB-decoded
 /// (below). With [`ColorEncoding::Srgb`] this returns what [`read_rgb`] does.
 pub fn read_rgb_encoded(path: &Path, encoding: ColorEncoding) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("tga")) {
-        // pbrt-v4 reads TGA through stb_image and tags the 8-bit result sRGB whatever encoding the texture asked
-        // for (pbrt-v4 src/pbrt/util/image.cpp, Image::Read); measured: its "linear" default for non-PNG textures
-        // does not reach TGA, so the staircase scenes' wood is as dark in pbrt-v4 as sRGB decoding makes it.
-        return crate::tga::read_tga_linear(path);
-    }
-    if is_jpeg_name(path) {
-        // JPEGs take the same stb_image path in pbrt-v4 as TGAs, so they are sRGB-decoded the same way.
-        return read_jpeg_linear(path);
-    }
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("hdr") || e.eq_ignore_ascii_case("pic")) {
-        // Radiance images are linear floats.
-        return crate::hdr::read_hdr(path);
+    if let Some(read) = read_not_written_format(path) {
+        return read;
     }
     match ImageFormat::from_path(path)? {
-        ImageFormat::Png => {
-            let png = read_png_samples(path)?;
-            let max = if png.sixteen { 65535.0 } else { 255.0 };
-            let lut: Vec<f32> = if png.sixteen {
-                Vec::new()
-            } else {
-                (0..256).map(|v| encoding.to_linear(v as f64 / max) as f32).collect()
-            };
-            let decode = |v: u16| {
-                if png.sixteen {
-                    encoding.to_linear(v as f64 / max) as f32
-                } else {
-                    lut[v as usize]
-                }
-            };
-            Ok((png.width, png.height, png.samples.iter().map(|s| s.map(decode)).collect()))
-        }
+        ImageFormat::Png => read_png_encoded(path, encoding),
         ImageFormat::Exr | ImageFormat::Pfm => read_rgb(path),
     }
 }
 
-/// Whether `path` names a JPEG (`.jpg` or `.jpeg`, any case).
-fn is_jpeg_name(path: &Path) -> bool {
-    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"))
+/// (width, height, linear RGB pixels row-major from the top): what the texture readers return.
+type LinearRgb = (u32, u32, Vec<[f32; 3]>);
+
+/// The formats read but never written, which are not `ImageFormat`s, by extension: TGA and JPEG (8-bit, always
+/// sRGB-decoded: pbrt-v4 reads both through stb_image and tags the result sRGB whatever encoding the texture asked
+/// for (pbrt-v4 src/pbrt/util/image.cpp, Image::Read); measured: its "linear" default for non-PNG textures does not
+/// reach TGA, so the staircase scenes' wood is as dark in pbrt-v4 as sRGB decoding makes it), and Radiance HDR
+/// (linear floats). `None` for any other extension.
+fn read_not_written_format(path: &Path) -> Option<Result<LinearRgb, ImageError>> {
+    let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
+    match ext.as_str() {
+        "tga" => Some(crate::tga::read_tga_linear(path)),
+        "jpg" | "jpeg" => Some(open_read(path).and_then(|bytes| {
+            let img = crate::decode::decode_jpeg(&bytes, path)?;
+            Ok((img.width, img.height, img.to_rgb(ColorEncoding::Srgb, crate::decode::ChannelSelect::Rgb)))
+        })),
+        "hdr" | "pic" => Some(crate::hdr::read_hdr(path)),
+        _ => None,
+    }
 }
 
-/// Reads a JPEG file as linear RGB, sRGB-decoded ([`crate::decode`] decodes it).
-fn read_jpeg_linear(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
-    let img = crate::decode::decode_jpeg(&open_read(path)?, path)?;
-    Ok((img.width, img.height, img.to_rgb(ColorEncoding::Srgb, crate::decode::ChannelSelect::Rgb)))
-}
-
-/// A PNG's samples as stored (grey replicated to three channels, alpha dropped).
-struct PngSamples {
-    width: u32,
-    height: u32,
-    /// 16-bit samples (else 8-bit).
-    sixteen: bool,
-    /// Row-major from the top.
-    samples: Vec<[u16; 3]>,
+/// A PNG file as linear RGB through `encoding` (grey replicated, alpha dropped), decoded by [`crate::decode`],
+/// which checks the header's size against the file's bytes before anything is allocated.
+fn read_png_encoded(path: &Path, encoding: ColorEncoding) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
+    let img = crate::decode::decode_png(&open_read(path)?, path)?;
+    Ok((img.width, img.height, img.to_rgb(encoding, crate::decode::ChannelSelect::Rgb)))
 }
 
 /// The most bytes one byte of a deflate stream can expand to (RFC 1951: a 258-byte match coded in two bits); zlib's
@@ -1043,17 +1014,6 @@ pub(crate) fn check_png_palette(bytes: &[u8]) -> Result<(), String> {
         rest = rest.get(len.saturating_add(12)..).unwrap_or_default();
     }
     Ok(())
-}
-
-/// A PNG file's samples as stored, grey replicated to three channels and alpha dropped ([`crate::decode`] reads
-/// the bytes, checking the header's size against them before anything is allocated).
-fn read_png_samples(path: &Path) -> Result<PngSamples, ImageError> {
-    let bytes = open_read(path)?;
-    let img = crate::decode::decode_png(&bytes, path)?;
-    let c = img.channels;
-    let rgb = |p: &[u16]| if c < 3 { [p[0]; 3] } else { [p[0], p[1], p[2]] };
-    let samples = img.samples.chunks_exact(c).map(rgb).collect();
-    Ok(PngSamples { width: img.width, height: img.height, sixteen: img.sixteen, samples })
 }
 
 /// Reads a PFM (`PF` colour or `Pf` grey, either byte order; values multiplied by |scale| when it is not 1):
@@ -1114,15 +1074,8 @@ pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
 /// Reads a linear RGB image by extension: EXR (`R`, `G`, `B`), PNG, JPEG or TGA (8-bit sRGB-decoded,
 /// [`crate::tga`]), PFM or Radiance HDR ([`crate::hdr`]) — for textures and environment maps.
 pub fn read_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
-    // TGA is read, never written, so it is not an `ImageFormat`.
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("tga")) {
-        return crate::tga::read_tga_linear(path);
-    }
-    if is_jpeg_name(path) {
-        return read_jpeg_linear(path);
-    }
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("hdr") || e.eq_ignore_ascii_case("pic")) {
-        return crate::hdr::read_hdr(path);
+    if let Some(read) = read_not_written_format(path) {
+        return read;
     }
     match ImageFormat::from_path(path)? {
         ImageFormat::Exr => read_exr_rgb(path),

@@ -101,6 +101,9 @@ pub(super) struct Textures {
     images: RefCell<HashMap<(ImageSource, String, ChannelSelect), Arc<RgbImage>>>,
     /// The encoded images a reader took out of the scene's files (`SceneDescription::images`).
     embedded: Vec<EmbeddedImage>,
+    /// Embedded images decoded so far, by index: a glTF image read as colour and as alpha, or as metalness and as
+    /// roughness, is decoded once.
+    decoded: RefCell<HashMap<usize, Arc<film::DecodedImage>>>,
     /// MIP maps built so far, by image (its address in `images`) and wrap mode.
     mipmaps: RefCell<HashMap<(usize, WrapMode), Arc<MipMap>>>,
     /// The named float and spectrum textures that contain an image map (directly or through textures they use).
@@ -118,6 +121,7 @@ impl Textures {
             spectrum: HashMap::new(),
             images: RefCell::default(),
             embedded,
+            decoded: RefCell::default(),
             mipmaps: RefCell::default(),
             float_with_image: HashSet::new(),
             spectrum_with_image: HashSet::new(),
@@ -164,20 +168,14 @@ impl Textures {
         }
         let (w, h, pixels) = match source {
             ImageSource::File(path) => {
-                let (w, h, pixels) = film::read_rgb_encoded(path, encoding)
-                    .map_err(|e| file_err(loc, path, format!("cannot read image {}: {e}", path.display())))?;
                 if select != ChannelSelect::Rgb {
                     return err(loc, "'channel' picks a channel of an embedded image ('integer image') only");
                 }
-                (w, h, pixels)
+                film::read_rgb_encoded(path, encoding)
+                    .map_err(|e| file_err(loc, path, format!("cannot read image {}: {e}", path.display())))?
             }
             ImageSource::Embedded(i) => {
-                let Some(image) = self.embedded.get(*i) else {
-                    return err(loc, format!("no embedded image {i}: the scene has {}", self.embedded.len()));
-                };
-                let name = Path::new(&image.name);
-                let decoded = film::decode_image_bytes(&image.bytes, name)
-                    .map_err(|e| file_err(loc, name, format!("cannot read image {}: {e}", image.name)))?;
+                let decoded = self.decoded_image(*i, loc)?;
                 (decoded.width, decoded.height, decoded.to_rgb(encoding, select))
             }
         };
@@ -187,6 +185,22 @@ impl Textures {
         let img = Arc::new(RgbImage { width: w as usize, height: h as usize, pixels });
         self.images.borrow_mut().insert(key, img.clone());
         Ok(img)
+    }
+
+    /// Embedded image `i`, decoded the first time it is asked for.
+    fn decoded_image(&self, i: usize, loc: &Loc) -> Result<Arc<film::DecodedImage>> {
+        if let Some(d) = self.decoded.borrow().get(&i) {
+            return Ok(d.clone());
+        }
+        let Some(image) = self.embedded.get(i) else {
+            return err(loc, format!("no embedded image {i}: the scene has {}", self.embedded.len()));
+        };
+        let name = Path::new(&image.name);
+        let decoded = film::decode_image_bytes(&image.bytes, name)
+            .map_err(|e| file_err(loc, name, format!("cannot read image {}: {e}", image.name)))?;
+        let decoded = Arc::new(decoded);
+        self.decoded.borrow_mut().insert(i, decoded.clone());
+        Ok(decoded)
     }
 
     /// The image map that spectrum texture `name` is, if it is one (a normal map reads its RGB as it is); counts as

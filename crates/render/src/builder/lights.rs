@@ -85,8 +85,6 @@ pub(super) fn area_lights(
     } else {
         None
     };
-    let l =
-        if image.is_some() { white() } else { p.get_spectrum("L", SpectrumKind::Illuminant)?.unwrap_or_else(white) };
     let image = image.map(|tex| Arc::new(EmissionImage::new(tex)));
     let two_sided = p.get_bool("twosided", false)?;
     let mut scale = p.get_float("scale", 1.0)?;
@@ -109,7 +107,10 @@ pub(super) fn area_lights(
             normalise_emission(&al.loc, white(), scale)?;
             Spectrum::Constant(scale)
         }
-        None => normalise_emission(&al.loc, l, scale)?,
+        None => {
+            let l = p.get_spectrum("L", SpectrumKind::Illuminant)?.unwrap_or_else(white);
+            normalise_emission(&al.loc, l, scale)?
+        }
     };
     let base = lights.len() as u32;
     let (alpha, invisible) = match alpha {
