@@ -14,6 +14,11 @@ them with Blender's own glTF exporter, so that Prismatic is tested on what Blend
   second, repeated 4 times by a Mapping node, through a Round node (the exporter's Alpha Clip) as a cut-out (alpha 0 and 1 in a checker); seen
   from above by an orthographic camera, under a sun straight down. Blender's exporter writes the images into the
   GLB and the Mapping node as KHR_texture_transform.
+- crates/gltf-import/tests/fixtures/layered-plates.glb: four 0.9 m plates in a row, seen from above by an
+  orthographic camera under a sun tilted 20°, each with one of the Principled BSDF's layers the exporter writes as
+  a glTF extension: Coat (KHR_materials_clearcoat), Sheen (KHR_materials_sheen), Thin Film on a metal
+  (KHR_materials_iridescence, with the weight and thinnest film from the "glTF Material Output" node group) and
+  Specular IOR Level with Specular Tint (KHR_materials_specular).
 
 Blender is z-up and its exporter converts to glTF's y-up: a glTF point (x, y, z) is Blender's (x, -z, y).
 Blender has no dispersion input of its own: the exporter reads Dispersion (and Thickness, which makes it write
@@ -33,16 +38,16 @@ def reset():
     bpy.ops.wm.read_factory_settings(use_empty=True)
 
 
-def gltf_output_node(material, thickness, dispersion):
-    """The exporter's "glTF Material Output" node group in `material`, with `thickness` and `dispersion` set."""
+def gltf_output_node(material, **inputs):
+    """The exporter's "glTF Material Output" node group in `material`, with `inputs` set (underscores for spaces)."""
     from io_scene_gltf2.blender.com.material_helpers import create_settings_group, get_gltf_node_name
 
     name = get_gltf_node_name()
     group = bpy.data.node_groups.get(name) or create_settings_group(name)
     node = material.node_tree.nodes.new("ShaderNodeGroup")
     node.node_tree = group
-    node.inputs["Thickness"].default_value = thickness
-    node.inputs["Dispersion"].default_value = dispersion
+    for key, value in inputs.items():
+        node.inputs[key.replace("_", " ")].default_value = value
     return node
 
 
@@ -55,7 +60,7 @@ def glass(name, ior, abbe, roughness=0.0):
     bsdf.inputs["Transmission Weight"].default_value = 1.0
     bsdf.inputs["Roughness"].default_value = roughness
     bsdf.inputs["IOR"].default_value = ior
-    gltf_output_node(m, thickness=1.0, dispersion=20.0 / abbe)
+    gltf_output_node(m, Thickness=1.0, Dispersion=20.0 / abbe)
     return m
 
 
@@ -197,7 +202,52 @@ def textured_plane():
     export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/textured-plane.glb"))
 
 
+def principled(name, **inputs):
+    """A Principled BSDF material with `inputs` (underscores for spaces in the input names)."""
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    bsdf = m.node_tree.nodes["Principled BSDF"]
+    for key, value in inputs.items():
+        bsdf.inputs[key.replace("_", " ")].default_value = value
+    return m
+
+
+def layered_plates():
+    reset()
+    size = 0.9
+    plates = [
+        principled("coat", Base_Color=(0.5, 0.05, 0.05, 1.0), Roughness=0.6, Coat_Weight=1.0, Coat_Roughness=0.1),
+        principled("velvet", Base_Color=(0.05, 0.05, 0.4, 1.0), Roughness=0.8, Sheen_Weight=1.0,
+                   Sheen_Tint=(0.9, 0.8, 0.7, 1.0), Sheen_Roughness=0.4),
+        principled("film", Base_Color=(0.9, 0.9, 0.9, 1.0), Metallic=1.0, Roughness=0.45, Thin_Film_Thickness=350.0,
+                   Thin_Film_IOR=1.35),
+        principled("tinted", Base_Color=(0.2, 0.2, 0.2, 1.0), Roughness=0.3, Specular_IOR_Level=0.3,
+                   Specular_Tint=(1.0, 0.6, 0.3, 1.0)),
+    ]
+    # Blender has no iridescence weight: the exporter reads it and the thinnest film from its output node group.
+    gltf_output_node(plates[2], Iridescence_Factor=1.0, Iridescence_Thickness_Minimum=100.0)
+    scene = bpy.context.scene
+    for i, m in enumerate(plates):
+        bpy.ops.mesh.primitive_plane_add(size=size, location=((i - 1.5) * 1.0, 0.0, 0.0))
+        bpy.context.active_object.data.materials.append(m)
+    sun = bpy.data.lights.new("sun", "SUN")
+    sun.energy = 1.0
+    sun_obj = bpy.data.objects.new("sun", sun)
+    scene.collection.objects.link(sun_obj)
+    sun_obj.rotation_euler = (math.radians(20.0), 0.0, 0.0)
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = 4.0
+    cam = bpy.data.objects.new("camera", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (0.0, 0.0, 5.0)
+    scene.camera = cam
+    scene.render.resolution_x, scene.render.resolution_y = 128, 32
+    export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/layered-plates.glb"))
+
+
 if __name__ == "__main__":
     gem()
     dispersive_prism()
     textured_plane()
+    layered_plates()

@@ -15,7 +15,8 @@
 //!   `metallicroughness`), with `KHR_materials_ior`; `KHR_materials_transmission` as a dielectric of that index (with
 //!   `KHR_materials_dispersion`: n(λ) from the Abbe model with n_d = ior and V_d = 20/dispersion), mixed with the
 //!   opaque material by the transmission factor; `KHR_materials_volume`'s attenuation as the glass's absorption;
-//!   emission (`emissiveFactor` × `KHR_materials_emissive_strength`) as a diffuse area light on the mesh.
+//!   emission (`emissiveFactor` × `KHR_materials_emissive_strength`) as a diffuse area light on the mesh; the layers
+//!   of `KHR_materials_specular`, `_iridescence`, `_sheen` and `_clearcoat` ([`layers`]).
 //! - **Textures** ([`textures`]): base colour, metallic-roughness, normal, transmission and emissive textures as image maps of
 //!   the file's PNG and JPEG images (kept encoded in [`SceneDescription::images`]; the renderer decodes them), with
 //!   their samplers and `KHR_texture_transform`; alpha from the base colour texture for `MASK` and `BLEND`.
@@ -32,6 +33,7 @@ use glam::{DMat4, DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use textures::{ImageTable, TextureMaker, TextureRef};
 
+mod layers;
 mod textures;
 use scene::{
     CameraEntity, Diagnostic, Entity, LightEntity, Loc, MaterialRef, MediumEntity, Param, ParamSet, ParamType,
@@ -61,7 +63,7 @@ pub struct ReadOptions {
 
 /// The extensions this reader understands; any other in `extensionsRequired` is an error, in `extensionsUsed` a
 /// warning.
-pub const SUPPORTED_EXTENSIONS: [&str; 7] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 11] = [
     "KHR_lights_punctual",
     "KHR_texture_transform",
     "KHR_materials_ior",
@@ -69,6 +71,10 @@ pub const SUPPORTED_EXTENSIONS: [&str; 7] = [
     "KHR_materials_volume",
     "KHR_materials_emissive_strength",
     "KHR_materials_dispersion",
+    "KHR_materials_specular",
+    "KHR_materials_iridescence",
+    "KHR_materials_sheen",
+    "KHR_materials_clearcoat",
 ];
 
 /// Lumens per watt at 555 nm: glTF's photometric light units to the renderer's radiometric ones.
@@ -201,7 +207,8 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
             return Ok(made.clone());
         }
         let name = format!("{}#{}", path.display(), m.index().map_or("default".into(), |i| format!("materials[{i}]")));
-        let mut textures = TextureMaker { desc, buffers: &buffers, path, images: &mut images, loc: &loc };
+        let mut textures =
+            TextureMaker { document: &gltf, desc, buffers: &buffers, path, images: &mut images, loc: &loc };
         let medium = add_material(&mut textures, &name, &m)?;
         *slot = Some((name.clone(), medium.clone()));
         Ok((name, medium))
@@ -633,7 +640,10 @@ fn add_material(t: &mut TextureMaker<'_>, name: &str, m: &gltf::Material<'_>) ->
             opaque.push(float("roughness", roughness, &loc));
         }
     }
-    opaque.push(float("ior", ior.max(1.0), &loc));
+    // KHR_materials_ior: 0 is infinite (the specular-glossiness mode, whose Fresnel term is 1); else at least 1.
+    opaque.push(float("ior", if ior == 0.0 { 0.0 } else { ior.max(1.0) }, &loc));
+    let mut glass_film = vec![];
+    layers::add_layers(t, name, m, &json, &mut opaque, &mut glass_film)?;
     // The normal map tilts the shading normal of every part (the glass too).
     let mut normal_map = vec![];
     if let Some(info) = m.normal_texture() {
@@ -676,7 +686,7 @@ fn add_material(t: &mut TextureMaker<'_>, name: &str, m: &gltf::Material<'_>) ->
     // GGX α = roughness², given directly.
     glass.push(float("roughness", roughness * roughness, &loc));
     glass.push(boolean("remaproughness", false, &loc));
-    for p in normal_map {
+    for p in normal_map.into_iter().chain(glass_film) {
         glass.push(p);
     }
     // The specification's transmission BTDF is multiplied by the base colour (KHR_materials_transmission,

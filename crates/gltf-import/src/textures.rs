@@ -50,6 +50,17 @@ impl<'a> TextureRef<'a> {
         Self { texture: info.texture(), tex_coord: info.tex_coord(), transform: Ok(transform), json }
     }
 
+    /// A `textureInfo` or `normalTextureInfo` of an extension the gltf crate keeps unparsed, `info` its JSON at path
+    /// `json` (its `texCoord` and `KHR_texture_transform` are read from there).
+    pub(crate) fn raw(texture: gltf::Texture<'a>, info: &serde_json::Value, json: String) -> Self {
+        let tex_coord =
+            info.get("texCoord").and_then(serde_json::Value::as_u64).map_or(0, |v| v.min(u64::from(u32::MAX)) as u32);
+        let at = format!("{json}.extensions.KHR_texture_transform");
+        let raw = info.get("extensions").and_then(|e| e.get("KHR_texture_transform"));
+        let transform = raw.map(|t| raw_transform(t, &at)).transpose();
+        Self { texture, tex_coord, transform, json }
+    }
+
     /// A `normalTextureInfo` at JSON path `json` (its transform is read from the raw extension object, which the
     /// gltf crate keeps unparsed there).
     pub(crate) fn normal(info: &gltf::material::NormalTexture<'a>, json: String) -> Self {
@@ -80,6 +91,7 @@ fn raw_transform(t: &serde_json::Value, json: &str) -> Result<TexTransform, (Str
 /// What makes textures for one file's materials: the description they go into, the file's buffers, and the
 /// images added so far.
 pub(crate) struct TextureMaker<'a> {
+    pub(crate) document: &'a gltf::Document,
     pub(crate) desc: &'a mut SceneDescription,
     pub(crate) buffers: &'a [Vec<u8>],
     pub(crate) path: &'a Path,

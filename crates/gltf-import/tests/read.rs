@@ -541,3 +541,96 @@ fn transmission_is_tinted_by_the_base_colour_at_each_crossing() {
         grey / clear
     );
 }
+
+/// Blender's exporter writes the Principled BSDF's Coat, Sheen, Thin Film and Specular Tint as the four layer
+/// extensions, and the reader gives them to the `metallicroughness` material with the values set in Blender
+/// (through the exporter's conversions: Specular IOR Level 0.3 is specularFactor 0.6, Sheen Weight × Sheen Tint the
+/// sheen colour, Thin Film Thickness the film's maximum thickness), without a warning. Rendered, the thin film
+/// colours the white metal: its plate is ten times as colourful as the same plate without the film.
+#[test]
+fn blenders_coat_sheen_thin_film_and_specular_tint_are_read() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/layered-plates.glb");
+    let mut desc =
+        gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    let with = |param: &str| {
+        let m = desc.named_materials.iter().find(|(_, m)| m.params.contains(param));
+        m.map(|(_, m)| m.params.clone()).unwrap_or_else(|| panic!("no material with '{param}'"))
+    };
+    let near = |a: f64, b: f64| (a - b).abs() < 1e-6;
+    let near3 = |a: [f64; 3], b: [f64; 3]| a.iter().zip(&b).all(|(x, y)| near(*x, *y));
+    let coat = with("clearcoat");
+    assert!(near(coat.get_float("clearcoat", 0.0).unwrap(), 1.0));
+    assert!(near(coat.get_float("clearcoatroughness", 0.0).unwrap(), 0.1));
+    let sheen = with("sheencolor");
+    assert!(near3(sheen.get_rgb("sheencolor").unwrap().unwrap(), [0.9, 0.8, 0.7]));
+    assert!(near(sheen.get_float("sheenroughness", 0.0).unwrap(), 0.4));
+    let film = with("iridescence");
+    assert!(near(film.get_float("iridescence", 0.0).unwrap(), 1.0));
+    assert!(near(film.get_float("iridescenceeta", 0.0).unwrap(), 1.35));
+    assert!(near(film.get_float("iridescencethickness", 0.0).unwrap(), 350.0));
+    assert!(near(film.get_float("metallic", 0.0).unwrap(), 1.0));
+    let specular = with("specular");
+    assert!(near(specular.get_float("specular", 0.0).unwrap(), 0.6));
+    assert!(near3(specular.get_rgb("specularcolor").unwrap().unwrap(), [1.0, 0.6, 0.3]));
+    // The film's plate is the third of four across the 128-pixel-wide image; its colourfulness is the spread of
+    // its mean linear RGB over the mean (the mean, so that the spectral sampling's colour noise averages out).
+    let colourfulness = |desc: &scene::SceneDescription| {
+        let film = render(desc, 16, (128, 32));
+        let rgb = film.to_rgb_image();
+        let mut mean = [0.0f64; 3];
+        for y in 8..24 {
+            for x in 70..90 {
+                for (m, c) in mean.iter_mut().zip(rgb[y * 128 + x]) {
+                    *m += f64::from(c);
+                }
+            }
+        }
+        let (hi, lo) = (mean.iter().fold(0.0f64, |a, &b| a.max(b)), mean.iter().fold(f64::MAX, |a, &b| a.min(b)));
+        (hi - lo) / (mean.iter().sum::<f64>() / 3.0)
+    };
+    let coloured = colourfulness(&desc);
+    let i = desc.named_materials.iter().position(|(_, m)| m.params.contains("iridescence")).unwrap();
+    let params =
+        desc.named_materials[i].1.params.params().iter().filter(|p| p.name != "iridescence").cloned().collect();
+    desc.named_materials[i].1.params = scene::ParamSet::from_params(params);
+    let plain = colourfulness(&desc);
+    assert!(coloured > 10.0 * plain && coloured > 0.05, "colourfulness with the film {coloured}, without {plain}");
+}
+
+/// The layer extensions' values and texture references are checked: a wrong type or range, or a texture index
+/// past the file's textures, is an error naming its JSON path.
+#[test]
+fn bad_layer_extensions_are_errors_that_name_the_json_path() {
+    let d = dir("bad-layers");
+    let tri = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    for (ext, value, path) in [
+        ("KHR_materials_clearcoat", json!({ "clearcoatFactor": "x" }), "clearcoatFactor"),
+        ("KHR_materials_clearcoat", json!({ "clearcoatFactor": 1.5 }), "clearcoatFactor"),
+        ("KHR_materials_sheen", json!({ "sheenColorFactor": [1, 0] }), "sheenColorFactor"),
+        ("KHR_materials_specular", json!({ "specularColorFactor": [1, -1, 0] }), "specularColorFactor"),
+        ("KHR_materials_iridescence", json!({ "iridescenceFactor": 1, "iridescenceIor": 0.5 }), "iridescenceIor"),
+        (
+            "KHR_materials_iridescence",
+            json!({ "iridescenceFactor": 1, "iridescenceThicknessMaximum": -1 }),
+            "iridescenceThicknessMaximum",
+        ),
+        (
+            "KHR_materials_clearcoat",
+            json!({ "clearcoatFactor": 1, "clearcoatTexture": { "index": 3 } }),
+            "clearcoatTexture.index",
+        ),
+        ("KHR_materials_specular", json!({ "specularTexture": { "index": 0 } }), "specularTexture.index"),
+        ("KHR_materials_sheen", json!(7), ""),
+    ] {
+        let material = json!({ "materials": [ { "extensions": { ext: value } } ] });
+        let p = write(&d, "bad.gltf", &document(&tri, &[0, 1, 2], material));
+        let e = gltf_import::read_scene(&p, &gltf_import::ReadOptions::default()).unwrap_err();
+        let want = if path.is_empty() {
+            format!("materials[0].extensions.{ext}")
+        } else {
+            format!("materials[0].extensions.{ext}.{path}")
+        };
+        assert_eq!(e.path, want, "{e}");
+    }
+}

@@ -603,3 +603,157 @@ Shape "trianglemesh" "point3 P" [ 1 0 0  0 0 0  0 1 0  1 1 0 ] "point2 uv" [ 0 0
         assert!(close(got, want, 1e-3), "texel {texel:?}: image {got:?}, rgb L {want:?}");
     }
 }
+
+/// The layer extensions' textures (KHR_materials_specular, _sheen, _clearcoat, _iridescence) read the channel each
+/// extension names, linear or sRGB as it says, times the factor: each column of the textured quad renders as the
+/// untextured quad whose factor is the column's texel value times the factor, within 1e-3 (the same pixels, hence
+/// the same wavelengths), and the two columns differ by more than 2 %, so the texture matters.
+#[test]
+fn layer_extension_textures_read_their_channels_times_their_factors() {
+    // (extension, its other members, texture key, factor key and value, the channel, the two columns' texel
+    // values, whether the channel is a colour in sRGB).
+    struct Case {
+        ext: &'static str,
+        base: Value,
+        key: &'static str,
+        factor: (&'static str, f64),
+        channel: usize,
+        texels: [u8; 2],
+    }
+    let cases = [
+        Case {
+            ext: "KHR_materials_specular",
+            base: json!({}),
+            key: "specularTexture",
+            factor: ("specularFactor", 0.9),
+            channel: 3,
+            texels: [40, 230],
+        },
+        Case {
+            ext: "KHR_materials_sheen",
+            base: json!({ "sheenColorFactor": [1.0, 0.9, 0.8] }),
+            key: "sheenRoughnessTexture",
+            factor: ("sheenRoughnessFactor", 1.0),
+            channel: 3,
+            texels: [60, 250],
+        },
+        Case {
+            ext: "KHR_materials_clearcoat",
+            base: json!({ "clearcoatRoughnessFactor": 0.2 }),
+            key: "clearcoatTexture",
+            factor: ("clearcoatFactor", 1.0),
+            channel: 0,
+            texels: [30, 255],
+        },
+        Case {
+            ext: "KHR_materials_clearcoat",
+            base: json!({ "clearcoatFactor": 1.0 }),
+            key: "clearcoatRoughnessTexture",
+            factor: ("clearcoatRoughnessFactor", 0.8),
+            channel: 1,
+            texels: [30, 255],
+        },
+        Case {
+            ext: "KHR_materials_iridescence",
+            base: json!({ "iridescenceThicknessMaximum": 500.0 }),
+            key: "iridescenceTexture",
+            factor: ("iridescenceFactor", 1.0),
+            channel: 0,
+            texels: [40, 255],
+        },
+        Case {
+            ext: "KHR_materials_iridescence",
+            base: json!({ "iridescenceFactor": 1.0, "iridescenceThicknessMinimum": 150.0, "iridescenceThicknessMaximum": 650.0 }),
+            key: "iridescenceThicknessTexture",
+            factor: ("iridescenceFactor", 1.0),
+            channel: 1,
+            texels: [60, 200],
+        },
+    ];
+    // Seen off the sun's direction (the quad turned 20° about y), so that roughness changes what the camera sees.
+    let tilt = [0.0, 0.173_648_18, 0.0, 0.984_807_75];
+    let dielectric = json!({ "baseColorFactor": [0.4, 0.3, 0.2, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.5 });
+    // A film shows most on a metal, whose Fresnel term it replaces.
+    let metal = json!({ "baseColorFactor": [0.9, 0.8, 0.6, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.4 });
+    for case in cases {
+        let pbr = if case.ext == "KHR_materials_iridescence" { &metal } else { &dielectric };
+        let texel = |v: u8| {
+            let mut t = [128u8, 128, 128, 255];
+            t[case.channel] = v;
+            t
+        };
+        let [a, b] = case.texels.map(texel);
+        let png = png_rgba(2, 2, &[a, b, a, b]);
+        let mut ext = case.base.clone();
+        ext[case.key] = json!({ "index": 0 });
+        ext[case.factor.0] = json!(case.factor.1);
+        let material = json!({ "pbrMetallicRoughness": pbr, "extensions": { case.ext: ext } });
+        let rest = json!({
+            "textures": [ { "source": 0, "sampler": 0 } ],
+            "samplers": [ { "magFilter": 9728, "minFilter": 9728 } ],
+            "images": [ { "uri": data_uri("image/png", &png) } ]
+        });
+        let (film, _) = render_doc("layer.gltf", &quad_document(material, rest, tilt));
+        let mut plain_regions = vec![];
+        for ((x0, x1), v) in [((0.1, 0.45), case.texels[0]), ((0.55, 0.9), case.texels[1])] {
+            // Linear channels: the texel value / 255 times the factor (the thickness texture mixes its bounds).
+            let mut plain = case.base.clone();
+            plain[case.factor.0] = json!(case.factor.1 * f64::from(v) / 255.0);
+            if case.key == "iridescenceThicknessTexture" {
+                let (lo, hi) = (150.0, 650.0);
+                plain["iridescenceThicknessMaximum"] = json!(lo + (hi - lo) * f64::from(v) / 255.0);
+                plain[case.factor.0] = json!(case.factor.1);
+            }
+            let plain = json!({ "pbrMetallicRoughness": pbr, "extensions": { case.ext: plain } });
+            let (reference, _) = render_doc("layer-plain.gltf", &quad_document(plain, json!({}), tilt));
+            let (got, want) = (region(&film, x0, x1, 0.1, 0.9), region(&reference, x0, x1, 0.1, 0.9));
+            assert!(want[1] > 1e-3, "lit: {want:?}");
+            assert!(close(got, want, 1e-3), "{} {}: texel {v}: textured {got:?}, factor {want:?}", case.ext, case.key);
+            plain_regions.push(want);
+        }
+        let (l, r) = (plain_regions[0][1], plain_regions[1][1]);
+        assert!((l / r - 1.0).abs() > 0.02, "{} {}: the texture makes no difference ({l} and {r})", case.ext, case.key);
+    }
+}
+
+/// The colour textures of the layer extensions (specular colour, sheen colour) are sRGB, times the colour factor.
+#[test]
+fn layer_extension_colour_textures_are_srgb_times_the_factor() {
+    let pbr = json!({ "baseColorFactor": [0.3, 0.3, 0.3, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.4 });
+    let tilt = [0.0, 0.173_648_18, 0.0, 0.984_807_75];
+    let (a, b) = ([200u8, 60, 30, 255], [40, 120, 220, 255]);
+    let png = png_rgba(2, 2, &[a, b, a, b]);
+    let factor = [0.9, 0.8, 1.0];
+    // ior 0: the specular-glossiness mode, in which f₀ is the specular colour itself (so the colour shows).
+    for (ext, key, factor_key, extra, ior) in [
+        ("KHR_materials_specular", "specularColorTexture", "specularColorFactor", json!({}), json!({ "ior": 0.0 })),
+        (
+            "KHR_materials_sheen",
+            "sheenColorTexture",
+            "sheenColorFactor",
+            json!({ "sheenRoughnessFactor": 0.6 }),
+            json!({ "ior": 1.5 }),
+        ),
+    ] {
+        let mut e = extra.clone();
+        e[key] = json!({ "index": 0 });
+        e[factor_key] = json!(factor);
+        let material = json!({ "pbrMetallicRoughness": pbr, "extensions": { ext: e, "KHR_materials_ior": ior } });
+        let rest = json!({
+            "textures": [ { "source": 0, "sampler": 0 } ],
+            "samplers": [ { "magFilter": 9728, "minFilter": 9728 } ],
+            "images": [ { "uri": data_uri("image/png", &png) } ]
+        });
+        let (film, _) = render_doc("layer-colour.gltf", &quad_document(material, rest, tilt));
+        for ((x0, x1), t) in [((0.1, 0.45), a), ((0.55, 0.9), b)] {
+            let colour: Vec<f64> = (0..3).map(|c| srgb_to_linear(t[c]) * factor[c]).collect();
+            let mut plain = extra.clone();
+            plain[factor_key] = json!(colour);
+            let plain = json!({ "pbrMetallicRoughness": pbr, "extensions": { ext: plain, "KHR_materials_ior": ior } });
+            let (reference, _) = render_doc("layer-colour-plain.gltf", &quad_document(plain, json!({}), tilt));
+            let (got, want) = (region(&film, x0, x1, 0.1, 0.9), region(&reference, x0, x1, 0.1, 0.9));
+            assert!(want[1] > 1e-3, "lit: {want:?}");
+            assert!(close(got, want, 2e-3), "{ext} {key}: texel {t:?}: textured {got:?}, factor {want:?}");
+        }
+    }
+}

@@ -240,3 +240,37 @@ fn film_coating_parameters_are_checked() {
     }
     build(&scene_of("thinfilm", r#""float filmthickness" 350 "string glass" "water""#), "film.pbrt");
 }
+
+/// The layers of `metallicroughness` (glTF's specular, iridescence, sheen and clearcoat extensions): each wrong form
+/// is an error naming the parameter at its file, line and column; the right forms build.
+#[test]
+fn metallic_roughness_layer_parameters_are_checked() {
+    let scene_of = |material: &str| {
+        format!(
+            "Camera \"perspective\"\nFilm \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 4\nWorldBegin\n\
+             Texture \"noise\" \"spectrum\" \"marble\"\nMaterial \"metallicroughness\" {material}\nShape \"sphere\"\n"
+        )
+    };
+    for (material, param) in [
+        (r#""float ior" 0.5"#, "'ior'"),
+        (r#""float specular" [ 1e40 ]"#, "'specular'"),
+        (r#""texture specularcolor" "noise""#, "'specularcolor'"),
+        (r#""texture sheencolor" "noise""#, "'sheencolor'"),
+        (r#""float iridescence" 1 "float iridescencethickness" -5"#, "'iridescencethickness'"),
+        (r#""float iridescence" 1 "float iridescenceeta" -1"#, "'iridescenceeta'"),
+        (r#""float clearcoat" 1 "texture clearcoatnormalmap" "noise""#, "'clearcoatnormalmap'"),
+        (r#""float clearcoat" 1 "float clearcoatroughness" [ 1e40 ]"#, "'clearcoatroughness'"),
+    ] {
+        let e = build_error(&scene_of(material), "layers.pbrt");
+        assert!(e.contains(param) && e.contains("layers.pbrt:5:"), "{material}: {e}");
+    }
+    for material in [
+        r#""float ior" 0 "float specular" 0.5 "rgb specularcolor" [ 2 1 0.5 ]"#,
+        r#""float iridescence" 0.8 "float iridescenceeta" 1.35 "float iridescencethickness" 320"#,
+        r#""rgb sheencolor" [ 0.9 0.8 0.7 ] "float sheenroughness" 0.4"#,
+        r#""float clearcoat" 1 "float clearcoatroughness" 0.05"#,
+        r#""spectrum specularcolor" "metal-Au-eta""#,
+    ] {
+        build(&scene_of(material), "layers.pbrt");
+    }
+}

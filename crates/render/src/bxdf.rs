@@ -180,7 +180,7 @@ pub enum Bxdf {
         film: Option<Box<CoatingAt>>,
     },
     /// glTF 2.0's metallic-roughness BRDF (its Appendix B): a Lambertian base under a GGX layer, blended with a
-    /// GGX metal.
+    /// GGX metal, with the specular, iridescence, sheen and clearcoat extensions' layers.
     MetallicRoughness(MetallicRoughness),
     /// A measured BRDF (pbrt-v4's `MeasuredBxDF`): an RGL material's tables evaluated at the path's wavelengths.
     /// The camera-side direction is the table's incident direction in both transport modes.
@@ -267,8 +267,11 @@ impl Bxdf {
                 SampledSpectrum::zero()
             }
             Bxdf::Layered(c) => c.f(wo, wi, mode),
-            // Reciprocal: the same in both transport modes.
-            Bxdf::MetallicRoughness(m) => m.f(wo, wi),
+            // The camera side is the view direction V in both modes (a clear coat's Fresnel term reads V only).
+            Bxdf::MetallicRoughness(m) => match mode {
+                TransportMode::Radiance => m.f(wo, wi),
+                TransportMode::Importance => m.f(wi, wo),
+            },
             Bxdf::Measured { brdf, lambda } => match mode {
                 TransportMode::Radiance => brdf.f(wo, wi, lambda),
                 // wo is the light side on a light path: the camera side, wi, is the table's incident direction.
@@ -370,6 +373,10 @@ impl Bxdf {
             }
             Bxdf::MetallicRoughness(m) => {
                 let (f, wi, pdf) = m.sample(wo, uc, u)?;
+                let f = match mode {
+                    TransportMode::Radiance => f,
+                    TransportMode::Importance => m.f(wi, wo),
+                };
                 Some(BsdfSample::reflection(f, wi, pdf, false))
             }
             Bxdf::Measured { brdf, lambda } => {

@@ -5,6 +5,7 @@ use std::sync::Arc;
 use optics::Ior;
 use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
 
+use crate::bump::NormalPerturbation;
 use crate::bxdf::Bxdf;
 use crate::coating::Coating;
 use crate::layered::Layered;
@@ -122,6 +123,89 @@ impl ConductorSpec {
     }
 }
 
+/// The layers glTF's extensions put on a `metallicroughness` material; `None`: not there.
+#[derive(Clone, Debug, Default)]
+pub struct MetallicRoughnessLayers {
+    /// `KHR_materials_specular`.
+    pub specular: Option<SpecularLayer>,
+    /// `KHR_materials_iridescence`.
+    pub iridescence: Option<IridescenceLayer>,
+    /// `KHR_materials_sheen`.
+    pub sheen: Option<SheenLayer>,
+    /// `KHR_materials_clearcoat`.
+    pub clearcoat: Option<ClearcoatLayer>,
+}
+
+/// `KHR_materials_specular`'s parameters.
+#[derive(Clone, Debug)]
+pub struct SpecularLayer {
+    /// The specular weight (f₉₀), in [0, 1].
+    pub weight: FloatTexture,
+    /// The colour f₀ is multiplied by (unbounded).
+    pub color: SpectrumTexture,
+    /// The colour's largest RGB channel.
+    pub color_max: FloatTexture,
+}
+
+/// `KHR_materials_iridescence`'s parameters.
+#[derive(Clone, Debug)]
+pub struct IridescenceLayer {
+    /// The weight, in [0, 1].
+    pub weight: FloatTexture,
+    /// The film: one layer of the film's index, its thickness in nm.
+    pub film: Coating,
+}
+
+/// `KHR_materials_sheen`'s parameters.
+#[derive(Clone, Debug)]
+pub struct SheenLayer {
+    /// The sheen colour.
+    pub color: SpectrumTexture,
+    /// The colour's largest RGB channel.
+    pub color_max: FloatTexture,
+    /// The sheen roughness.
+    pub roughness: FloatTexture,
+}
+
+/// `KHR_materials_clearcoat`'s parameters.
+#[derive(Clone, Debug)]
+pub struct ClearcoatLayer {
+    /// The weight, in [0, 1].
+    pub weight: FloatTexture,
+    /// The coat's perceptual roughness.
+    pub roughness: FloatTexture,
+    /// The coat's own normal map (without one the coat follows the unperturbed shading normal, whatever the base's
+    /// normal map does).
+    pub normal_map: Option<NormalPerturbation>,
+}
+
+impl MetallicRoughnessLayers {
+    /// The BRDF of `core` with these layers at `ctx`.
+    fn apply(
+        &self,
+        mut brdf: MetallicRoughness,
+        ctx: &TextureEvalContext,
+        wl: &SampledWavelengths,
+    ) -> MetallicRoughness {
+        if let Some(s) = &self.specular {
+            brdf = brdf.with_specular(s.weight.eval(ctx), s.color.eval(ctx, wl), s.color_max.eval(ctx));
+        }
+        if let Some(i) = &self.iridescence {
+            let weight = i.weight.eval(ctx);
+            if weight > 0.0 {
+                brdf = brdf.with_iridescence(weight, i.film.at(ctx, wl));
+            }
+        }
+        if let Some(s) = &self.sheen {
+            brdf = brdf.with_sheen(s.color.eval(ctx, wl), s.color_max.eval(ctx), s.roughness.eval(ctx));
+        }
+        if let Some(c) = &self.clearcoat {
+            brdf = brdf.with_clearcoat(c.weight.eval(ctx), c.roughness.eval(ctx));
+        }
+        brdf
+    }
+}
+
 /// A material.
 #[derive(Clone, Debug)]
 pub enum Material {
@@ -215,8 +299,10 @@ pub enum Material {
         metallic: FloatTexture,
         /// Perceptual roughness in [0, 1] (α = roughness²).
         roughness: FloatTexture,
-        /// The dielectric layer's index (1.5 in glTF unless `KHR_materials_ior` says otherwise).
+        /// The dielectric layer's index (1.5 in glTF unless `KHR_materials_ior` says otherwise; 0: infinite).
         ior: f32,
+        /// The extensions' layers (specular, iridescence, sheen, clearcoat).
+        layers: Box<MetallicRoughnessLayers>,
     },
     /// No surface: marks a boundary between media.
     Interface,
@@ -244,6 +330,25 @@ impl Material {
             | Material::Mix { .. }
             | Material::Measured { .. }
             | Material::MetallicRoughness { .. }
+            | Material::Interface => None,
+        }
+    }
+
+    /// A glTF clear coat's parameters, if the material has one: its BxDF then needs the coat's normal, which
+    /// ignores the base's normal map ([`crate::metallic_roughness::Clearcoat::normal`]).
+    pub(crate) fn clearcoat(&self) -> Option<&ClearcoatLayer> {
+        match self {
+            Material::MetallicRoughness { layers, .. } => layers.clearcoat.as_ref(),
+            Material::Diffuse { .. }
+            | Material::DiffuseTransmission { .. }
+            | Material::Conductor { .. }
+            | Material::Dielectric { .. }
+            | Material::ThinDielectric { .. }
+            | Material::ThinFilm { .. }
+            | Material::CoatedDiffuse { .. }
+            | Material::CoatedConductor { .. }
+            | Material::Mix { .. }
+            | Material::Measured { .. }
             | Material::Interface => None,
         }
     }
@@ -302,9 +407,11 @@ impl Material {
                 Some(Bxdf::ThinDielectric { eta })
             }
             Material::ThinFilm { film } => Some(Bxdf::ThinFilm { film: film.at(ctx, wl) }),
-            Material::MetallicRoughness { base_color, metallic, roughness, ior } => Some(Bxdf::MetallicRoughness(
-                MetallicRoughness::new(base_color.eval(ctx, wl), metallic.eval(ctx), roughness.eval(ctx), *ior),
-            )),
+            Material::MetallicRoughness { base_color, metallic, roughness, ior, layers } => {
+                let core =
+                    MetallicRoughness::new(base_color.eval(ctx, wl), metallic.eval(ctx), roughness.eval(ctx), *ior);
+                Some(Bxdf::MetallicRoughness(layers.apply(core, ctx, wl)))
+            }
             Material::CoatedDiffuse { reflectance, roughness, ior, medium } => {
                 let eta = single_eta(ior, wl, u);
                 let layered = Layered::coated_diffuse(

@@ -537,6 +537,9 @@ pub enum FloatTexture {
     },
     /// An image map.
     Image(Box<ImageTexture>),
+    /// The largest channel of an image map's tinted RGB, times its scale: the `max_value` glTF's specular and sheen
+    /// extensions take of an RGB colour, for a colour that is a texture.
+    ImageMaxChannel(Box<ImageTexture>),
     /// 1 where `tex` ≥ `cutoff`, else 0 (Prismatic's `"threshold"`: glTF's `MASK` alpha mode on a texture's alpha).
     Threshold {
         /// The texture compared.
@@ -611,6 +614,10 @@ impl FloatTexture {
                 wind_strength.abs() * wave_height
             }
             FloatTexture::Image(img) => img.value(ctx),
+            FloatTexture::ImageMaxChannel(img) => {
+                let [r, g, b] = img.rgb(ctx);
+                img.scale * r.max(g).max(b)
+            }
             FloatTexture::Threshold { tex, cutoff } => {
                 if tex.eval(ctx) >= *cutoff {
                     1.0

@@ -222,7 +222,8 @@ impl Textures {
     pub(super) fn float_param(&self, p: &ParamSet, name: &str, default: f64) -> Result<FloatTexture> {
         match p.get_float_texture(name, default)? {
             FloatParam::Value(v) => {
-                if !v.is_finite() {
+                // Single precision is what the renderer keeps: 1e40 would be infinite there.
+                if !(v as f32).is_finite() {
                     let at =
                         p.get(name).map(|q| q.loc.clone()).unwrap_or_else(|| Loc::builtin(Arc::from(PathBuf::new())));
                     return err(&at, format!("'{name}' must be a finite number, got {v}"));

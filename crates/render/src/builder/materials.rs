@@ -15,7 +15,10 @@ use spectral::Spectrum;
 use super::context::{err, file_err, finite_positive, unsupported, ImageSource, Materials, Result, Textures};
 use crate::bump::NormalPerturbation;
 use crate::coating::{Coating, CoatingLayer, LayerIndex};
-use crate::material::{ConductorSpec, DielectricIor, LayerMedium, Material, Roughness};
+use crate::material::{
+    ClearcoatLayer, ConductorSpec, DielectricIor, IridescenceLayer, LayerMedium, Material, MetallicRoughnessLayers,
+    Roughness, SheenLayer, SpecularLayer,
+};
 use crate::measured::MeasuredBrdf;
 use crate::medium::HomogeneousMedium;
 use crate::texture::{FloatTexture, SpectrumTexture};
@@ -82,16 +85,7 @@ fn normal_perturbation(t: &Textures, e: &Entity) -> Result<Option<NormalPerturba
     let p = &e.params;
     let displacement = if p.contains("displacement") { Some(t.float_param(p, "displacement", 0.0)?) } else { None };
     if p.param_type("normalmap") == Some(ParamType::Texture) {
-        let loc = p.loc_of("normalmap", &e.loc);
-        let name = p.get_texture("normalmap").unwrap_or_default();
-        let Some(tex) = t.image_texture(&name) else {
-            return err(&loc, format!("'normalmap' must name an imagemap spectrum texture; '{name}' is not one"));
-        };
-        let scale = p.get_float("normalscale", 1.0)?;
-        if !scale.is_finite() {
-            return err(&p.loc_of("normalscale", &e.loc), format!("'normalscale' must be finite, got {scale}"));
-        }
-        return Ok(Some(NormalPerturbation::NormalTexture { tex: Box::new(tex), scale: scale as f32 }));
+        return normal_texture(t, p, &e.loc, "normalmap", "normalscale").map(Some);
     }
     if let Some(path) = p.get_filename("normalmap")? {
         let loc = p.loc_of("normalmap", &e.loc);
@@ -100,6 +94,97 @@ fn normal_perturbation(t: &Textures, e: &Entity) -> Result<Option<NormalPerturba
         return Ok(Some(NormalPerturbation::NormalMap(image)));
     }
     Ok(displacement.map(NormalPerturbation::Bump))
+}
+
+/// Prismatic's `"texture {map}"` (an imagemap spectrum texture, a tangent-space normal map as glTF stores them) with
+/// its `"float {scale}"` (glTF's `normalTextureInfo.scale`, default 1).
+fn normal_texture(t: &Textures, p: &ParamSet, loc: &Loc, map: &str, scale: &str) -> Result<NormalPerturbation> {
+    let name = p.get_texture(map).unwrap_or_default();
+    let Some(tex) = t.image_texture(&name) else {
+        return err(
+            &p.loc_of(map, loc),
+            format!("'{map}' must name an imagemap spectrum texture; '{name}' is not one"),
+        );
+    };
+    let s = p.get_float(scale, 1.0)?;
+    if !s.is_finite() {
+        return err(&p.loc_of(scale, loc), format!("'{scale}' must be finite, got {s}"));
+    }
+    Ok(NormalPerturbation::NormalTexture { tex: Box::new(tex), scale: s as f32 })
+}
+
+/// The layers glTF's extensions put on a `metallicroughness` material, each there if one of its parameters is
+/// given (docs/scene-format.md): `specular` and `specularcolor`; `iridescence` with `iridescenceeta` (default 1.3)
+/// and `iridescencethickness` (nm, default 400); `sheencolor` with `sheenroughness`; `clearcoat` with
+/// `clearcoatroughness` and `clearcoatnormalmap`/`clearcoatnormalscale`.
+fn metallic_roughness_layers(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<MetallicRoughnessLayers> {
+    let mut layers = MetallicRoughnessLayers::default();
+    if p.contains("specular") || p.contains("specularcolor") {
+        layers.specular = Some(SpecularLayer {
+            weight: t.float_param(p, "specular", 1.0)?,
+            color: t.spectrum_param(p, "specularcolor", SpectrumKind::Unbounded, 1.0)?,
+            color_max: color_max(t, p, loc, "specularcolor", 1.0)?,
+        });
+    }
+    if p.contains("iridescence") {
+        let thickness = t.float_param(p, "iridescencethickness", 400.0)?;
+        if let FloatTexture::Constant(v) = thickness {
+            if !(v.is_finite() && v >= 0.0) {
+                let at = p.loc_of("iridescencethickness", loc);
+                return err(&at, thickness_message("iridescencethickness", v as f64));
+            }
+        }
+        let index = layer_index(named_eta(p, loc, "iridescenceeta", 1.3)?);
+        layers.iridescence = Some(IridescenceLayer {
+            weight: t.float_param(p, "iridescence", 0.0)?,
+            film: Coating { layers: vec![CoatingLayer { index, thickness }] },
+        });
+    }
+    if p.contains("sheencolor") {
+        layers.sheen = Some(SheenLayer {
+            color: t.spectrum_param(p, "sheencolor", SpectrumKind::Albedo, 0.0)?,
+            color_max: color_max(t, p, loc, "sheencolor", 0.0)?,
+            roughness: t.float_param(p, "sheenroughness", 0.0)?,
+        });
+    }
+    if p.contains("clearcoat") {
+        let normal_map = if p.contains("clearcoatnormalmap") {
+            Some(normal_texture(t, p, loc, "clearcoatnormalmap", "clearcoatnormalscale")?)
+        } else {
+            None
+        };
+        layers.clearcoat = Some(ClearcoatLayer {
+            weight: t.float_param(p, "clearcoat", 0.0)?,
+            roughness: t.float_param(p, "clearcoatroughness", 0.0)?,
+            normal_map,
+        });
+    }
+    Ok(layers)
+}
+
+/// The largest RGB channel of colour parameter `name` (glTF's `max_value`): of an `rgb` value, of an imagemap's
+/// tinted texels, or the largest value of any other constant spectrum over 360–830 nm.
+fn color_max(t: &Textures, p: &ParamSet, loc: &Loc, name: &str, default: f64) -> Result<FloatTexture> {
+    if p.param_type(name) == Some(ParamType::Rgb) {
+        if let Some(rgb) = p.get_rgb(name)? {
+            return Ok(FloatTexture::Constant(rgb.iter().fold(0.0f64, |m, &v| m.max(v)) as f32));
+        }
+    }
+    if p.param_type(name) == Some(ParamType::Texture) {
+        let tex_name = p.get_texture(name).unwrap_or_default();
+        return match t.image_texture(&tex_name) {
+            Some(tex) => Ok(FloatTexture::ImageMaxChannel(Box::new(tex))),
+            None => err(
+                &p.loc_of(name, loc),
+                format!("'{name}' must be a colour or an imagemap texture (its largest channel is needed); '{tex_name}' is not one"),
+            ),
+        };
+    }
+    // Not a texture here, so a constant.
+    let SpectrumTexture::Constant(s) = t.spectrum_param(p, name, SpectrumKind::Unbounded, default)? else {
+        return err(&p.loc_of(name, loc), format!("'{name}' must be a colour or an imagemap texture"));
+    };
+    Ok(FloatTexture::Constant((360..=830).map(|l| s.eval(l as f64)).fold(0.0f64, f64::max) as f32))
 }
 
 fn roughness(t: &Textures, p: &ParamSet) -> Result<Roughness> {
@@ -379,14 +464,18 @@ fn material(t: &Textures, e: &Entity, names: &HashMap<String, u32>, measured: &M
         "thindielectric" => Material::ThinDielectric { ior: dielectric_ior(p, &e.loc, 1.5)? },
         "metallicroughness" => {
             let ior = p.get_float("ior", 1.5)?;
-            if !(ior.is_finite() && ior >= 1.0) {
-                return err(&p.loc_of("ior", &e.loc), format!("'ior' must be a number ≥ 1, got {ior}"));
+            if !(ior.is_finite() && (ior >= 1.0 || ior == 0.0)) {
+                return err(
+                    &p.loc_of("ior", &e.loc),
+                    format!("'ior' must be a number ≥ 1 (or 0, infinite), got {ior}"),
+                );
             }
             Material::MetallicRoughness {
                 base_color: t.spectrum_param(p, "basecolor", SpectrumKind::Albedo, 1.0)?,
                 metallic: t.float_param(p, "metallic", 1.0)?,
                 roughness: t.float_param(p, "roughness", 1.0)?,
                 ior: ior as f32,
+                layers: Box::new(metallic_roughness_layers(t, p, &e.loc)?),
             }
         }
         "thinfilm" => Material::ThinFilm { film: free_film(t, p, &e.loc)? },

@@ -471,11 +471,27 @@ fn resolve_surface(
     if material_index == NO_MATERIAL {
         return Surface::PassThrough;
     }
+    let material = &scene.materials[material_index as usize];
+    // A glTF clear coat keeps the shading frame the base's normal map tilts away from (or has its own map).
+    let coat_hit = material.clearcoat().map(|coat| (coat, *hit));
     if let Some(Some(perturbation)) = scene.normal_perturbations.get(material_index as usize) {
         perturbation.apply(hit, &ctx);
     }
-    match scene.materials[material_index as usize].bxdf(&ctx, wl, u_bxdf, regularize) {
-        Some(b) => Surface::Scatter(b),
+    match material.bxdf(&ctx, wl, u_bxdf, regularize) {
+        Some(mut b) => {
+            if let (Some((coat, mut coat_hit)), Bxdf::MetallicRoughness(m)) = (coat_hit, &mut b) {
+                if let Some(map) = &coat.normal_map {
+                    map.apply(&mut coat_hit, &ctx);
+                }
+                if let Some(c) = m.clearcoat_mut() {
+                    if coat_hit.ns != hit.ns {
+                        let local = Frame::from_z_and_tangent(hit.ns, hit.dpdu).to_local(coat_hit.ns);
+                        c.normal = local.try_normalize().unwrap_or(Vec3::Z);
+                    }
+                }
+            }
+            Surface::Scatter(b)
+        }
         None => Surface::Absorb,
     }
 }
