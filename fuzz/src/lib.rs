@@ -66,7 +66,8 @@ fn png_pixels(data: &[u8]) -> Option<u64> {
 /// signatures), then the conversion a texture makes, with every channel selection. Inputs whose JPEG frame header
 /// claims more than 2^18 pixels are skipped, as for the `png` target.
 pub fn jpeg(data: &[u8]) {
-    if jpeg_pixels(data).is_some_and(|p| p > 1 << 18) || png_pixels(data).is_some_and(|p| p > 1 << 18) {
+    let big = |p: Option<u64>| p.is_some_and(|p| p > 1 << 18);
+    if big(jpeg_pixels(data)) || big(png_pixels(data)) || big(webp_pixels(data)) {
         return;
     }
     let decoded = film::decode_image_bytes(data, Path::new("fuzz.jpg"));
@@ -76,6 +77,15 @@ pub fn jpeg(data: &[u8]) {
         }
     }
     report("jpeg", decoded);
+}
+
+/// Width × height from a WebP's headers (the decoder reads them without decoding the image).
+fn webp_pixels(data: &[u8]) -> Option<u64> {
+    if film::sniff_format(data) != Some("webp") {
+        return None;
+    }
+    let (w, h) = image_webp::WebPDecoder::new(std::io::Cursor::new(data)).ok()?.dimensions();
+    Some(u64::from(w) * u64::from(h))
 }
 
 /// Height × width from the first JPEG start-of-frame marker (SOF0–SOF15 but DHT, JPG and DAC) in the data.

@@ -1,5 +1,6 @@
-//! Decoding PNG and JPEG images held in memory: the textures a glTF file embeds (in its binary chunk or as data
-//! URIs) or names, and JPEG textures of pbrt-v4 scenes. The format is recognised by its signature, not a name.
+//! Decoding PNG, JPEG and WebP images held in memory: the textures a glTF file embeds (in its binary chunk or as data
+//! URIs) or names (WebP through `EXT_texture_webp`), and JPEG and WebP textures of pbrt-v4 scenes. The format is
+//! recognised by its signature, not a name.
 //!
 //! [`decode_image_bytes`] keeps the samples as stored (8 or 16 bits, 1 to 4 channels, alpha included);
 //! [`DecodedImage::to_rgb`] turns them into the linear RGB a texture reads, through a colour encoding and a choice
@@ -18,6 +19,11 @@ pub const MAX_JPEG_PIXELS: u64 = 1 << 28;
 
 /// The most pixels one byte of a JPEG can describe: 64 pixels per block, 8 blocks per byte at one bit each.
 const JPEG_PIXELS_PER_BYTE: u64 = 64 * 8;
+
+/// The most pixels a decoded WebP may have: 2^26, an image of 8192 × 8192. Lossless WebP codes a flat image in a
+/// few bytes (a one-symbol Huffman code takes no bits per pixel), so its size cannot be bounded by the file's; the
+/// format's own limit, 16384 on each side, would allow a gigabyte from a hundred bytes.
+pub const MAX_WEBP_PIXELS: u64 = 1 << 26;
 
 /// An image's samples as stored: `channels` per pixel (1 grey, 2 grey and alpha, 3 RGB, 4 RGBA), rows from the top,
 /// each left to right; 8-bit values are held in the low byte.
@@ -98,27 +104,57 @@ impl DecodedImage {
     }
 }
 
-/// What format `bytes` hold, by signature: `"png"`, `"jpeg"`, or `None`.
+/// What format `bytes` hold, by signature: `"png"`, `"jpeg"`, `"webp"` (a RIFF container of type `WEBP`), or `None`.
 pub fn sniff_format(bytes: &[u8]) -> Option<&'static str> {
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
         Some("png")
     } else if bytes.starts_with(&[0xff, 0xd8, 0xff]) {
         Some("jpeg")
+    } else if bytes.starts_with(b"RIFF") && bytes.get(8..12) == Some(b"WEBP") {
+        Some("webp")
     } else {
         None
     }
 }
 
-/// Decodes a PNG or JPEG held in `bytes` (`name` is what errors call it: a file, or a glTF image's JSON path).
+/// Decodes a PNG, JPEG or WebP held in `bytes` (`name` is what errors call it: a file, or a glTF image's JSON path).
 pub fn decode_image_bytes(bytes: &[u8], name: &Path) -> Result<DecodedImage, ImageError> {
     match sniff_format(bytes) {
         Some("png") => decode_png(bytes, name),
         Some("jpeg") => decode_jpeg(bytes, name),
+        Some("webp") => decode_webp(bytes, name),
         _ => Err(ImageError::Malformed {
             path: name.to_path_buf(),
-            message: "not a PNG or JPEG image (neither signature is present)".into(),
+            message: "not a PNG, JPEG or WebP image (no signature of one is present)".into(),
         }),
     }
+}
+
+/// Decodes a WebP, lossy or lossless, with or without alpha (the first frame of an animation), with the
+/// `image-webp` crate; at most [`MAX_WEBP_PIXELS`] pixels.
+pub(crate) fn decode_webp(bytes: &[u8], name: &Path) -> Result<DecodedImage, ImageError> {
+    let malformed = |message: String| ImageError::Malformed { path: name.to_path_buf(), message };
+    let webp_err = |e: image_webp::DecodingError| malformed(format!("WebP: {e}"));
+    let mut decoder = image_webp::WebPDecoder::new(std::io::Cursor::new(bytes)).map_err(webp_err)?;
+    let (w, h) = decoder.dimensions();
+    let pixels = u64::from(w) * u64::from(h);
+    if pixels == 0 || pixels > MAX_WEBP_PIXELS {
+        return Err(malformed(format!("a {w}×{h} WebP: images of 1 to {MAX_WEBP_PIXELS} pixels are read")));
+    }
+    let channels = if decoder.has_alpha() { 4 } else { 3 };
+    let size = pixels as usize * channels;
+    if decoder.output_buffer_size() != Some(size) {
+        return Err(malformed(format!("WebP: the decoder's buffer for a {w}×{h} image is not {size} bytes")));
+    }
+    let mut buf = vec![0u8; size];
+    decoder.read_image(&mut buf).map_err(webp_err)?;
+    Ok(DecodedImage {
+        width: w,
+        height: h,
+        channels,
+        sixteen: false,
+        samples: buf.into_iter().map(u16::from).collect(),
+    })
 }
 
 /// Decodes a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette, expanded) without touching the samples'
@@ -295,6 +331,42 @@ mod tests {
         let e = decode_image_bytes(&bomb, Path::new("bomb.jpg")).unwrap_err().to_string();
         assert!(e.contains("more data than its 326 bytes"), "{e}");
         let e = decode_image_bytes(b"GIF89a....", Path::new("images[3]")).unwrap_err().to_string();
-        assert!(e.contains("images[3]") && e.contains("not a PNG or JPEG"), "{e}");
+        assert!(e.contains("images[3]") && e.contains("not a PNG, JPEG or WebP"), "{e}");
+        let webp =
+            std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/two-colours-lossy.webp")).unwrap();
+        for cut in [11, 20, 40, 60] {
+            assert!(decode_image_bytes(&webp[..cut], Path::new("cut.webp")).is_err(), "cut at {cut}");
+        }
+        // 38 bytes of lossless WebP (written by Pillow) that decode to a flat 16383 × 8200 image.
+        let bomb = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/webp-size-bomb.webp")).unwrap();
+        let e = decode_image_bytes(&bomb, Path::new("bomb.webp")).unwrap_err().to_string();
+        assert!(e.contains("16383×8200"), "{e}");
+    }
+
+    /// Committed 16×8 WebPs written by Pillow: the left half sRGB (200, 30, 30), the right half (30, 200, 30); the
+    /// lossless one with alpha 255 and 128, exactly; the lossy one (quality 90) within 6 of each value.
+    #[test]
+    fn webp_of_flat_colours_decodes_to_them() {
+        let read = |name: &str| {
+            let bytes = std::fs::read(format!("{}/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap();
+            assert_eq!(sniff_format(&bytes), Some("webp"));
+            decode_image_bytes(&bytes, Path::new(name)).unwrap()
+        };
+        let lossless = read("two-colours-lossless.webp");
+        assert_eq!((lossless.width, lossless.height, lossless.channels), (16, 8, 4));
+        assert_eq!(&lossless.samples[(4 * 16 + 2) * 4..][..4], &[200, 30, 30, 255]);
+        assert_eq!(&lossless.samples[(4 * 16 + 13) * 4..][..4], &[30, 200, 30, 128]);
+        // A `.webp` file read as a texture: the sRGB curve applied, alpha dropped.
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/two-colours-lossless.webp");
+        let (w, h, rgb) = crate::read_rgb(&path).unwrap();
+        assert_eq!((w, h), (16, 8));
+        let srgb = |v: u8| spectral::color::srgb_decode(f64::from(v) / 255.0) as f32;
+        assert_eq!(rgb[4 * 16 + 13], [srgb(30), srgb(200), srgb(30)]);
+        let lossy = read("two-colours-lossy.webp");
+        assert_eq!((lossy.width, lossy.height, lossy.channels), (16, 8, 3));
+        for (x, want) in [(2usize, [200u16, 30, 30]), (13, [30, 200, 30])] {
+            let got = &lossy.samples[(4 * 16 + x) * 3..][..3];
+            assert!(got.iter().zip(want).all(|(g, w)| g.abs_diff(w) <= 6), "pixel ({x}, 4): {got:?} against {want:?}");
+        }
     }
 }

@@ -976,6 +976,10 @@ fn read_not_written_format(path: &Path) -> Option<Result<LinearRgb, ImageError>>
             let img = crate::decode::decode_jpeg(&bytes, path)?;
             Ok((img.width, img.height, img.to_rgb(ColorEncoding::Srgb, crate::decode::ChannelSelect::Rgb)))
         })),
+        "webp" => Some(open_read(path).and_then(|bytes| {
+            let img = crate::decode::decode_webp(&bytes, path)?;
+            Ok((img.width, img.height, img.to_rgb(ColorEncoding::Srgb, crate::decode::ChannelSelect::Rgb)))
+        })),
         "hdr" | "pic" => Some(crate::hdr::read_hdr(path)),
         _ => None,
     }

@@ -44,7 +44,7 @@ pub mod image_io;
 pub mod tga;
 pub mod view;
 
-pub use decode::{decode_image_bytes, ChannelSelect, DecodedImage};
+pub use decode::{decode_image_bytes, sniff_format, ChannelSelect, DecodedImage};
 pub use error::{FilmError, ImageError};
 pub use film::{
     AovImages, CameraResponse, Film, FilmKind, FilmRow, FilmSpec, FilmState, GBuffer, GBufferCoordinates,

@@ -63,9 +63,10 @@ pub struct ReadOptions {
 
 /// The extensions this reader understands; any other in `extensionsRequired` is an error, in `extensionsUsed` a
 /// warning.
-pub const SUPPORTED_EXTENSIONS: [&str; 11] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 12] = [
     "KHR_lights_punctual",
     "KHR_texture_transform",
+    "EXT_texture_webp",
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_materials_volume",
@@ -305,7 +306,15 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, (String, String)> {
     }
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| (String::new(), gltf_message(&e)))?;
-    let json = document.into_json();
+    let mut json = document.into_json();
+    // EXT_texture_webp: the WebP image replaces the texture's fallback `source` (or stands where it has none), as
+    // the extension asks of readers that decode WebP; the crate's validation then checks the index.
+    for texture in &mut json.textures {
+        let webp = texture.extensions.as_ref().and_then(|e| e.others.get("EXT_texture_webp"));
+        if let Some(source) = webp.and_then(|w| w.get("source")).and_then(serde_json::Value::as_u64) {
+            texture.source = gltf::json::Index::new(source.min(u64::from(u32::MAX - 1)) as u32);
+        }
+    }
     // Required extensions first: a file that needs one this reader lacks (compressed meshes or textures, say) is
     // that error, not whatever the crate's validation finds missing without it (a KTX2 texture has no `source`).
     for ext in &json.extensions_required {

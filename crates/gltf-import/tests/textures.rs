@@ -398,7 +398,7 @@ fn images_in_a_glb_buffer_view_and_bad_images() {
         .err()
         .expect("a bad image is an error")
         .to_string();
-    assert!(e.contains("images[0]") && e.contains("not a PNG or JPEG"), "{e}");
+    assert!(e.contains("images[0]") && e.contains("not a PNG, JPEG or WebP"), "{e}");
 }
 
 /// KHR_texture_transform's matrix in the reader's (u, v) (v = 1 − glTF's v, t from the image's bottom) against
@@ -754,6 +754,48 @@ fn layer_extension_colour_textures_are_srgb_times_the_factor() {
             let (got, want) = (region(&film, x0, x1, 0.1, 0.9), region(&reference, x0, x1, 0.1, 0.9));
             assert!(want[1] > 1e-3, "lit: {want:?}");
             assert!(close(got, want, 2e-3), "{ext} {key}: texel {t:?}: textured {got:?}, factor {want:?}");
+        }
+    }
+}
+
+/// A lossless WebP of `w`×`h` RGBA pixels as bytes.
+fn webp_rgba(w: u32, h: u32, pixels: &[[u8; 4]]) -> Vec<u8> {
+    let mut out = vec![];
+    image_webp::WebPEncoder::new(&mut out).encode(&pixels.concat(), w, h, image_webp::ColorType::Rgba8).unwrap();
+    out
+}
+
+/// EXT_texture_webp: a texture whose extension names a (lossless) WebP image renders bit for bit as the same
+/// texels in a PNG, whether the WebP stands alone or beside a PNG fallback in `source` (which it replaces: the
+/// fallback here is a different image, so reading it would show).
+#[test]
+fn a_webp_texture_renders_as_the_same_png() {
+    let (material, rest) = textured([1.0; 4], json!({ "magFilter": 9728, "minFilter": 9728 }), None);
+    let (want, _) = render_doc("png.gltf", &quad_document(material.clone(), rest, [0.0, 0.0, 0.0, 1.0]));
+    let webp = webp_rgba(2, 2, &TEXELS);
+    let fallback = png_rgba(2, 2, &[[0, 0, 0, 255]; 4]);
+    for (texture, images) in [
+        (
+            json!({ "sampler": 0, "extensions": { "EXT_texture_webp": { "source": 0 } } }),
+            json!([ { "uri": data_uri("image/webp", &webp) } ]),
+        ),
+        (
+            json!({ "source": 1, "sampler": 0, "extensions": { "EXT_texture_webp": { "source": 0 } } }),
+            json!([ { "uri": data_uri("image/webp", &webp) }, { "uri": data_uri("image/png", &fallback) } ]),
+        ),
+    ] {
+        let rest = json!({
+            "textures": [ texture ],
+            "samplers": [ { "magFilter": 9728, "minFilter": 9728 } ],
+            "images": images,
+            "extensionsUsed": ["KHR_lights_punctual", "EXT_texture_webp"]
+        });
+        let (got, desc) = render_doc("webp.gltf", &quad_document(material.clone(), rest, [0.0, 0.0, 0.0, 1.0]));
+        assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+        for py in 0..SIDE {
+            for px in 0..SIDE {
+                assert_eq!(got.pixel_xyz(px, py), want.pixel_xyz(px, py), "pixel ({px}, {py})");
+            }
         }
     }
 }
