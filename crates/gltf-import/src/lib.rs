@@ -34,6 +34,7 @@ use rayon::prelude::*;
 use textures::{ImageTable, TextureMaker, TextureRef};
 
 mod layers;
+mod meshopt;
 mod textures;
 use scene::{
     CameraEntity, Diagnostic, Entity, LightEntity, Loc, MaterialRef, MediumEntity, Param, ParamSet, ParamType,
@@ -63,10 +64,11 @@ pub struct ReadOptions {
 
 /// The extensions this reader understands; any other in `extensionsRequired` is an error, in `extensionsUsed` a
 /// warning.
-pub const SUPPORTED_EXTENSIONS: [&str; 12] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 13] = [
     "KHR_lights_punctual",
     "KHR_texture_transform",
     "EXT_texture_webp",
+    "EXT_meshopt_compression",
     "KHR_materials_ior",
     "KHR_materials_transmission",
     "KHR_materials_volume",
@@ -322,6 +324,9 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, (String, String)> {
             return Err(("extensionsRequired".into(), format!("extension '{ext}' is required but not supported")));
         }
     }
+    // Checked here: the crate's validation would refuse the extensions it does not parse itself, which this
+    // reader reads from their JSON (the material layers, dispersion, WebP, meshopt).
+    json.extensions_required.clear();
     for (m, mesh) in json.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
             for (semantic, index) in &prim.attributes {
@@ -358,8 +363,16 @@ fn load_buffers(gltf: &gltf::Gltf, path: &Path, files: &mut Vec<PathBuf>) -> Res
         |i: usize, message: String| GltfError { file: path.to_path_buf(), path: format!("buffers[{i}]"), message };
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut out = vec![];
+    let json = gltf.document.as_json();
+    let placeholder: Vec<bool> =
+        (0..json.buffers.len()).map(|i| meshopt::is_placeholder(json, i, gltf.blob.is_some())).collect();
     for buffer in gltf.buffers() {
         let i = buffer.index();
+        if placeholder[i] {
+            // Filled by EXT_meshopt_compression's views below, as far as they reach.
+            out.push(vec![]);
+            continue;
+        }
         let data = match buffer.source() {
             gltf::buffer::Source::Bin => {
                 gltf.blob.clone().ok_or_else(|| err(i, "refers to the GLB's binary chunk, which is missing".into()))?
@@ -386,6 +399,11 @@ fn load_buffers(gltf: &gltf::Gltf, path: &Path, files: &mut Vec<PathBuf>) -> Res
         }
         out.push(data);
     }
+    meshopt::decode_views(json, &mut out, &placeholder).map_err(|(json_path, message)| GltfError {
+        file: path.to_path_buf(),
+        path: json_path,
+        message,
+    })?;
     Ok(out)
 }
 

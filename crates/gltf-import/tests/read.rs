@@ -634,3 +634,84 @@ fn bad_layer_extensions_are_errors_that_name_the_json_path() {
         assert_eq!(e.path, want, "{e}");
     }
 }
+
+/// EXT_meshopt_compression: the quad scene with its positions (exponential filter) and indices (triangle codec)
+/// compressed by meshoptimizer's own encoders into buffer 0, decoded into a placeholder buffer, renders bit for bit
+/// as the uncompressed file. The same views with the file's uncompressed data still present are read from it.
+/// Malformed extension objects are errors naming the JSON path.
+#[test]
+fn meshopt_compressed_views_render_as_the_uncompressed_file() {
+    let d = dir("meshopt");
+    let plain_path = quad_scene(&d);
+    let plain: Value = serde_json::from_slice(&std::fs::read(&plain_path).unwrap()).unwrap();
+    let quad = [[0.2f32, 0.1, 0.0], [1.2, 0.1, 0.0], [1.2, 0.9, 0.0], [0.2, 0.9, 0.0]];
+    let indices = [0u32, 1, 2, 0, 2, 3];
+    // Exponential filter with a 24-bit mantissa: these coordinates survive exactly.
+    let filtered: Vec<[u32; 3]> = meshopt::encode_filter_exp(&quad, 24, meshopt::EncodeExpMode::Separate);
+    let positions = meshopt::encode_vertex_buffer(&filtered).unwrap();
+    let tris = meshopt::encode_index_buffer(&indices, 4).unwrap();
+    let mut compressed = positions.clone();
+    compressed.extend_from_slice(&tris);
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&compressed)
+    );
+    let mut doc = plain.clone();
+    doc["extensionsUsed"] = json!(["KHR_lights_punctual", "EXT_meshopt_compression"]);
+    doc["extensionsRequired"] = json!(["EXT_meshopt_compression"]);
+    let placeholder = json!({ "byteLength": 72, "extensions": { "EXT_meshopt_compression": { "fallback": true } } });
+    doc["buffers"] = json!([ { "byteLength": compressed.len(), "uri": uri }, placeholder ]);
+    doc["bufferViews"] = json!([
+        { "buffer": 1, "byteOffset": 0, "byteLength": 48, "extensions": { "EXT_meshopt_compression": {
+            "buffer": 0, "byteOffset": 0, "byteLength": positions.len(), "byteStride": 12, "count": 4,
+            "mode": "ATTRIBUTES", "filter": "EXPONENTIAL" } } },
+        { "buffer": 1, "byteOffset": 48, "byteLength": 24, "extensions": { "EXT_meshopt_compression": {
+            "buffer": 0, "byteOffset": positions.len(), "byteLength": tris.len(), "byteStride": 4, "count": 6,
+            "mode": "TRIANGLES" } } }
+    ]);
+    let read = |name: &str, doc: &Value| gltf_import::read_scene(&write(&d, name, doc), &Default::default());
+    let want = render(&gltf_import::read_scene(&plain_path, &Default::default()).unwrap(), 4, (48, 32));
+    let desc = read("compressed.gltf", &doc).unwrap_or_else(|e| panic!("{e}"));
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    let got = render(&desc, 4, (48, 32));
+    assert!(blocks(&want, 8).iter().any(|&v| v > 0.01), "the quad is lit");
+    for y in 0..32 {
+        for x in 0..48 {
+            assert_eq!(got.pixel_xyz(x, y), want.pixel_xyz(x, y), "pixel ({x}, {y})");
+        }
+    }
+    // With the uncompressed data in a real buffer 1, the views read it (the compressed bytes are not decoded:
+    // here they are garbage, which decoding would refuse).
+    let mut with_fallback = doc.clone();
+    with_fallback["buffers"][1] = plain["buffers"][0].clone();
+    with_fallback["buffers"][0]["uri"] = json!(format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(vec![0xabu8; compressed.len()])
+    ));
+    let got = render(&read("fallback.gltf", &with_fallback).unwrap_or_else(|e| panic!("{e}")), 4, (48, 32));
+    assert_eq!(got.pixel_xyz(30, 10), want.pixel_xyz(30, 10));
+    let at = "bufferViews[0].extensions.EXT_meshopt_compression";
+    for (key, value, path) in [
+        ("count", json!(5), format!("{at}.count")),
+        ("mode", json!("SPIRAL"), format!("{at}.mode")),
+        ("filter", json!("OCTAHEDRAL"), format!("{at}.filter")),
+        ("byteStride", json!(6), format!("{at}.byteStride")),
+        ("byteLength", json!(1), at.to_string()),
+        ("buffer", json!(9), format!("{at}.buffer")),
+    ] {
+        let mut bad = doc.clone();
+        bad["bufferViews"][0]["extensions"]["EXT_meshopt_compression"][key] = value;
+        if key == "byteStride" {
+            bad["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["count"] = json!(8);
+        }
+        let e = read("bad.gltf", &bad).unwrap_err();
+        assert_eq!(e.path, path, "{key}: {e}");
+    }
+    // A view claiming far more data than its compressed bytes can hold is refused before anything is allocated.
+    let mut huge = doc.clone();
+    huge["buffers"][1]["byteLength"] = json!(12_000_024u64);
+    huge["bufferViews"][0]["byteLength"] = json!(12_000_000u64);
+    huge["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["count"] = json!(1_000_000);
+    let e = read("huge.gltf", &huge).unwrap_err();
+    assert!(e.path == format!("{at}.byteLength") && e.message.contains("cannot come out of"), "{e}");
+}
