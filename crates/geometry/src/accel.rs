@@ -96,6 +96,10 @@ pub struct Hit {
     pub shape: u32,
     /// Primitive within the shape (triangle or patch index for meshes, 0 otherwise).
     pub element: u32,
+    /// Barycentric coordinates of a triangle hit: the weights of the triangle's vertices in index order, as its uv
+    /// is interpolated (the patch coordinates (u, v, 0) of a bilinear patch; zero for other shapes). Per-vertex
+    /// data a mesh carries beside the geometry (glTF's vertex colours) is interpolated with them.
+    pub bary: [f32; 3],
 }
 
 impl Hit {
@@ -768,6 +772,7 @@ impl GeometryScene {
             primitive: c.prim,
             shape,
             element,
+            bary: c.hit.b,
         }
     }
 

@@ -5,7 +5,8 @@
 //! What becomes what:
 //! - **Meshes**: every triangle primitive of every node of the default scene, decoded on all cores into
 //!   [`SceneDescription::meshes`] (once per primitive however many nodes use it) and placed by `importedmesh` shapes
-//!   under the node's world transform. glTF lengths are metres, used as scene units.
+//!   under the node's world transform, with their vertex colours (`COLOR_0`, in
+//!   [`SceneDescription::vertex_colors`]). glTF lengths are metres, used as scene units.
 //! - **Cameras**: the chosen one (by name or index; the first by default), perspective or orthographic, looking down
 //!   its node's −Z with +Y up as glTF says. Without any, a camera framing the scene's bounds, with a warning.
 //! - **Lights** (`KHR_lights_punctual`): point and spot lights in candela, directional ones in lux, become radiometric
@@ -230,7 +231,7 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
         }
     }
     let meshes: Vec<gltf::Mesh<'_>> = gltf.meshes().collect();
-    let decoded: Vec<Result<Option<Arc<MeshData>>, GltfError>> = used
+    let decoded: Vec<Result<Option<DecodedPrimitive>, GltfError>> = used
         .par_iter()
         .map(|&(m, p)| {
             let prim = meshes[m].primitives().nth(p).expect("the primitive was listed from this mesh");
@@ -240,11 +241,17 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
         .collect();
     let mut mesh_index = std::collections::HashMap::new();
     for ((m, p), d) in used.iter().zip(decoded) {
-        if let Some(data) = d? {
-            mesh_index.insert((*m, *p), desc.meshes.len());
+        if let Some((data, colors)) = d? {
+            let colors = colors.map(|c| {
+                desc.vertex_colors.push(c);
+                desc.vertex_colors.len() - 1
+            });
+            mesh_index.insert((*m, *p), (desc.meshes.len(), colors));
             desc.meshes.push(data);
         }
     }
+    // Materials of primitives with vertex colours: the base colour times COLOR_0, made once per material.
+    let mut colored_materials: std::collections::HashMap<String, String> = std::collections::HashMap::new();
 
     let mut cameras = vec![];
     for (node, world) in &placed {
@@ -252,11 +259,22 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
             .ok_or_else(|| err(&format!("nodes[{}]", node.index()), "the transform is singular".into()))?;
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                let Some(&index) = mesh_index.get(&(mesh.index(), prim.index())) else { continue };
+                let Some(&(index, colors)) = mesh_index.get(&(mesh.index(), prim.index())) else { continue };
                 let material = prim.material();
-                let (name, medium) = material_ref(desc, material.clone())?;
+                let (mut name, medium) = material_ref(desc, material.clone())?;
                 let mut params = ParamSet::new();
                 params.push(ints("mesh", &[index as i64], &loc));
+                if let Some(c) = colors {
+                    params.push(ints("vertexcolors", &[c as i64], &loc));
+                    name = match colored_materials.get(&name) {
+                        Some(colored) => colored.clone(),
+                        None => {
+                            let colored = vertex_color_material(desc, &name, &loc);
+                            colored_materials.insert(name.clone(), colored.clone());
+                            colored
+                        }
+                    };
+                }
                 if let Some(alpha) = alpha_param(&material, &name, &loc) {
                     params.push(alpha);
                 }
@@ -471,11 +489,14 @@ fn check_accessor(a: &gltf::Accessor<'_>, buffers: &[Vec<u8>], json: &str) -> Re
 
 /// One triangle primitive as mesh data (None for one with no triangles: points and lines are skipped); errors as
 /// (JSON path, message).
+/// A decoded primitive: its mesh and its vertex colours (`COLOR_0`, linear RGB), if it has them.
+type DecodedPrimitive = (Arc<MeshData>, Option<Arc<[[f32; 3]]>>);
+
 fn decode_primitive(
     prim: &gltf::Primitive<'_>,
     buffers: &[Vec<u8>],
     json: &str,
-) -> Result<Option<Arc<MeshData>>, (String, String)> {
+) -> Result<Option<DecodedPrimitive>, (String, String)> {
     if prim.mode() != gltf::mesh::Mode::Triangles {
         return Ok(None);
     }
@@ -489,6 +510,10 @@ fn decode_primitive(
             gltf::Semantic::Positions | gltf::Semantic::Normals => t == DataType::F32 && d == Dimensions::Vec3,
             gltf::Semantic::TexCoords(_) => {
                 matches!(t, DataType::F32 | DataType::U8 | DataType::U16) && d == Dimensions::Vec2
+            }
+            gltf::Semantic::Colors(_) => {
+                matches!(t, DataType::F32 | DataType::U8 | DataType::U16)
+                    && matches!(d, Dimensions::Vec3 | Dimensions::Vec4)
             }
             _ => true,
         };
@@ -538,9 +563,67 @@ fn decode_primitive(
     if indices.is_empty() {
         return Ok(None);
     }
+    // Vertex colours are linear RGB (alpha, if stored, is not read), normalised integers mapped to [0, 1].
+    let colors: Option<Vec<[f32; 3]>> = reader.read_colors(0).map(|c| c.into_rgb_f32().collect());
+    if let Some(c) = &colors {
+        if c.len() != n || c.iter().flatten().any(|v| !v.is_finite() || *v < 0.0) {
+            return Err((
+                format!("{json}.attributes.COLOR_0"),
+                "as many finite, non-negative colours as positions are needed".into(),
+            ));
+        }
+    }
     // glTF's uv origin is the image's top-left corner, pbrt's the bottom-left: v flips.
     let uvs = uvs.map(|v| v.into_iter().map(|t| Vec2::new(t.x, 1.0 - t.y)).collect());
-    Ok(Some(Arc::new(MeshData { positions, normals, uvs, indices })))
+    Ok(Some((Arc::new(MeshData { positions, normals, uvs, indices }), colors.map(Arc::from))))
+}
+
+/// The variant of named material `name` whose base colour is multiplied by the mesh's vertex colours (a
+/// `vertexcolor` texture over the factor or the base colour texture), added as `{name}+COLOR_0`; its opaque part
+/// for a transmissive mix. A material without a base colour (all glass) is returned unchanged.
+fn vertex_color_material(desc: &mut SceneDescription, name: &str, loc: &Loc) -> String {
+    let Some(entity) = desc.named_materials.iter().find(|(n, _)| n == name).map(|(_, e)| e.clone()) else {
+        return name.to_string();
+    };
+    let colored = format!("{name}+COLOR_0");
+    match entity.name.as_str() {
+        "metallicroughness" => {
+            let mut tex = ParamSet::new();
+            match entity.params.get_texture("basecolor") {
+                Some(t) => tex.push(texture_param("tex", &t, loc)),
+                None => {
+                    let rgb_value = entity.params.get_rgb("basecolor").ok().flatten().unwrap_or([1.0; 3]);
+                    tex.push(rgb("tint", rgb_value, loc));
+                }
+            }
+            let tname = format!("{name}/vertexcolor");
+            desc.textures.push(scene::TextureEntity {
+                entity: Entity::new("vertexcolor", tex, loc.clone()),
+                texture_name: tname.clone(),
+                value_type: TextureValueType::Spectrum,
+                render_from_texture: Transform::IDENTITY,
+            });
+            let params = entity.params.params().iter().filter(|p| p.name != "basecolor").cloned().collect();
+            let mut params = ParamSet::from_params(params);
+            params.push(texture_param("basecolor", &tname, loc));
+            desc.named_materials.push((colored.clone(), Entity::new("metallicroughness", params, loc.clone())));
+            colored
+        }
+        "mix" => {
+            let Some([opaque, glass]) =
+                entity.params.get_strings("materials").and_then(|m| <[String; 2]>::try_from(m.to_vec()).ok())
+            else {
+                return name.to_string();
+            };
+            let opaque = vertex_color_material(desc, &opaque, loc);
+            let params = entity.params.params().iter().filter(|p| p.name != "materials").cloned().collect();
+            let mut params = ParamSet::from_params(params);
+            params.push(strings("materials", &[opaque, glass], loc));
+            desc.named_materials.push((colored.clone(), Entity::new("mix", params, loc.clone())));
+            colored
+        }
+        _ => name.to_string(),
+    }
 }
 
 fn param(ty: ParamType, name: &str, loc: &Loc) -> Param {

@@ -799,3 +799,75 @@ fn a_webp_texture_renders_as_the_same_png() {
         }
     }
 }
+
+/// `doc` (a quad document) with vertex colours `colors` (one per corner, in the quad's vertex order: bottom-left,
+/// bottom-right, top-right, top-left) as COLOR_0: float RGB, or with `unorm8` normalised bytes RGBA.
+fn with_vertex_colors(mut doc: Value, colors: [[f32; 3]; 4], unorm8: bool) -> Value {
+    let (bytes, component, kind): (Vec<u8>, u32, &str) = if unorm8 {
+        let b = colors.iter().flat_map(|c| [c[0], c[1], c[2], 1.0].map(|v| (v * 255.0).round() as u8)).collect();
+        (b, 5121, "VEC4")
+    } else {
+        (colors.iter().flatten().flat_map(|v| v.to_le_bytes()).collect(), 5126, "VEC3")
+    };
+    let n = bytes.len();
+    doc["buffers"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({ "byteLength": n, "uri": data_uri("application/octet-stream", &bytes) }));
+    doc["bufferViews"].as_array_mut().unwrap().push(json!({ "buffer": 1, "byteOffset": 0, "byteLength": n }));
+    let mut accessor = json!({ "bufferView": 3, "componentType": component, "count": 4, "type": kind });
+    if unorm8 {
+        accessor["normalized"] = json!(true);
+    }
+    doc["accessors"].as_array_mut().unwrap().push(accessor);
+    doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(3);
+    doc
+}
+
+/// Vertex colours (COLOR_0) multiply the base colour: a quad whose four corners have one colour renders as the
+/// quad whose base colour factor is that colour times the factor (within 1e-3: the product is uplifted in single
+/// precision, the factor in double), as float RGB or normalised RGBA bytes, and times a base colour texture too.
+/// Between corners of two colours the colour is interpolated: the middle column is their mean.
+#[test]
+fn vertex_colours_multiply_the_base_colour() {
+    let factor = [0.9, 0.8, 0.7, 1.0];
+    let c = [0.6f32, 0.2, 0.4];
+    let straight = [0.0, 0.0, 0.0, 1.0];
+    let lit = |m: [f64; 3]| json!({ "pbrMetallicRoughness": { "baseColorFactor": [m[0], m[1], m[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 } });
+    let plain = [0, 1, 2].map(|i| f64::from(c[i]) * factor[i]);
+    let (want, _) = render_doc("vc-plain.gltf", &quad_document(lit(plain), json!({}), straight));
+    let material =
+        json!({ "pbrMetallicRoughness": { "baseColorFactor": factor, "metallicFactor": 0.0, "roughnessFactor": 1.0 } });
+    for unorm8 in [false, true] {
+        let c = if unorm8 { c.map(|v| (v * 255.0).round() / 255.0) } else { c };
+        let doc = with_vertex_colors(quad_document(material.clone(), json!({}), straight), [c; 4], unorm8);
+        let (got, _) = render_doc("vc.gltf", &doc);
+        let (g, w) = (region(&got, 0.1, 0.9, 0.1, 0.9), region(&want, 0.1, 0.9, 0.1, 0.9));
+        assert!(close(g, w, 1e-3), "unorm8 {unorm8}: vertex colours {g:?}, factor {w:?}");
+    }
+    // Times the base colour texture: the quadrants as the texture test's, times the vertex colour.
+    let (textured_material, rest) = textured([1.0; 4], json!({ "magFilter": 9728, "minFilter": 9728 }), None);
+    let doc = with_vertex_colors(quad_document(textured_material, rest, straight), [c; 4], false);
+    let (got, _) = render_doc("vc-tex.gltf", &doc);
+    let texel = TEXELS[1];
+    let m = [0, 1, 2].map(|i| srgb_to_linear(texel[i]) * f64::from(c[i]));
+    let (want, _) = render_doc("vc-tex-plain.gltf", &quad_document(lit(m), json!({}), straight));
+    let (g, w) = (region(&got, 0.55, 0.9, 0.55, 0.9), region(&want, 0.55, 0.9, 0.55, 0.9));
+    assert!(close(g, w, 1e-3), "texture × vertex colour {g:?}, factor {w:?}");
+    // Red on the left corners, blue on the right: the middle column is purple, the mean.
+    let (red, blue) = ([0.8f32, 0.1, 0.1], [0.1f32, 0.1, 0.8]);
+    let doc = with_vertex_colors(quad_document(material.clone(), json!({}), straight), [red, blue, blue, red], false);
+    let (got, _) = render_doc("vc-gradient.gltf", &doc);
+    let mean = [0, 1, 2].map(|i| 0.5 * f64::from(red[i] + blue[i]) * factor[i]);
+    let (want, _) = render_doc("vc-mean.gltf", &quad_document(lit(mean), json!({}), straight));
+    let (g, w) = (region(&got, 0.4, 0.6, 0.1, 0.9), region(&want, 0.4, 0.6, 0.1, 0.9));
+    assert!(close(g, w, 0.03), "middle of the gradient {g:?}, mean colour {w:?}");
+    let (l, r) = (region(&got, 0.05, 0.2, 0.1, 0.9), region(&got, 0.8, 0.95, 0.1, 0.9));
+    assert!(l[0] > 1.5 * r[0] && r[2] > 1.5 * l[2], "left is red, right is blue: {l:?} {r:?}");
+    // An accessor that cannot hold colours is an error naming the attribute.
+    let mut bad = with_vertex_colors(quad_document(material, json!({}), straight), [red; 4], false);
+    bad["accessors"][3]["type"] = json!("VEC2");
+    let path = write(&dir("textures"), "vc-bad.gltf", &bad);
+    let e = gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_err();
+    assert_eq!(e.path, "meshes[0].primitives[0].attributes.COLOR_0", "{e}");
+}

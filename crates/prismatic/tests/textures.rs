@@ -125,6 +125,8 @@ fn bad_texture_parameters_are_errors_naming_them() {
         (r#"Texture "t" "spectrum" "dots" "string mapping" "planar" "vector3 v1" [ 1e39 0 0 ]"#, "'v1'"),
         (r#"Texture "t" "float" "directionmix" "vector3 dir" [ 0 0 0 ]"#, "'dir'"),
         (r#"Texture "t" "float" "scale" "texture tex" "nothing""#, "no texture named 'nothing'"),
+        (r#"Texture "t" "spectrum" "vertexcolor" "rgb tint" [ 1 -1 0 ]"#, "'tint'"),
+        (r#"Texture "c" "spectrum" "checkerboard" Texture "t" "spectrum" "vertexcolor" "texture tex" "c""#, "'tex'"),
     ];
     for (i, (def, needle)) in cases.iter().enumerate() {
         let name = format!("bad{i}.pbrt");

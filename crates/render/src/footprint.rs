@@ -127,7 +127,7 @@ impl Footprints {
     pub fn context(&self, camera: &Camera, hit: &SurfaceHit, camera_ray: Option<(Vec3, Vec3)>) -> TextureEvalContext {
         let (dpdx, dpdy) = self.dp_dxy(camera, hit, camera_ray);
         let duv = uv_derivatives(hit.surface_dpdu, hit.surface_dpdv, dpdx, dpdy);
-        TextureEvalContext { p: hit.p, n: hit.n, uv: hit.uv, dpdx, dpdy, duv }
+        TextureEvalContext { p: hit.p, n: hit.n, uv: hit.uv, dpdx, dpdy, duv, vertex_color: hit.vertex_color }
     }
 }
 
@@ -176,6 +176,7 @@ mod tests {
             area_light: None,
             media: None,
             time: 0.0,
+            vertex_color: None,
         }
     }
 

@@ -85,6 +85,8 @@ pub struct SurfaceHit {
     pub media: Option<MediumInterface>,
     /// The time of the ray that found the hit: rays leaving the surface are traced at the same time.
     pub time: f32,
+    /// The interpolated per-vertex colour (linear RGB) of a mesh that has vertex colours.
+    pub vertex_color: Option<Vec3>,
 }
 
 impl SurfaceHit {
@@ -131,6 +133,27 @@ pub struct ShapeInfo {
     pub area_light_base: Option<u32>,
     /// Media on either side, if the shape separates media.
     pub media: Option<MediumInterface>,
+    /// Index of the shape's per-vertex colours in the scene geometry's tables, if it has them.
+    pub vertex_colors: Option<u32>,
+}
+
+/// A triangle mesh's per-vertex colours, with the mesh's vertex indices that pick them per triangle.
+#[derive(Clone, Debug)]
+pub struct VertexColors {
+    /// Three vertex indices per triangle, in the mesh's order (the BVH's element index is the triangle's).
+    pub indices: Arc<geometry::MeshData>,
+    /// Linear RGB per vertex.
+    pub colors: Arc<[[f32; 3]]>,
+}
+
+impl VertexColors {
+    /// The colour at barycentric coordinates `b` of triangle `element` (white outside the tables).
+    fn at(&self, element: u32, b: [f32; 3]) -> Vec3 {
+        let i = element as usize * 3;
+        let Some(tri) = self.indices.indices.get(i..i + 3) else { return Vec3::ONE };
+        let c = |k: usize| self.colors.get(tri[k] as usize).map_or(Vec3::ONE, |c| Vec3::from_array(*c));
+        b[0] * c(0) + b[1] * c(1) + b[2] * c(2)
+    }
 }
 
 /// The scene's [`Geometry`]: the two-level BVH of the shapes, and per shape what a hit on it means for rendering.
@@ -142,6 +165,8 @@ pub struct SceneGeometry {
     alphas: Vec<FloatTexture>,
     /// `[object][shape]`: index into `alphas` (empty when `alphas` is).
     alpha_of: Vec<Vec<Option<u32>>>,
+    /// The per-vertex colours [`ShapeInfo::vertex_colors`] index.
+    vertex_colors: Vec<VertexColors>,
 }
 
 /// Longest run of cut-out surfaces a ray passes through before it counts as escaped.
@@ -150,7 +175,7 @@ const MAX_ALPHA_SKIPS: u32 = 1024;
 impl SceneGeometry {
     /// Wraps `accel`; `info[object][shape]` describes shape `shape` of the accel's object `object`.
     pub fn new(accel: GeometryScene, info: Vec<Vec<ShapeInfo>>) -> Self {
-        Self { accel, info, alphas: vec![], alpha_of: vec![] }
+        Self { accel, info, alphas: vec![], alpha_of: vec![], vertex_colors: vec![] }
     }
 
     /// [`SceneGeometry::new`] with cut-outs: `alpha_of[object][shape]` names the alpha texture (in `alphas`) of
@@ -164,7 +189,13 @@ impl SceneGeometry {
         if alphas.is_empty() {
             return Self::new(accel, info);
         }
-        Self { accel, info, alphas, alpha_of }
+        Self { accel, info, alphas, alpha_of, vertex_colors: vec![] }
+    }
+
+    /// The tables of per-vertex colours that shapes' [`ShapeInfo::vertex_colors`] name.
+    pub fn with_vertex_colors(mut self, vertex_colors: Vec<VertexColors>) -> Self {
+        self.vertex_colors = vertex_colors;
+        self
     }
 
     /// What a hit of the BVH means for rendering.
@@ -187,6 +218,7 @@ impl SceneGeometry {
             area_light: info.area_light_base.map(|b| b + hit.element),
             media: info.media,
             time,
+            vertex_color: info.vertex_colors.map(|i| self.vertex_colors[i as usize].at(hit.element, hit.bary)),
         }
     }
 

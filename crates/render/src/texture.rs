@@ -35,6 +35,8 @@ pub struct TextureEvalContext {
     pub dpdy: Vec3,
     /// ∂u/∂x, ∂u/∂y, ∂v/∂x, ∂v/∂y per pixel.
     pub duv: [f32; 4],
+    /// The surface's interpolated vertex colour (linear RGB), if its mesh has vertex colours.
+    pub vertex_color: Option<Vec3>,
 }
 
 impl TextureEvalContext {
@@ -722,6 +724,16 @@ pub enum SpectrumTexture {
         /// Strength of the fBm perturbation.
         variation: f32,
     },
+    /// A mesh's interpolated vertex colour (white where it has none) × `tint` × an image map's RGB, uplifted per
+    /// lookup (Prismatic's `vertexcolor`: glTF's `COLOR_0` times the base colour).
+    VertexColor {
+        /// Per-channel factor.
+        tint: [f32; 3],
+        /// The image map whose RGB multiplies the colour, if any.
+        image: Option<Box<ImageTexture>>,
+        /// Albedo or unbounded uplifting.
+        kind: RgbKind,
+    },
     /// An RGB image uplifted per lookup (Jakob & Hanika 2019).
     Image {
         /// The image map.
@@ -842,6 +854,15 @@ impl SpectrumTexture {
                     (if tex.invert { 1.0 - v } else { v }).max(0.0)
                 });
                 uplift(rgb, *kind, wl)
+            }
+            SpectrumTexture::VertexColor { tint, image, kind } => {
+                let vc = ctx.vertex_color.unwrap_or(Vec3::ONE);
+                let mut rgb = [vc.x * tint[0], vc.y * tint[1], vc.z * tint[2]];
+                if let Some(tex) = image {
+                    let t = tex.rgb(ctx);
+                    rgb = [rgb[0] * t[0], rgb[1] * t[1], rgb[2] * t[2]];
+                }
+                uplift(rgb.map(|c| c.max(0.0)), *kind, wl)
             }
         }
     }

@@ -212,6 +212,9 @@ pub struct SceneDescription {
     /// Images a reader found inside a file (glTF's textures in its binary chunk or data URIs, and the files it
     /// names), still encoded; `imagemap` textures name them by index in `"integer image"`.
     pub images: Vec<EmbeddedImage>,
+    /// Per-vertex linear RGB colours of imported meshes (glTF's `COLOR_0`), which an `importedmesh` shape names by
+    /// index in `"integer vertexcolors"`: one colour per vertex of its mesh.
+    pub vertex_colors: Vec<Arc<[[f32; 3]]>>,
     /// `Option` directives.
     pub options: Vec<OptionEntry>,
     /// Warnings from parsing (deprecated or ignored directives, …). Unused parameters are reported later, by
@@ -258,6 +261,7 @@ impl SceneDescription {
             instances: Vec::new(),
             meshes: Vec::new(),
             images: Vec::new(),
+            vertex_colors: Vec::new(),
             options: Vec::new(),
             warnings: Vec::new(),
             files: Vec::new(),

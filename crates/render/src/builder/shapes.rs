@@ -24,7 +24,7 @@ use scene::{Entity, Loc, ParamSet, SceneDescription, SceneError, ShapeEntity, Tr
 
 use super::context::{err, file_err, unsupported, Materials, Media, Result, ShapeAlpha, Textures};
 use crate::light::Light;
-use crate::scene::{LightMedium, MediumInterface, SceneGeometry, ShapeInfo, NO_MATERIAL};
+use crate::scene::{LightMedium, MediumInterface, SceneGeometry, ShapeInfo, VertexColors, NO_MATERIAL};
 use crate::texture::FloatTexture;
 
 /// The scene's shapes, ready for ray queries.
@@ -57,6 +57,34 @@ fn animated(start: Transform, motion: &Option<TransformMotion>, loc: &Loc, what:
 
 /// An object's shapes, what a hit on each means, and each one's alpha texture (an index into the scene's list).
 type ObjectShapes = (Vec<Shape>, Vec<ShapeInfo>, Vec<Option<u32>>);
+
+/// The per-vertex colours of an `importedmesh` shape (`"integer vertexcolors"`, an index into the description's
+/// vertex colours, one per vertex of the mesh), if it names them.
+fn imported_vertex_colors(p: &ParamSet, loc: &Loc, desc: &SceneDescription) -> Result<Option<VertexColors>> {
+    if !p.contains("vertexcolors") {
+        return Ok(None);
+    }
+    let at = p.loc_of("vertexcolors", loc);
+    let index = p.get_int("vertexcolors", -1)?;
+    let mesh = p.get_int("mesh", -1)?;
+    let colors = usize::try_from(index).ok().and_then(|i| desc.vertex_colors.get(i));
+    let mesh = usize::try_from(mesh).ok().and_then(|i| desc.meshes.get(i));
+    match (colors, mesh) {
+        (Some(colors), Some(mesh)) if colors.len() == mesh.positions.len() => {
+            Ok(Some(VertexColors { indices: mesh.clone(), colors: colors.clone() }))
+        }
+        (Some(colors), Some(mesh)) => err(
+            &at,
+            format!(
+                "'vertexcolors' {index} has {} colours for the mesh's {} vertices",
+                colors.len(),
+                mesh.positions.len()
+            ),
+        ),
+        (None, _) => err(&at, format!("no vertex colours {index} (the scene has {})", desc.vertex_colors.len())),
+        (Some(_), None) => err(&at, "'vertexcolors' is for an importedmesh shape"),
+    }
+}
 
 /// Reads a shape's `alpha`: a constant must lie in [0, 1] (an error naming `alpha` otherwise); a texture is taken
 /// as it is (values are clamped by the test).
@@ -99,6 +127,7 @@ pub(super) fn make_geometry(
     // are only created for world shapes (pbrt-v4 drops them inside instances, with a warning at parse time).
     let mut triangles = 0usize;
     let mut alphas: Vec<FloatTexture> = vec![];
+    let mut vertex_colors: Vec<VertexColors> = vec![];
     let mut object_shapes =
         |shapes: &[&ShapeEntity], lights: Option<(&mut Vec<Light>, &mut Vec<LightMedium>)>| -> Result<ObjectShapes> {
             let mut lights = lights;
@@ -138,7 +167,11 @@ pub(super) fn make_geometry(
                     }
                 });
                 triangles += shape_triangles(&shape);
-                out_info.push(ShapeInfo { material, area_light_base, media });
+                let colors = imported_vertex_colors(&se.entity.params, &se.entity.loc, desc)?.map(|c| {
+                    vertex_colors.push(c);
+                    vertex_colors.len() as u32 - 1
+                });
+                out_info.push(ShapeInfo { material, area_light_base, media, vertex_colors: colors });
                 out.push(shape);
             }
             Ok((out, out_info, out_alpha))
@@ -211,7 +244,7 @@ pub(super) fn make_geometry(
         accel.bounds()
     };
     let (_, scene_radius) = if bounds.is_empty() { (Vec3::ZERO, 1.0) } else { bounds.bounding_sphere() };
-    let geometry = SceneGeometry::with_alpha(accel, info, alphas, alpha_of);
+    let geometry = SceneGeometry::with_alpha(accel, info, alphas, alpha_of).with_vertex_colors(vertex_colors);
     Ok(BuiltGeometry { geometry, triangles, scene_radius, moving: any_moving })
 }
 

@@ -33,8 +33,18 @@ const FLOAT_CLASSES: &[&str] = &[
     "threshold",
 ];
 /// Spectrum texture classes Prismatic reads (pbrt-v4's, `ptex` aside).
-const SPECTRUM_CLASSES: &[&str] =
-    &["constant", "scale", "mix", "directionmix", "bilerp", "checkerboard", "dots", "marble", "imagemap"];
+const SPECTRUM_CLASSES: &[&str] = &[
+    "constant",
+    "scale",
+    "mix",
+    "directionmix",
+    "bilerp",
+    "checkerboard",
+    "dots",
+    "marble",
+    "imagemap",
+    "vertexcolor",
+];
 
 /// A float parameter that must be finite.
 fn finite(p: &ParamSet, loc: &Loc, name: &str, default: f64) -> Result<f32> {
@@ -391,6 +401,31 @@ fn spectrum_texture(t: &Textures, te: &TextureEntity, kind: SpectrumKind) -> Res
             tex: Box::new(image_texture(t, te)?),
             kind: if kind == SpectrumKind::Albedo { RgbKind::Albedo } else { RgbKind::Unbounded },
         },
+        // Prismatic's `vertexcolor`: the mesh's interpolated vertex colour × `rgb tint` × the RGB of the imagemap
+        // `tex` (if given), uplifted once (glTF's COLOR_0 × base colour factor × texture).
+        "vertexcolor" => {
+            let tint = match p.get_rgb("tint")? {
+                Some(rgb) if rgb.iter().all(|v| v.is_finite() && *v >= 0.0 && *v <= f64::from(f32::MAX)) => {
+                    rgb.map(|v| v as f32)
+                }
+                Some(_) => return err(&p.loc_of("tint", loc), "'tint' must be three finite numbers ≥ 0"),
+                None => [1.0; 3],
+            };
+            let image = match p.get_texture("tex") {
+                None => None,
+                Some(name) => Some(Box::new(t.image_texture(&name).ok_or_else(|| {
+                    SceneError::at(
+                        p.loc_of("tex", loc),
+                        format!("'tex' must name an imagemap spectrum texture; '{name}' is not one"),
+                    )
+                })?)),
+            };
+            SpectrumTexture::VertexColor {
+                tint,
+                image,
+                kind: if kind == SpectrumKind::Albedo { RgbKind::Albedo } else { RgbKind::Unbounded },
+            }
+        }
         "ptex" => return Err(ptex_error(te).into()),
         other => return err(loc, unsupported("spectrum texture", other, SPECTRUM_CLASSES)),
     })

@@ -540,7 +540,8 @@ fn indices(scene: &RenderScene, seed: &Seed, wl: &SampledWavelengths) -> Indices
     };
     for i in 0..seed.len {
         let hit = &seed.v[i].hit;
-        let ctx = TextureEvalContext::new(hit.p, hit.n, hit.uv);
+        let ctx =
+            TextureEvalContext { vertex_color: hit.vertex_color, ..TextureEvalContext::new(hit.p, hit.n, hit.uv) };
         if let Some(ior) = scene.materials[seed.material[i] as usize].smooth_dielectric_ior(&ctx) {
             out.reference[i] = ior.n(REFERENCE_LAMBDA) as f64;
             for j in 0..N_WAVELENGTHS {
@@ -773,10 +774,10 @@ mod tests {
             },
         ];
         let mut shapes = vec![horizontal(0.0, 20.0, true)];
-        let mut info = vec![ShapeInfo { material: 0, area_light_base: None, media: None }];
+        let mut info = vec![ShapeInfo { material: 0, area_light_base: None, media: None, vertex_colors: None }];
         for g in glass_shapes {
             shapes.push(g);
-            info.push(ShapeInfo { material: 1, area_light_base: None, media: None });
+            info.push(ShapeInfo { material: 1, area_light_base: None, media: None, vertex_colors: None });
         }
         let accel = GeometryScene::from_shapes(shapes).unwrap();
         let cam = Transform::look_at(DVec3::new(0.0, 5.0, -5.0), DVec3::ZERO, DVec3::Y).unwrap();
@@ -969,9 +970,9 @@ mod tests_support {
             invisible: false,
         }];
         let info = vec![
-            ShapeInfo { material: 0, area_light_base: None, media: None },
-            ShapeInfo { material: 1, area_light_base: None, media: None },
-            ShapeInfo { material: 0, area_light_base: Some(0), media: None },
+            ShapeInfo { material: 0, area_light_base: None, media: None, vertex_colors: None },
+            ShapeInfo { material: 1, area_light_base: None, media: None, vertex_colors: None },
+            ShapeInfo { material: 0, area_light_base: Some(0), media: None, vertex_colors: None },
         ];
         let accel = GeometryScene::from_shapes(vec![floor, ball, lamp]).unwrap();
         let cam = Transform::look_at(DVec3::new(0.0, 5.0, -5.0), DVec3::ZERO, DVec3::Y).unwrap();

@@ -455,7 +455,7 @@ fn resolve_surface(
     // Bump and normal maps below change the shading frame only, not the point, normal and (u, v) textures see.
     let ctx = match &scene.footprints {
         Some(f) if scene.reads_footprint(hit.material) => f.context(&scene.camera, hit, camera_ray),
-        _ => TextureEvalContext::new(hit.p, hit.n, hit.uv),
+        _ => TextureEvalContext { vertex_color: hit.vertex_color, ..TextureEvalContext::new(hit.p, hit.n, hit.uv) },
     };
     let mut material_index = hit.material;
     while material_index != NO_MATERIAL {

@@ -116,7 +116,7 @@ fn room(extras: Extras) -> RenderScene {
             base
         });
         shapes.push(shape);
-        info.push(ShapeInfo { material, area_light_base, media: None });
+        info.push(ShapeInfo { material, area_light_base, media: None, vertex_colors: None });
     };
     if extras.small_light {
         add(sphere([0.6, 2.4, 0.0], 0.2), 0, Some(Spectrum::blackbody(5000.0).unwrap().scaled(60.0)), &mut lights);
@@ -170,7 +170,7 @@ fn room(extras: Extras) -> RenderScene {
     if extras.fog || extras.fog_around_light {
         shapes.push(if extras.fog { sphere([0.3, 1.4, 0.0], 1.2) } else { sphere([0.0, 2.9, 0.0], 1.0) });
         let media = Some(MediumInterface { inside: Some(0), outside: None });
-        info.push(ShapeInfo { material: NO_MATERIAL, area_light_base: None, media });
+        info.push(ShapeInfo { material: NO_MATERIAL, area_light_base: None, media, vertex_colors: None });
     }
     let (accel, info) = if extras.motion {
         let start = Transform::translate(DVec3::new(-0.8, 0.5, 0.5));
@@ -179,7 +179,7 @@ fn room(extras: Extras) -> RenderScene {
         let moving = MovingInstance { object: 1, outer, inner: AnimatedTransform::fixed(Transform::IDENTITY) };
         let objects = vec![Object::new(shapes), Object::new(vec![sphere([0.0; 3], 0.5)])];
         let still = vec![Instance { object: 0, render_from_instance: Transform::IDENTITY }];
-        let green = ShapeInfo { material: 1, area_light_base: None, media: None };
+        let green = ShapeInfo { material: 1, area_light_base: None, media: None, vertex_colors: None };
         (GeometryScene::build_with_motion(objects, still, vec![moving]).unwrap(), vec![info, vec![green]])
     } else {
         (GeometryScene::from_shapes(shapes).unwrap(), vec![info])

@@ -392,6 +392,7 @@ impl Geometry for OneSphere {
             area_light: None,
             media: None,
             time,
+            vertex_color: None,
         })
     }
     fn occluded(&self, o: Vec3, d: Vec3, t_max: f32, _time: f32) -> bool {
