@@ -159,9 +159,27 @@ def image(name, pixels, size):
     return img
 
 
+def ortho_camera_and_sun(width, resolution, sun_tilt_degrees):
+    """An orthographic camera 5 m above the origin looking down, `width` metres across at `resolution`, and a sun of
+    1 W/m² shining down, tilted by `sun_tilt_degrees` about x."""
+    scene = bpy.context.scene
+    sun = bpy.data.lights.new("sun", "SUN")
+    sun.energy = 1.0
+    sun_obj = bpy.data.objects.new("sun", sun)
+    scene.collection.objects.link(sun_obj)
+    sun_obj.rotation_euler = (math.radians(sun_tilt_degrees), 0.0, 0.0)
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = width
+    cam = bpy.data.objects.new("camera", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (0.0, 0.0, 5.0)
+    scene.camera = cam
+    scene.render.resolution_x, scene.render.resolution_y = resolution
+
+
 def textured_plane():
     reset()
-    scene = bpy.context.scene
     bpy.ops.mesh.primitive_plane_add(size=2.0)
     plane = bpy.context.active_object
     m = bpy.data.materials.new("textured")
@@ -187,18 +205,7 @@ def textured_plane():
     links.new(tex.outputs["Alpha"], round_node.inputs[0])
     links.new(round_node.outputs["Value"], bsdf.inputs["Alpha"])
     plane.data.materials.append(m)
-    sun = bpy.data.lights.new("sun", "SUN")
-    sun.energy = 1.0
-    sun_obj = bpy.data.objects.new("sun", sun)
-    scene.collection.objects.link(sun_obj)
-    cam_data = bpy.data.cameras.new("camera")
-    cam_data.type = "ORTHO"
-    cam_data.ortho_scale = 2.0
-    cam = bpy.data.objects.new("camera", cam_data)
-    scene.collection.objects.link(cam)
-    cam.location = (0.0, 0.0, 5.0)
-    scene.camera = cam
-    scene.render.resolution_x, scene.render.resolution_y = 64, 64
+    ortho_camera_and_sun(2.0, (64, 64), 0.0)
     export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/textured-plane.glb"))
 
 
@@ -226,23 +233,10 @@ def layered_plates():
     ]
     # Blender has no iridescence weight: the exporter reads it and the thinnest film from its output node group.
     gltf_output_node(plates[2], Iridescence_Factor=1.0, Iridescence_Thickness_Minimum=100.0)
-    scene = bpy.context.scene
     for i, m in enumerate(plates):
         bpy.ops.mesh.primitive_plane_add(size=size, location=((i - 1.5) * 1.0, 0.0, 0.0))
         bpy.context.active_object.data.materials.append(m)
-    sun = bpy.data.lights.new("sun", "SUN")
-    sun.energy = 1.0
-    sun_obj = bpy.data.objects.new("sun", sun)
-    scene.collection.objects.link(sun_obj)
-    sun_obj.rotation_euler = (math.radians(20.0), 0.0, 0.0)
-    cam_data = bpy.data.cameras.new("camera")
-    cam_data.type = "ORTHO"
-    cam_data.ortho_scale = 4.0
-    cam = bpy.data.objects.new("camera", cam_data)
-    scene.collection.objects.link(cam)
-    cam.location = (0.0, 0.0, 5.0)
-    scene.camera = cam
-    scene.render.resolution_x, scene.render.resolution_y = 128, 32
+    ortho_camera_and_sun(4.0, (128, 32), 20.0)
     export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/layered-plates.glb"))
 
 

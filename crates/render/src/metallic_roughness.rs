@@ -526,19 +526,50 @@ mod tests {
         (1.0 - metallic) * dielectric + metallic * metal
     }
 
-    /// The directional albedo ∫ f cos θᵢ dωᵢ of the specification's BRDF for `wo`, by the midpoint rule on an
-    /// (n_μ, n_φ) grid in (cos θᵢ, φᵢ): fine enough for α ≥ 0.09.
-    fn reference_albedo(c: f64, m: f64, r: f64, ior: f64, wo: [f64; 3], (nt, np): (usize, usize)) -> f64 {
+    /// ∫ f(ωᵢ) cos θᵢ dωᵢ over the upper hemisphere by the midpoint rule on an (n_μ, n_φ) grid in (cos θᵢ, φᵢ).
+    fn hemisphere_quadrature(f: &dyn Fn([f64; 3]) -> f64, (nt, np): (usize, usize)) -> f64 {
         let mut sum = 0.0;
         for i in 0..nt {
             let mu = (i as f64 + 0.5) / nt as f64;
             let s = (1.0 - mu * mu).sqrt();
             for j in 0..np {
                 let phi = 2.0 * PI * (j as f64 + 0.5) / np as f64;
-                sum += reference_f(c, m, r, ior, wo, [s * phi.cos(), s * phi.sin(), mu]) * mu;
+                sum += f([s * phi.cos(), s * phi.sin(), mu]) * mu;
             }
         }
         sum * 2.0 * PI / (nt * np) as f64
+    }
+
+    /// The directional albedo ∫ f cos θᵢ dωᵢ of the specification's BRDF for `wo`, by the midpoint rule on an
+    /// (n_μ, n_φ) grid in (cos θᵢ, φᵢ): fine enough for α ≥ 0.09.
+    fn reference_albedo(c: f64, m: f64, r: f64, ior: f64, wo: [f64; 3], grid: (usize, usize)) -> f64 {
+        hemisphere_quadrature(&|wi| reference_f(c, m, r, ior, wo, wi), grid)
+    }
+
+    /// The directional albedo for `wo` estimated with `n` samples of the BRDF's own sampler (f cos / pdf), checking
+    /// that each sample's density is the one `pdf` reports: (mean, standard error).
+    fn sampled_albedo(
+        brdf: &MetallicRoughness,
+        wo: [f64; 3],
+        n: usize,
+        uniform: &mut dyn FnMut() -> f32,
+    ) -> (f64, f64) {
+        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let u = Vec2::new(uniform(), uniform());
+            let x = match brdf.sample(v3(wo), uniform(), u) {
+                Some((f, wi, pdf)) => {
+                    let p = brdf.pdf(v3(wo), wi);
+                    assert!((p - pdf).abs() <= 1e-4 * pdf, "pdf {p} vs sampled {pdf}");
+                    f[0] as f64 * wi.z.abs() as f64 / pdf as f64
+                }
+                None => 0.0,
+            };
+            sum += x;
+            sum2 += x * x;
+        }
+        let mean = sum / n as f64;
+        (mean, ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
     }
 
     fn dir(theta: f64, phi: f64) -> [f64; 3] {
@@ -590,23 +621,7 @@ mod tests {
             for theta_o in [0.2f64, 0.9, 1.35] {
                 let wo = dir(theta_o, 0.4);
                 let quad = reference_albedo(c, m, r, ior, wo, (600, 600));
-                let n = 200_000;
-                let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-                for _ in 0..n {
-                    let u = Vec2::new(uniform(), uniform());
-                    let x = match brdf.sample(v3(wo), uniform(), u) {
-                        Some((f, wi, pdf)) => {
-                            let p = brdf.pdf(v3(wo), wi);
-                            assert!((p - pdf).abs() <= 1e-4 * pdf, "pdf {p} vs sampled {pdf}");
-                            f[0] as f64 * wi.z.abs() as f64 / pdf as f64
-                        }
-                        None => 0.0,
-                    };
-                    sum += x;
-                    sum2 += x * x;
-                }
-                let mean = sum / n as f64;
-                let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+                let (mean, se) = sampled_albedo(&brdf, wo, 200_000, &mut uniform);
                 // The estimate resolves the albedo to better than 1.5 %, and agrees within 4 standard errors (plus
                 // the quadrature's own 0.2 %).
                 assert!(4.0 * se < 0.015 * quad, "too noisy to tell: {mean} ± {se}");
@@ -896,34 +911,8 @@ mod tests {
             let brdf = ext_brdf(&x, [lambda; 4]);
             for theta_o in [0.3f64, 1.2] {
                 let wo = dir(theta_o, 0.4);
-                let (nt, np) = (300, 300);
-                let mut quad = 0.0;
-                for i in 0..nt {
-                    let mu = (i as f64 + 0.5) / nt as f64;
-                    let s = (1.0 - mu * mu).sqrt();
-                    for j in 0..np {
-                        let phi = 2.0 * PI * (j as f64 + 0.5) / np as f64;
-                        quad += reference_ext_f(&x, wo, [s * phi.cos(), s * phi.sin(), mu], &table) * mu;
-                    }
-                }
-                quad *= 2.0 * PI / (nt * np) as f64;
-                let n = 100_000;
-                let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-                for _ in 0..n {
-                    let u = Vec2::new(uniform(), uniform());
-                    let v = match brdf.sample(v3(wo), uniform(), u) {
-                        Some((f, wi, pdf)) => {
-                            let p = brdf.pdf(v3(wo), wi);
-                            assert!((p - pdf).abs() <= 1e-4 * pdf, "pdf {p} vs sampled {pdf}");
-                            f[0] as f64 * wi.z.abs() as f64 / pdf as f64
-                        }
-                        None => 0.0,
-                    };
-                    sum += v;
-                    sum2 += v * v;
-                }
-                let mean = sum / n as f64;
-                let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
+                let quad = hemisphere_quadrature(&|wi| reference_ext_f(&x, wo, wi, &table), (300, 300));
+                let (mean, se) = sampled_albedo(&brdf, wo, 100_000, &mut uniform);
                 assert!(4.0 * se < 0.03 * quad, "too noisy to tell: {mean} ± {se} ({x:?})");
                 // Within 4 standard errors plus 1 % for the quadrature (the narrowest lobe, α = 0.04, on its grid).
                 assert!(
