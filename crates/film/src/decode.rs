@@ -245,7 +245,29 @@ pub(crate) fn decode_jpeg(bytes: &[u8], name: &Path) -> Result<DecodedImage, Ima
             message: format!("a {w}×{h} JPEG needs more data than its {} bytes can hold", bytes.len()),
         });
     }
-    let data = decoder.decode().map_err(jpeg_err)?;
+    // The decoder (zune-jpeg 0.5.15) writes outside its row buffers and panics when a component other than the first
+    // is sampled more finely than it (found by fuzzing). Encoders put the finest sampling on the first component
+    // (luma); a file that does not is refused.
+    if let Some(factors) = jpeg_sampling_factors(bytes) {
+        let (h1, v1) = factors[0];
+        if let Some((i, (h, v))) = factors.iter().enumerate().find(|(_, (h, v))| *h > h1 || *v > v1) {
+            return Err(ImageError::Malformed {
+                path: name.to_path_buf(),
+                message: format!(
+                    "JPEG: component {} is sampled {h}×{v}, more finely than the first ({h1}×{v1}): not supported",
+                    i + 1
+                ),
+            });
+        }
+    }
+    // A backstop for other such bugs: a panic in the decoder is this file's error, not the end of the render (the
+    // decoder is dropped with the failed image; nothing it touched is used again).
+    let data = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| decoder.decode()))
+        .map_err(|_| ImageError::Malformed {
+            path: name.to_path_buf(),
+            message: "JPEG: the decoder failed on this malformed file".into(),
+        })?
+        .map_err(jpeg_err)?;
     if data.len() != pixels as usize * 3 {
         return Err(ImageError::Malformed {
             path: name.to_path_buf(),
@@ -259,6 +281,35 @@ pub(crate) fn decode_jpeg(bytes: &[u8], name: &Path) -> Result<DecodedImage, Ima
         sixteen: false,
         samples: data.into_iter().map(u16::from).collect(),
     })
+}
+
+/// The (horizontal, vertical) sampling factors of each component in a JPEG's first frame header, found by walking
+/// the marker segments from the start of the file as the decoder does (bytes between segments are skipped up to the
+/// next marker); `None` if there is no frame header before the first scan.
+fn jpeg_sampling_factors(bytes: &[u8]) -> Option<Vec<(u8, u8)>> {
+    let mut at = 2;
+    loop {
+        // Up to the next marker: 0xff followed by neither 0x00 (a stuffed byte) nor 0xff (fill).
+        while bytes.get(at) != Some(&0xff) || matches!(bytes.get(at + 1), Some(0x00 | 0xff) | None) {
+            if at >= bytes.len() {
+                return None;
+            }
+            at += 1;
+        }
+        let marker = *bytes.get(at + 1)?;
+        let length = usize::from(u16::from_be_bytes([*bytes.get(at + 2)?, *bytes.get(at + 3)?]));
+        // SOF0–SOF15 except DHT (c4), JPG (c8) and DAC (cc).
+        if (0xc0..=0xcf).contains(&marker) && ![0xc4, 0xc8, 0xcc].contains(&marker) {
+            let n = usize::from(*bytes.get(at + 9)?);
+            let factors: Option<Vec<(u8, u8)>> =
+                (0..n).map(|k| bytes.get(at + 11 + 3 * k).map(|&f| (f >> 4, f & 15))).collect();
+            return factors.filter(|f| !f.is_empty());
+        }
+        if marker == 0xda || length < 2 {
+            return None;
+        }
+        at += 2 + length;
+    }
 }
 
 #[cfg(test)]
@@ -330,6 +381,15 @@ mod tests {
         let bomb = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/jpeg-size-bomb.jpg")).unwrap();
         let e = decode_image_bytes(&bomb, Path::new("bomb.jpg")).unwrap_err().to_string();
         assert!(e.contains("more data than its 326 bytes"), "{e}");
+        // Files (found by fuzzing) whose chroma is sampled more finely than their luma, on which the decoder panics.
+        for (file, component) in [
+            ("jpeg-fine-chroma-1.jpg", "component 3 is sampled 2×4"),
+            ("jpeg-fine-chroma-2.jpg", "component 3 is sampled 4×4"),
+        ] {
+            let bytes = std::fs::read(format!("{}/tests/fixtures/{file}", env!("CARGO_MANIFEST_DIR"))).unwrap();
+            let e = decode_image_bytes(&bytes, Path::new(file)).unwrap_err().to_string();
+            assert!(e.contains(component), "{e}");
+        }
         let e = decode_image_bytes(b"GIF89a....", Path::new("images[3]")).unwrap_err().to_string();
         assert!(e.contains("images[3]") && e.contains("not a PNG, JPEG or WebP"), "{e}");
         let webp =
