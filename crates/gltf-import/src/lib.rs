@@ -361,6 +361,18 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, (String, String)> {
             }
         }
     }
+    // An image needs a URI, or a buffer view and a MIME type (the gltf crate unwraps them when asked for the
+    // image's source; found by fuzzing).
+    for (i, image) in json.images.iter().enumerate() {
+        let missing = match (&image.buffer_view, &image.uri) {
+            (Some(_), _) if image.mime_type.is_none() => Some("an image in a buffer view needs its mimeType"),
+            (None, None) => Some("an image needs a uri or a bufferView"),
+            _ => None,
+        };
+        if let Some(message) = missing {
+            return Err((format!("images[{i}]"), message.into()));
+        }
+    }
     let document = gltf::Document::from_json(json).map_err(|e| (String::new(), gltf_message(&e)))?;
     Ok(gltf::Gltf { document, blob })
 }

@@ -300,6 +300,12 @@ fn bad_files_are_errors_that_name_the_json_path() {
     empty["accessors"][1]["count"] = json!(0);
     let e = read("empty-accessor.gltf", &empty).unwrap_err();
     assert!(e.path == "meshes[0].primitives[0].indices" && e.message.contains("at least one"), "{e}");
+    // And images without a source, or in a buffer view without a MIME type (the gltf crate unwraps both).
+    for image in [json!({ "name": "nothing" }), json!({ "bufferView": 0 })] {
+        let doc = document(&tri, &[0, 1, 2], json!({ "images": [image] }));
+        let e = read("no-source.gltf", &doc).unwrap_err();
+        assert_eq!(e.path, "images[0]", "{e}");
+    }
     // And a GLB header whose length is shorter than the header.
     std::fs::write(d.join("short.glb"), b"glTF\x02\0\0\0\x04\0\0\0").unwrap();
     let e = gltf_import::read_scene(&d.join("short.glb"), &Default::default()).unwrap_err();
