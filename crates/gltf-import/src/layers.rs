@@ -41,13 +41,9 @@ impl<'m> RawExtension<'m> {
     /// Colour `key` (three finite numbers ≥ 0), or `default` without one.
     fn color(&self, key: &str, default: [f64; 3]) -> Result<[f64; 3], (String, String)> {
         let Some(v) = self.object.get(key) else { return Ok(default) };
-        let values: Option<Vec<f64>> = v.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect());
+        let values: Option<Vec<f64>> = v.as_array().and_then(|a| a.iter().map(Value::as_f64).collect());
         match values.as_deref() {
-            Some(&[r, g, b])
-                if [r, g, b].iter().all(|c| c.is_finite() && *c >= 0.0) && v.as_array().unwrap().len() == 3 =>
-            {
-                Ok([r, g, b])
-            }
+            Some(&[r, g, b]) if [r, g, b].iter().all(|c| c.is_finite() && *c >= 0.0) => Ok([r, g, b]),
             _ => Err((self.at(key), "must be three finite numbers ≥ 0".into())),
         }
     }

@@ -254,15 +254,19 @@ impl MetallicRoughness {
         // The base keeps what the largest channel of the Fresnel term leaves (the specular extension's max_value).
         let mut base_weight = SampledSpectrum::splat(1.0 - (self.f0_max + (self.f90 - self.f0_max) * w));
         let mut f_metal = self.base + (one - self.base) * w;
-        if let Some(irid) = self.iridescence() {
-            let t = irid.weight;
-            let film_dielectric = irid.reflectance(cos_h, &irid.dielectric_eta);
-            let film_metal = irid.reflectance(cos_h, &irid.metal_eta);
-            f_dielectric = f_dielectric * (1.0 - t) + film_dielectric * t;
-            base_weight = base_weight * (1.0 - t) + (one - film_dielectric) * t;
-            f_metal = f_metal * (1.0 - t) + film_metal * t;
-        }
         let m = self.metallic;
+        if let Some(irid) = self.iridescence() {
+            // Each part's film is computed only where that part has weight (a pure metal or dielectric needs one).
+            let t = irid.weight;
+            if m < 1.0 {
+                let film_dielectric = irid.reflectance(cos_h, &irid.dielectric_eta);
+                f_dielectric = f_dielectric * (1.0 - t) + film_dielectric * t;
+                base_weight = base_weight * (1.0 - t) + (one - film_dielectric) * t;
+            }
+            if m > 0.0 {
+                f_metal = f_metal * (1.0 - t) + irid.reflectance(cos_h, &irid.metal_eta) * t;
+            }
+        }
         let dielectric = self.base * base_weight.map(|v| v.max(0.0)) * FRAC_1_PI + f_dielectric * specular;
         dielectric * (1.0 - m) + f_metal * (specular * m)
     }

@@ -140,8 +140,9 @@ pub struct ShapeInfo {
 /// A triangle mesh's per-vertex colours, with the mesh's vertex indices that pick them per triangle.
 #[derive(Clone, Debug)]
 pub struct VertexColors {
-    /// Three vertex indices per triangle, in the mesh's order (the BVH's element index is the triangle's).
-    pub indices: Arc<geometry::MeshData>,
+    /// The mesh (shared with the description): three vertex indices per triangle, in the order of the BVH's
+    /// element indices.
+    pub mesh: Arc<geometry::MeshData>,
     /// Linear RGB per vertex.
     pub colors: Arc<[[f32; 3]]>,
 }
@@ -150,7 +151,7 @@ impl VertexColors {
     /// The colour at barycentric coordinates `b` of triangle `element` (white outside the tables).
     fn at(&self, element: u32, b: [f32; 3]) -> Vec3 {
         let i = element as usize * 3;
-        let Some(tri) = self.indices.indices.get(i..i + 3) else { return Vec3::ONE };
+        let Some(tri) = self.mesh.indices.get(i..i + 3) else { return Vec3::ONE };
         let c = |k: usize| self.colors.get(tri[k] as usize).map_or(Vec3::ONE, |c| Vec3::from_array(*c));
         b[0] * c(0) + b[1] * c(1) + b[2] * c(2)
     }

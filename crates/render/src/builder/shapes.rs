@@ -71,7 +71,7 @@ fn imported_vertex_colors(p: &ParamSet, loc: &Loc, desc: &SceneDescription) -> R
     let mesh = usize::try_from(mesh).ok().and_then(|i| desc.meshes.get(i));
     match (colors, mesh) {
         (Some(colors), Some(mesh)) if colors.len() == mesh.positions.len() => {
-            Ok(Some(VertexColors { indices: mesh.clone(), colors: colors.clone() }))
+            Ok(Some(VertexColors { mesh: mesh.clone(), colors: colors.clone() }))
         }
         (Some(colors), Some(mesh)) => err(
             &at,

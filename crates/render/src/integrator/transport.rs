@@ -472,9 +472,12 @@ fn resolve_surface(
         return Surface::PassThrough;
     }
     let material = &scene.materials[material_index as usize];
-    // A glTF clear coat keeps the shading frame the base's normal map tilts away from (or has its own map).
-    let coat_hit = material.clearcoat().map(|coat| (coat, *hit));
-    if let Some(Some(perturbation)) = scene.normal_perturbations.get(material_index as usize) {
+    let perturbation = scene.normal_perturbations.get(material_index as usize).and_then(Option::as_ref);
+    // A glTF clear coat keeps the shading frame the base's normal map tilts away from, or has its own map: either way
+    // its normal is found from the hit as it is before the base's map (nothing to do when neither map is there).
+    let coat_hit =
+        material.clearcoat().filter(|coat| coat.normal_map.is_some() || perturbation.is_some()).map(|c| (c, *hit));
+    if let Some(perturbation) = perturbation {
         perturbation.apply(hit, &ctx);
     }
     match material.bxdf(&ctx, wl, u_bxdf, regularize) {
