@@ -63,8 +63,8 @@ fn png_pixels(data: &[u8]) -> Option<u64> {
 }
 
 /// The in-memory image decoder that glTF textures and JPEG files go through (it recognises PNG and JPEG by their
-/// signatures), then the conversion a texture makes, with every channel selection. Inputs whose JPEG frame header
-/// claims more than 2^18 pixels are skipped, as for the `png` target.
+/// signatures), then the conversions a texture makes (linear values, compact texels), with every channel
+/// selection. Inputs whose JPEG frame header claims more than 2^18 pixels are skipped, as for the `png` target.
 pub fn jpeg(data: &[u8]) {
     let big = |p: Option<u64>| p.is_some_and(|p| p > 1 << 18);
     if big(jpeg_pixels(data)) || big(png_pixels(data)) || big(webp_pixels(data)) {
@@ -74,6 +74,7 @@ pub fn jpeg(data: &[u8]) {
     if let Ok(img) = &decoded {
         for select in [film::ChannelSelect::Rgb, film::ChannelSelect::One(1), film::ChannelSelect::One(3)] {
             std::hint::black_box(img.to_rgb(film::ColorEncoding::Srgb, select));
+            std::hint::black_box(img.to_texels(film::ColorEncoding::Srgb, select));
         }
     }
     report("jpeg", decoded);

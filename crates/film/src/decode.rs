@@ -10,6 +10,7 @@
 use std::path::Path;
 
 use crate::image_io::{check_png_palette, ColorEncoding, DEFLATE_MAX_RATIO};
+use crate::texels::{sample_table, SampleTable, Texels};
 use crate::ImageError;
 
 /// The most pixels a decoded JPEG may have: 2^28, an image of 16384 × 16384 (the JPEG decoder's own default limit
@@ -26,7 +27,7 @@ const JPEG_PIXELS_PER_BYTE: u64 = 64 * 8;
 pub const MAX_WEBP_PIXELS: u64 = 1 << 26;
 
 /// An image's samples as stored: `channels` per pixel (1 grey, 2 grey and alpha, 3 RGB, 4 RGBA), rows from the top,
-/// each left to right; 8-bit values are held in the low byte.
+/// each left to right.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct DecodedImage {
     /// Width in pixels.
@@ -35,10 +36,42 @@ pub struct DecodedImage {
     pub height: u32,
     /// Samples per pixel: 1 to 4.
     pub channels: usize,
-    /// 16-bit samples (else 8-bit).
-    pub sixteen: bool,
     /// `width · height · channels` samples.
-    pub samples: Vec<u16>,
+    pub samples: Samples,
+}
+
+/// Samples of 8 or 16 bits, each kept in its own size (a decoded image lives as long as a scene's textures are
+/// being built).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Samples {
+    /// 8-bit samples.
+    Eight(Vec<u8>),
+    /// 16-bit samples.
+    Sixteen(Vec<u16>),
+}
+
+impl Samples {
+    /// Sample `k`. Panics if `k` is out of range.
+    #[inline]
+    pub fn value(&self, k: usize) -> u16 {
+        match self {
+            Samples::Eight(v) => u16::from(v[k]),
+            Samples::Sixteen(v) => v[k],
+        }
+    }
+
+    /// The number of samples.
+    pub fn len(&self) -> usize {
+        match self {
+            Samples::Eight(v) => v.len(),
+            Samples::Sixteen(v) => v.len(),
+        }
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
 }
 
 /// Which of an image's channels a texture reads.
@@ -52,6 +85,11 @@ pub enum ChannelSelect {
 }
 
 impl DecodedImage {
+    /// Whether the samples have 16 bits (else 8).
+    pub fn sixteen(&self) -> bool {
+        matches!(self.samples, Samples::Sixteen(_))
+    }
+
     /// Whether the image stores an alpha channel.
     pub fn has_alpha(&self) -> bool {
         self.channels == 2 || self.channels == 4
@@ -71,8 +109,8 @@ impl DecodedImage {
     /// Stored sample `c` of pixel `i` in [0, 1]; a missing alpha is 1.
     fn sample(&self, i: usize, c: usize) -> f64 {
         let Some(slot) = self.slot(c) else { return 1.0 };
-        let max = if self.sixteen { 65535.0 } else { 255.0 };
-        f64::from(self.samples[i * self.channels + slot]) / max
+        let max = if self.sixteen() { 65535.0 } else { 255.0 };
+        f64::from(self.samples.value(i * self.channels + slot)) / max
     }
 
     /// Linear RGB pixels (rows from the top): colour channels through `encoding`, alpha as stored (alpha is linear
@@ -80,18 +118,18 @@ impl DecodedImage {
     pub fn to_rgb(&self, encoding: ColorEncoding, select: ChannelSelect) -> Vec<[f32; 3]> {
         let n = self.width as usize * self.height as usize;
         // 8-bit values go through a table: 256 evaluations of the transfer function instead of one per sample.
-        let table: Vec<f32> = if self.sixteen {
+        let table: Vec<f32> = if self.sixteen() {
             vec![]
         } else {
             (0..256).map(|v| encoding.to_linear(f64::from(v) / 255.0) as f32).collect()
         };
         let colour = |i: usize, c: usize| -> f32 {
-            if self.sixteen {
+            if self.sixteen() {
                 encoding.to_linear(self.sample(i, c)) as f32
             } else {
                 // Colour channels always have a slot.
                 let slot = self.slot(c).unwrap_or(0);
-                table[usize::from(self.samples[i * self.channels + slot] & 0xff)]
+                table[usize::from(self.samples.value(i * self.channels + slot) & 0xff)]
             }
         };
         (0..n)
@@ -101,6 +139,33 @@ impl DecodedImage {
                 ChannelSelect::One(c) => [colour(i, c.min(2)); 3],
             })
             .collect()
+    }
+}
+
+impl DecodedImage {
+    /// The texels [`DecodedImage::to_rgb`] gives, kept compact: 8-bit samples stay 8-bit, read through a table of
+    /// the linear values `to_rgb` would compute, and one channel (a grey image, alpha, or one colour picked out)
+    /// keeps one sample per texel. Images of 16 bits keep linear floats.
+    pub fn to_texels(&self, encoding: ColorEncoding, select: ChannelSelect) -> Texels {
+        let Samples::Eight(bytes) = &self.samples else {
+            return Texels::from_rgb(self.to_rgb(encoding, select));
+        };
+        let n = self.width as usize * self.height as usize;
+        let byte = |i: usize, slot: usize| bytes[i * self.channels + slot];
+        // The values `to_rgb` computes: colours through the encoding, alpha as stored.
+        let colour = || sample_table(|v| encoding.to_linear(v));
+        let one = |c: usize, table: SampleTable| match self.slot(c) {
+            Some(slot) => Texels::Grey8 { samples: (0..n).map(|i| byte(i, slot)).collect(), table },
+            None => Texels::Grey8 { samples: vec![255; n], table },
+        };
+        match select {
+            ChannelSelect::Rgb if self.channels <= 2 => one(0, colour()),
+            ChannelSelect::Rgb => {
+                Texels::from_rgb8((0..n).map(|i| [byte(i, 0), byte(i, 1), byte(i, 2)]).collect(), colour())
+            }
+            ChannelSelect::One(3) => one(3, sample_table(|v| v)),
+            ChannelSelect::One(c) => one(c.min(2), colour()),
+        }
     }
 }
 
@@ -148,13 +213,7 @@ pub(crate) fn decode_webp(bytes: &[u8], name: &Path) -> Result<DecodedImage, Ima
     }
     let mut buf = vec![0u8; size];
     decoder.read_image(&mut buf).map_err(webp_err)?;
-    Ok(DecodedImage {
-        width: w,
-        height: h,
-        channels,
-        sixteen: false,
-        samples: buf.into_iter().map(u16::from).collect(),
-    })
+    Ok(DecodedImage { width: w, height: h, channels, samples: Samples::Eight(buf) })
 }
 
 /// Decodes a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette, expanded) without touching the samples'
@@ -199,18 +258,23 @@ pub(crate) fn decode_png(bytes: &[u8], name: &Path) -> Result<DecodedImage, Imag
     let bytes_per_sample = if sixteen { 2 } else { 1 };
     let row = w as usize * channels;
     let stride = info.line_size;
-    let mut samples = Vec::with_capacity(row * h as usize);
-    for y in 0..h as usize {
-        let line = buf
-            .get(y * stride..y * stride + row * bytes_per_sample)
-            .ok_or_else(|| malformed("short image data".into()))?;
-        if sixteen {
-            samples.extend(line.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])));
-        } else {
-            samples.extend(line.iter().map(|&b| u16::from(b)));
+    let line = |y: usize| {
+        buf.get(y * stride..y * stride + row * bytes_per_sample).ok_or_else(|| malformed("short image data".into()))
+    };
+    let samples = if sixteen {
+        let mut samples = Vec::with_capacity(row * h as usize);
+        for y in 0..h as usize {
+            samples.extend(line(y)?.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])));
         }
-    }
-    Ok(DecodedImage { width: w, height: h, channels, sixteen, samples })
+        Samples::Sixteen(samples)
+    } else {
+        let mut samples = Vec::with_capacity(row * h as usize);
+        for y in 0..h as usize {
+            samples.extend_from_slice(line(y)?);
+        }
+        Samples::Eight(samples)
+    };
+    Ok(DecodedImage { width: w, height: h, channels, samples })
 }
 
 /// Decodes a baseline or progressive JPEG (grey, YCbCr, CMYK or YCCK) into 8-bit RGB with the `zune-jpeg` crate,
@@ -274,13 +338,7 @@ pub(crate) fn decode_jpeg(bytes: &[u8], name: &Path) -> Result<DecodedImage, Ima
             message: format!("JPEG: {} bytes decoded for a {w}×{h} RGB image", data.len()),
         });
     }
-    Ok(DecodedImage {
-        width: w as u32,
-        height: h as u32,
-        channels: 3,
-        sixteen: false,
-        samples: data.into_iter().map(u16::from).collect(),
-    })
+    Ok(DecodedImage { width: w as u32, height: h as u32, channels: 3, samples: Samples::Eight(data) })
 }
 
 /// The (horizontal, vertical) sampling factors of each component in a JPEG's first frame header, found by walking
@@ -348,7 +406,7 @@ mod tests {
     fn grey_sixteen_bit_png_stands_for_all_three_channels_and_is_opaque() {
         let bytes = png_bytes(1, 1, png::ColorType::Grayscale, png::BitDepth::Sixteen, &[0x80, 0x00]);
         let img = decode_image_bytes(&bytes, Path::new("g.png")).unwrap();
-        assert!(img.sixteen && !img.has_alpha());
+        assert!(img.sixteen() && !img.has_alpha());
         let v = 32768.0 / 65535.0;
         assert!(img.to_rgb(ColorEncoding::Linear, ChannelSelect::Rgb)[0].iter().all(|c| (c - v).abs() < 1e-6));
         assert_eq!(img.to_rgb(ColorEncoding::Linear, ChannelSelect::One(3))[0], [1.0; 3]);
@@ -363,7 +421,7 @@ mod tests {
         assert_eq!(sniff_format(&bytes), Some("jpeg"));
         let img = decode_image_bytes(&bytes, Path::new("two-colours.jpg")).unwrap();
         assert_eq!((img.width, img.height, img.channels), (16, 8, 3));
-        let at = |x: usize, y: usize| &img.samples[(y * 16 + x) * 3..(y * 16 + x) * 3 + 3];
+        let at = |x: usize, y: usize| (0..3).map(|c| img.samples.value((y * 16 + x) * 3 + c)).collect::<Vec<u16>>();
         for (x, want) in [(2, [200, 40, 40]), (13, [40, 40, 200])] {
             for (got, want) in at(x, 4).iter().zip(want) {
                 assert!(got.abs_diff(want) <= 3, "pixel ({x}, 4): {:?} against {want:?}", at(x, 4));
@@ -403,6 +461,43 @@ mod tests {
         assert!(e.contains("16383×8200"), "{e}");
     }
 
+    /// The compact texels of every channel layout, encoding and channel choice read as exactly the values
+    /// `to_rgb` computes, and an 8-bit image keeps 8-bit samples (one per texel where one channel is read).
+    #[test]
+    fn compact_texels_equal_the_linear_values_bit_for_bit() {
+        let n = 37;
+        for channels in 1..=4 {
+            for sixteen in [false, true] {
+                let values = (0..n * channels).map(|k| ((k * 97 + 13) % 256) as u16);
+                let samples = if sixteen {
+                    Samples::Sixteen(values.map(|v| v * 257 - v / 2).collect())
+                } else {
+                    Samples::Eight(values.map(|v| v as u8).collect())
+                };
+                let img = DecodedImage { width: n as u32, height: 1, channels, samples };
+                for encoding in [ColorEncoding::Linear, ColorEncoding::Srgb, ColorEncoding::Gamma(2.2)] {
+                    for select in [0, 1, 2, 3].map(ChannelSelect::One).into_iter().chain([ChannelSelect::Rgb]) {
+                        let texels = img.to_texels(encoding, select);
+                        let want = img.to_rgb(encoding, select);
+                        let got: Vec<[f32; 3]> = texels.iter().collect();
+                        let bits = |v: &[[f32; 3]]| v.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
+                        let case = format!("{channels} channels, 16-bit {sixteen}, {encoding:?}, {select:?}");
+                        assert_eq!(bits(&got), bits(&want), "{case}");
+                        let one = select != ChannelSelect::Rgb || channels <= 2;
+                        let bytes = texels.bytes();
+                        let expected = match (sixteen, one) {
+                            (false, true) => n,
+                            (false, false) => 3 * n,
+                            (true, true) => 4 * n,
+                            (true, false) => 12 * n,
+                        };
+                        assert_eq!(bytes, expected, "{case}");
+                    }
+                }
+            }
+        }
+    }
+
     /// Committed 16×8 WebPs written by Pillow: the left half sRGB (200, 30, 30), the right half (30, 200, 30); the
     /// lossless one with alpha 255 and 128, exactly; the lossy one (quality 90) within 6 of each value.
     #[test]
@@ -414,8 +509,10 @@ mod tests {
         };
         let lossless = read("two-colours-lossless.webp");
         assert_eq!((lossless.width, lossless.height, lossless.channels), (16, 8, 4));
-        assert_eq!(&lossless.samples[(4 * 16 + 2) * 4..][..4], &[200, 30, 30, 255]);
-        assert_eq!(&lossless.samples[(4 * 16 + 13) * 4..][..4], &[30, 200, 30, 128]);
+        let px =
+            |img: &DecodedImage, k: usize, n: usize| (0..n).map(|c| img.samples.value(k * n + c)).collect::<Vec<_>>();
+        assert_eq!(px(&lossless, 4 * 16 + 2, 4), [200, 30, 30, 255]);
+        assert_eq!(px(&lossless, 4 * 16 + 13, 4), [30, 200, 30, 128]);
         // A `.webp` file read as a texture: the sRGB curve applied, alpha dropped.
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/two-colours-lossless.webp");
         let (w, h, rgb) = crate::read_rgb(&path).unwrap();
@@ -425,7 +522,7 @@ mod tests {
         let lossy = read("two-colours-lossy.webp");
         assert_eq!((lossy.width, lossy.height, lossy.channels), (16, 8, 3));
         for (x, want) in [(2usize, [200u16, 30, 30]), (13, [30, 200, 30])] {
-            let got = &lossy.samples[(4 * 16 + x) * 3..][..3];
+            let got = px(&lossy, 4 * 16 + x, 3);
             assert!(got.iter().zip(want).all(|(g, w)| g.abs_diff(w) <= 6), "pixel ({x}, 4): {got:?} against {want:?}");
         }
     }

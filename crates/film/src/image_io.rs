@@ -20,6 +20,7 @@
 //! The reader accepts any channel name the layout's grammar allows,
 //! `S0.<digits>[,<digits>][e±<digits>][SI prefix](m|Hz)`, converting to nm.
 
+use crate::texels::Texels;
 use crate::view::{DisplayEncoding, View};
 use crate::{AovImages, Film, FilmState, ImageError, PixelBounds, Plane};
 use exr::prelude::{
@@ -921,7 +922,8 @@ pub(crate) fn open_read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>, Imag
 /// Reads a PNG (8- or 16-bit; grey, grey+alpha, RGB, RGBA or palette; alpha ignored), decoding the sRGB transfer
 /// function: (width, height, linear pixels row-major from the top).
 pub fn read_png_linear(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
-    read_png_encoded(path, ColorEncoding::Srgb)
+    let img = crate::decode::decode_png(&open_read(path)?, path)?;
+    Ok((img.width, img.height, img.to_rgb(ColorEncoding::Srgb, crate::decode::ChannelSelect::Rgb)))
 }
 
 /// How the integer samples of an 8- or 16-bit image become linear values (pbrt-v4's `ColorEncoding`, the
@@ -951,45 +953,48 @@ impl ColorEncoding {
 /// as pbrt-v4 does; float formats (EXR, PFM, HDR) are linear and ignore it, and so do TGA and JPEG, which are always sRGB-decoded
 /// (below). With [`ColorEncoding::Srgb`] this returns what [`read_rgb`] does.
 pub fn read_rgb_encoded(path: &Path, encoding: ColorEncoding) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
+    let (w, h, texels) = read_texels_encoded(path, encoding)?;
+    Ok((w, h, texels.iter().collect()))
+}
+
+/// [`read_rgb_encoded`]'s texels kept compact ([`Texels`]): 8-bit images (PNG, JPEG, WebP, TGA) stay 8-bit, one
+/// channel where red, green and blue are equal.
+pub fn read_texels_encoded(path: &Path, encoding: ColorEncoding) -> Result<(u32, u32, Texels), ImageError> {
     if let Some(read) = read_not_written_format(path) {
         return read;
     }
     match ImageFormat::from_path(path)? {
-        ImageFormat::Png => read_png_encoded(path, encoding),
-        ImageFormat::Exr | ImageFormat::Pfm => read_rgb(path),
+        ImageFormat::Png => {
+            let img = crate::decode::decode_png(&open_read(path)?, path)?;
+            Ok((img.width, img.height, img.to_texels(encoding, crate::decode::ChannelSelect::Rgb)))
+        }
+        ImageFormat::Exr | ImageFormat::Pfm => {
+            let (w, h, rgb) = read_rgb(path)?;
+            Ok((w, h, Texels::from_rgb(rgb)))
+        }
     }
 }
 
-/// (width, height, linear RGB pixels row-major from the top): what the texture readers return.
-type LinearRgb = (u32, u32, Vec<[f32; 3]>);
+/// (width, height, texels row-major from the top): what the texture readers return.
+type ImageTexels = (u32, u32, Texels);
 
 /// The formats read but never written, which are not `ImageFormat`s, by extension: TGA and JPEG (8-bit, always
 /// sRGB-decoded: pbrt-v4 reads both through stb_image and tags the result sRGB whatever encoding the texture asked
 /// for (pbrt-v4 src/pbrt/util/image.cpp, Image::Read); measured: its "linear" default for non-PNG textures does not
 /// reach TGA, so the staircase scenes' wood is as dark in pbrt-v4 as sRGB decoding makes it), and Radiance HDR
 /// (linear floats). `None` for any other extension.
-fn read_not_written_format(path: &Path) -> Option<Result<LinearRgb, ImageError>> {
+fn read_not_written_format(path: &Path) -> Option<Result<ImageTexels, ImageError>> {
     let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
+    let srgb8 = |img: crate::decode::DecodedImage| {
+        (img.width, img.height, img.to_texels(ColorEncoding::Srgb, crate::decode::ChannelSelect::Rgb))
+    };
     match ext.as_str() {
-        "tga" => Some(crate::tga::read_tga_linear(path)),
-        "jpg" | "jpeg" => Some(open_read(path).and_then(|bytes| {
-            let img = crate::decode::decode_jpeg(&bytes, path)?;
-            Ok((img.width, img.height, img.to_rgb(ColorEncoding::Srgb, crate::decode::ChannelSelect::Rgb)))
-        })),
-        "webp" => Some(open_read(path).and_then(|bytes| {
-            let img = crate::decode::decode_webp(&bytes, path)?;
-            Ok((img.width, img.height, img.to_rgb(ColorEncoding::Srgb, crate::decode::ChannelSelect::Rgb)))
-        })),
-        "hdr" | "pic" => Some(crate::hdr::read_hdr(path)),
+        "tga" => Some(crate::tga::read_tga(path).map(|img| (img.width, img.height, crate::tga::srgb8_texels(&img)))),
+        "jpg" | "jpeg" => Some(open_read(path).and_then(|bytes| crate::decode::decode_jpeg(&bytes, path)).map(srgb8)),
+        "webp" => Some(open_read(path).and_then(|bytes| crate::decode::decode_webp(&bytes, path)).map(srgb8)),
+        "hdr" | "pic" => Some(crate::hdr::read_hdr(path).map(|(w, h, rgb)| (w, h, Texels::from_rgb(rgb)))),
         _ => None,
     }
-}
-
-/// A PNG file as linear RGB through `encoding` (grey replicated, alpha dropped), decoded by [`crate::decode`],
-/// which checks the header's size against the file's bytes before anything is allocated.
-fn read_png_encoded(path: &Path, encoding: ColorEncoding) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
-    let img = crate::decode::decode_png(&open_read(path)?, path)?;
-    Ok((img.width, img.height, img.to_rgb(encoding, crate::decode::ChannelSelect::Rgb)))
 }
 
 /// The most bytes one byte of a deflate stream can expand to (RFC 1951: a 258-byte match coded in two bits); zlib's
@@ -1079,7 +1084,7 @@ pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
 /// [`crate::tga`]), PFM or Radiance HDR ([`crate::hdr`]) — for textures and environment maps.
 pub fn read_rgb(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
     if let Some(read) = read_not_written_format(path) {
-        return read;
+        return read.map(|(w, h, texels)| (w, h, texels.iter().collect()));
     }
     match ImageFormat::from_path(path)? {
         ImageFormat::Exr => read_exr_rgb(path),

@@ -41,10 +41,11 @@ pub mod filter;
 pub mod hdr;
 mod icc;
 pub mod image_io;
+pub mod texels;
 pub mod tga;
 pub mod view;
 
-pub use decode::{decode_image_bytes, sniff_format, ChannelSelect, DecodedImage};
+pub use decode::{decode_image_bytes, sniff_format, ChannelSelect, DecodedImage, Samples};
 pub use error::{FilmError, ImageError};
 pub use film::{
     AovImages, CameraResponse, Film, FilmKind, FilmRow, FilmSpec, FilmState, GBuffer, GBufferCoordinates,
@@ -58,7 +59,9 @@ pub use image_io::{
     read_png_linear, read_rgb, spectral_channel_name, write_image, write_rgb, ExrLayout, ImageFormat, SpectralImage,
 };
 pub use image_io::{
-    read_exr_channels, read_exr_text_attributes, read_rgb_encoded, write_image_with, ColorEncoding, NamedChannels,
+    read_exr_channels, read_exr_text_attributes, read_rgb_encoded, read_texels_encoded, write_image_with,
+    ColorEncoding, NamedChannels,
 };
 pub use image_io::{read_part, write_file_atomic, write_part};
+pub use texels::{sample_table, SampleTable, Texels};
 pub use view::{display_space_for, DisplayEncoding, DisplayTransform, View};

@@ -15,6 +15,7 @@
 
 use std::path::Path;
 
+use crate::texels::{sample_table, Texels};
 use crate::ImageError;
 
 /// An image of 8-bit samples as stored in the file: `channels` (1 grey, 2 grey and alpha, 3 RGB or 4 RGBA) per
@@ -284,6 +285,17 @@ pub fn srgb8_to_linear(image: &Image8) -> Vec<[f32; 3]> {
     samples_to_rgb(image, &lut)
 }
 
+/// [`srgb8_to_linear`]'s values kept as 8-bit samples with their table ([`Texels`]).
+pub fn srgb8_texels(image: &Image8) -> Texels {
+    let table = sample_table(spectral::color::srgb_decode);
+    let px = image.data.chunks_exact(image.channels.max(1));
+    if image.channels < 3 {
+        Texels::Grey8 { samples: px.map(|p| p[0]).collect(), table }
+    } else {
+        Texels::from_rgb8(px.map(|p| [p[0], p[1], p[2]]).collect(), table)
+    }
+}
+
 /// RGB pixels from 8-bit samples through a 256-entry table (a colour encoding's decode): grey is repeated in R, G
 /// and B and alpha is ignored. Pixels row-major from the top.
 pub fn samples_to_rgb(image: &Image8, lut: &[f32]) -> Vec<[f32; 3]> {
@@ -487,6 +499,18 @@ mod tests {
         assert_eq!(px[0], [0.0; 3]);
         assert!((px[1][0] - 0.5029).abs() < 2e-4 && px[1][0] == px[1][2], "{:?}", px[1]);
         assert_eq!(px[2], [1.0; 3]);
+    }
+
+    #[test]
+    fn compact_texels_read_as_the_linear_values() {
+        let data: Vec<u8> = (0..48u32).map(|k| (k * 37 % 256) as u8).collect();
+        for channels in 1..=4 {
+            let image = Image8 { width: 12 / channels as u32, height: 1, channels, data: data[..12].to_vec() };
+            let texels = srgb8_texels(&image);
+            let bits = |v: Vec<[f32; 3]>| v.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(texels.iter().collect()), bits(srgb8_to_linear(&image)), "{channels} channels");
+            assert_eq!(texels.bytes(), if channels < 3 { 12 / channels } else { 3 * 12 / channels });
+        }
     }
 
     #[test]

@@ -242,7 +242,7 @@ mod tests {
     fn a_flat_normal_map_leaves_the_normal_to_8_bit_precision() {
         // (128, 128, 255) read linearly: 2·128/255 − 1 = 1/255 in x and y, a tilt of √2/255 ≈ 0.0055 rad.
         let v = 128.0 / 255.0;
-        let img = RgbImage { width: 1, height: 1, pixels: vec![[v, v, 1.0]] };
+        let img = RgbImage::new(1, 1, vec![[v, v, 1.0]]);
         for g in [plane(1.0, 1.0), plane(2.0, 5.0)] {
             let out = NormalPerturbation::NormalMap(Arc::new(img.clone())).perturb(&g, &point(&g));
             assert!((out.ns - g.ns).length() < 2.0 / 255.0, "{:?}", out.ns);
@@ -252,10 +252,10 @@ mod tests {
         }
         // An exactly flat map, (0.5, 0.5, 1), is no change at all; a tilted one turns the normal in the (∂p/∂u, ns ×
         // ∂p/∂u) frame: (1, 0.5, 1) is local (1, 0, 1)/√2, towards +u.
-        let flat = RgbImage { width: 1, height: 1, pixels: vec![[0.5, 0.5, 1.0]] };
+        let flat = RgbImage::new(1, 1, vec![[0.5, 0.5, 1.0]]);
         let out = NormalPerturbation::NormalMap(Arc::new(flat)).perturb(&plane(2.0, 1.0), &point(&plane(2.0, 1.0)));
         assert!((out.ns - Vec3::Z).length() < 1e-6);
-        let tilted = RgbImage { width: 1, height: 1, pixels: vec![[1.0, 0.5, 1.0]] };
+        let tilted = RgbImage::new(1, 1, vec![[1.0, 0.5, 1.0]]);
         let out = NormalPerturbation::NormalMap(Arc::new(tilted)).perturb(&plane(2.0, 1.0), &point(&plane(2.0, 1.0)));
         assert!((out.ns - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-6, "{:?}", out.ns);
     }

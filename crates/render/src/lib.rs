@@ -94,9 +94,9 @@ pub use integrator::{
 };
 pub use scene::RenderScene;
 
-/// The scattering models and the tables behind them, for the crate's own BSDF benchmark (`benches/bsdf.rs`, which
-/// turns the `internals` feature on through a dev-dependency on the crate itself), the command's tests that write
-/// RGL tensor files, and the fuzz campaign's measured-BRDF target. Not part of the API: nothing here is kept stable.
+/// The scattering models and the tables behind them, and MIP maps, for the crate's own benchmarks (`benches/bsdf.rs`
+/// and `benches/texture.rs`, which turn the `internals` feature on through a dev-dependency on the crate itself),
+/// the command's tests that write RGL tensor files, and the fuzz campaign's measured-BRDF target. Not part of the API: nothing here is kept stable.
 #[cfg(feature = "internals")]
 #[doc(hidden)]
 pub mod internals {
@@ -107,4 +107,5 @@ pub mod internals {
     pub use crate::measured::warp::Warp2D;
     pub use crate::measured::MeasuredBrdf;
     pub use crate::microfacet::TrowbridgeReitz;
+    pub use crate::texture::{MipMap, RgbImage, WrapMode};
 }

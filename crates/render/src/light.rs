@@ -196,10 +196,10 @@ pub struct EmissionImage {
 impl EmissionImage {
     /// The emission image of `tex`, its mean luminance computed once.
     pub fn new(tex: ImageTexture) -> Self {
-        let n = tex.image.pixels.len().max(1) as f64;
+        let n = tex.image.texels.len().max(1) as f64;
         let sum = tex
             .image
-            .pixels
+            .texels
             .iter()
             .fold([0.0f64; 3], |m, p| [m[0] + p[0] as f64, m[1] + p[1] as f64, m[2] + p[2] as f64]);
         let t = tex.tint.map(f64::from);

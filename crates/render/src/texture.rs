@@ -10,6 +10,7 @@
 
 use std::sync::Arc;
 
+use film::Texels;
 use glam::{Affine3A, Vec2, Vec3};
 use spectral::rgb_uplift::{RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum};
 use spectral::{SampledSpectrum, SampledWavelengths, Spectrum, N_WAVELENGTHS};
@@ -323,11 +324,17 @@ pub struct RgbImage {
     pub width: usize,
     /// Height in pixels.
     pub height: usize,
-    /// Linear RGB pixels.
-    pub pixels: Vec<[f32; 3]>,
+    /// The texels, rows from the top, read as linear RGB (8-bit images stay 8-bit: `film::Texels`).
+    pub texels: Texels,
 }
 
 impl RgbImage {
+    /// A `width`×`height` image of linear RGB `pixels` (rows from the top), kept as one value per texel where
+    /// the three are equal everywhere.
+    pub fn new(width: usize, height: usize, pixels: Vec<[f32; 3]>) -> Self {
+        Self { width, height, texels: Texels::from_rgb(pixels) }
+    }
+
     /// Texel (x, y) (row 0 at the top) under `wrap`.
     pub fn texel(&self, x: i64, y: i64, wrap: WrapMode) -> [f32; 3] {
         let (w, h) = (self.width as i64, self.height as i64);
@@ -346,7 +353,7 @@ impl RgbImage {
             WrapMode::OctahedralSphere => octahedral_wrap(x, y, w, h),
             WrapMode::Axes(s, t) => (s.wrap(x, w), t.wrap(y, h)),
         };
-        self.pixels[(y * w + x) as usize]
+        self.texels.get((y * w + x) as usize)
     }
 
     /// Bilinear lookup at texture coordinates `st` with repeat wrapping (t = 0 at the bottom row: pbrt flips

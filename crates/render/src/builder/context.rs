@@ -166,23 +166,23 @@ impl Textures {
         if let Some(img) = self.images.borrow().get(&key) {
             return Ok(img.clone());
         }
-        let (w, h, pixels) = match source {
+        let (w, h, texels) = match source {
             ImageSource::File(path) => {
                 if select != ChannelSelect::Rgb {
                     return err(loc, "'channel' picks a channel of an embedded image ('integer image') only");
                 }
-                film::read_rgb_encoded(path, encoding)
+                film::read_texels_encoded(path, encoding)
                     .map_err(|e| file_err(loc, path, format!("cannot read image {}: {e}", path.display())))?
             }
             ImageSource::Embedded(i) => {
                 let decoded = self.decoded_image(*i, loc)?;
-                (decoded.width, decoded.height, decoded.to_rgb(encoding, select))
+                (decoded.width, decoded.height, decoded.to_texels(encoding, select))
             }
         };
         if w == 0 || h == 0 {
             return err(loc, format!("image {} is empty", source.describe(&self.embedded)));
         }
-        let img = Arc::new(RgbImage { width: w as usize, height: h as usize, pixels });
+        let img = Arc::new(RgbImage { width: w as usize, height: h as usize, texels });
         self.images.borrow_mut().insert(key, img.clone());
         Ok(img)
     }
@@ -513,6 +513,39 @@ pub(super) const MEASURED_MEDIA: &[MeasuredMedium] = &[
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An 8-bit image is kept as 8-bit samples (one per texel for one channel), reading as the linear values it
+    /// decodes to; its MIP levels above the first keep floats, one per texel for one channel.
+    #[test]
+    fn eight_bit_images_stay_eight_bit() {
+        // Pillow's lossless 16×8 WebP: the left half sRGB (200, 30, 30) with alpha 255, the right half
+        // (30, 200, 30) with alpha 128.
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../film/tests/fixtures/two-colours-lossless.webp");
+        let bytes: Arc<[u8]> = std::fs::read(path).unwrap().into();
+        let textures = Textures::new(vec![EmbeddedImage { name: "plates.glb#images[0]".into(), bytes }]);
+        let loc = Loc::builtin(Arc::from(PathBuf::new()));
+        let read = |encoding, name, select| {
+            textures.image(&ImageSource::Embedded(0), encoding, name, select, &loc).unwrap_or_else(|e| panic!("{e}"))
+        };
+        let srgb = |v: u8| spectral::color::srgb_decode(f64::from(v) / 255.0) as f32;
+        let kind = |t: &film::Texels| format!("{t:?}").chars().take_while(|c| c.is_alphanumeric()).collect::<String>();
+        let rgb = read(ColorEncoding::Srgb, "sRGB", ChannelSelect::Rgb);
+        assert!(matches!(rgb.texels, film::Texels::Rgb8 { .. }), "{}", kind(&rgb.texels));
+        assert_eq!(rgb.texels.bytes(), 16 * 8 * 3);
+        assert_eq!(rgb.texel(13, 4, WrapMode::Clamp), [srgb(30), srgb(200), srgb(30)]);
+        let alpha = read(ColorEncoding::Linear, "linear", ChannelSelect::One(3));
+        assert!(matches!(alpha.texels, film::Texels::Grey8 { .. }), "{}", kind(&alpha.texels));
+        assert_eq!(alpha.texels.bytes(), 16 * 8);
+        assert_eq!(alpha.texel(13, 4, WrapMode::Clamp), [(128.0f64 / 255.0) as f32; 3]);
+        let green = read(ColorEncoding::Linear, "linear", ChannelSelect::One(1));
+        assert_eq!(green.texel(2, 4, WrapMode::Clamp), [(30.0f64 / 255.0) as f32; 3]);
+        let mip = textures.mipmap(&alpha, WrapMode::Clamp);
+        assert!(std::ptr::eq(mip.level(0), &*alpha), "a power-of-two image is its own first level");
+        let level1 = mip.level(1);
+        assert!(matches!(level1.texels, film::Texels::Grey(_)), "{}", kind(&level1.texels));
+        assert_eq!(level1.texels.bytes(), 8 * 4 * 4);
+        assert_eq!(level1.texel(7, 2, WrapMode::Clamp), [(128.0f64 / 255.0) as f32; 3]);
+    }
 
     #[test]
     fn presets_are_valid_and_named_once() {

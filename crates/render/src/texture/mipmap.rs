@@ -4,8 +4,10 @@
 //! As pbrt-v4's `Image::GeneratePyramid`: an image whose sides are not powers of two is first resampled up to the
 //! next powers of two with a two-lobe windowed sinc (Lanczos, 4 taps per axis, weights normalised, negative results
 //! clamped to 0; texels beyond the edges under the texture's wrap mode); each further level averages 2×2 texels of
-//! the one below (a side of one texel is reused), down to a single texel. Levels keep 32-bit floats (pbrt-v4 stores
-//! them in the image's own pixel format, re-quantising 8-bit images at every level).
+//! the one below (a side of one texel is reused), down to a single texel. A power-of-two image is its own first level,
+//! in the texels it was read into (8-bit samples stay 8-bit, `film::Texels`); the other levels keep 32-bit floats, one
+//! per texel where the image is grey (pbrt-v4 stores every level in the image's own pixel format, re-quantising 8-bit
+//! images at every level).
 //!
 //! Lookups take pbrt-v4's texture coordinates (t = 0 at the bottom row) and their change per pixel.
 
@@ -80,13 +82,13 @@ fn resample_up(image: &RgbImage, w: usize, h: usize, wrap: WrapMode) -> RgbImage
             pixels.push(sum.map(|v| v.max(0.0)));
         }
     }
-    RgbImage { width: w, height: h, pixels }
+    RgbImage::new(w, h, pixels)
 }
 
 /// The next MIP level: each texel the mean of a 2×2 block (a side of one texel is used twice).
 fn downsample(image: &RgbImage) -> RgbImage {
     let (w, h) = ((image.width / 2).max(1), (image.height / 2).max(1));
-    let at = |x: usize, y: usize| image.pixels[y.min(image.height - 1) * image.width + x.min(image.width - 1)];
+    let at = |x: usize, y: usize| image.texels.get(y.min(image.height - 1) * image.width + x.min(image.width - 1));
     let mut pixels = Vec::with_capacity(w * h);
     for y in 0..h {
         for x in 0..w {
@@ -94,7 +96,7 @@ fn downsample(image: &RgbImage) -> RgbImage {
             pixels.push(std::array::from_fn(|i| 0.25 * (a[i] + b[i] + c[i] + d[i])));
         }
     }
-    RgbImage { width: w, height: h, pixels }
+    RgbImage::new(w, h, pixels)
 }
 
 impl MipMap {
@@ -127,7 +129,7 @@ impl MipMap {
 
     /// The single texel of the coarsest level (the image's mean, for a power-of-two image).
     fn top(&self) -> [f32; 3] {
-        self.levels[self.levels.len() - 1].pixels[0]
+        self.levels[self.levels.len() - 1].texels.get(0)
     }
 
     fn bilerp(&self, level: usize, st: Vec2) -> [f32; 3] {

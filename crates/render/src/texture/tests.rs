@@ -124,7 +124,7 @@ fn mappings_round_trip_known_points() {
 
 fn two_by_two() -> RgbImage {
     // Row 0 (top): 1, 2; row 1 (bottom): 3, 4 (all channels equal).
-    RgbImage { width: 2, height: 2, pixels: [1.0, 2.0, 3.0, 4.0].map(|v| [v; 3]).to_vec() }
+    RgbImage::new(2, 2, [1.0, 2.0, 3.0, 4.0].map(|v| [v; 3]).to_vec())
 }
 
 #[test]
@@ -179,7 +179,7 @@ fn octahedral_wrap_mirrors_about_each_edge_midpoint() {
 
 #[test]
 fn image_textures_scale_invert_and_read_channels_as_pbrt_does() {
-    let img = Arc::new(RgbImage { width: 1, height: 1, pixels: vec![[0.2, 0.4, 0.9]] });
+    let img = Arc::new(RgbImage::new(1, 1, vec![[0.2, 0.4, 0.9]]));
     let tex = |filter, scale, invert| ImageTexture {
         map: TextureMapping2D::default(),
         image: img.clone(),
@@ -199,7 +199,7 @@ fn image_textures_scale_invert_and_read_channels_as_pbrt_does() {
     assert!((f(ImageFilter::Bilinear, 1.0, true) - 0.5).abs() < 1e-6);
     assert_eq!(f(ImageFilter::Bilinear, 3.0, true), 0.0, "1 − 1.5 clamped at zero");
     // Spectrum: a grey image is a constant spectrum; scale then invert.
-    let grey = Arc::new(RgbImage { width: 1, height: 1, pixels: vec![[0.25; 3]] });
+    let grey = Arc::new(RgbImage::new(1, 1, vec![[0.25; 3]]));
     let wl = SampledWavelengths::new([400.0, 500.0, 600.0, 700.0], [1.0; 4]);
     let s = |kind, invert| {
         let tex = ImageTexture { image: grey.clone(), ..tex(ImageFilter::Bilinear, 2.0, invert) };
@@ -275,7 +275,7 @@ fn polka_dots_sit_in_cells_with_positive_noise() {
 /// A `w`×`h` image with texel values from `f(x, y)` (grey).
 fn grey_image(w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> Arc<RgbImage> {
     let pixels = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| [f(x, y); 3]).collect();
-    Arc::new(RgbImage { width: w, height: h, pixels })
+    Arc::new(RgbImage::new(w, h, pixels))
 }
 
 /// A hash of (x, y) in [0, 1), for images without structure.
@@ -285,7 +285,7 @@ fn noise(x: usize, y: usize) -> f32 {
 }
 
 fn image_mean(img: &RgbImage) -> f64 {
-    img.pixels.iter().map(|p| p[0] as f64).sum::<f64>() / img.pixels.len() as f64
+    img.texels.iter().map(|p| p[0] as f64).sum::<f64>() / img.texels.len() as f64
 }
 
 #[test]
@@ -306,7 +306,7 @@ fn mip_levels_halve_down_to_one_texel_and_keep_the_mean() {
     }
     // Level 1's texel (0, 0) is the mean of the four texels it covers.
     let want = (noise(0, 0) + noise(1, 0) + noise(0, 1) + noise(1, 1)) / 4.0;
-    assert!((mip.level(1).pixels[0][0] - want).abs() < 1e-7);
+    assert!((mip.level(1).texels.get(0)[0] - want).abs() < 1e-7);
     // Any other size is resampled up to the next powers of two first (20×12 → 32×16), and the levels below keep
     // that level's mean; a constant image stays constant through the resampling (normalised weights) under every
     // wrap mode but black.
@@ -322,7 +322,7 @@ fn mip_levels_halve_down_to_one_texel_and_keep_the_mean() {
         let constant = grey_image(12, 12, |_, _| 0.37);
         let mip = MipMap::new(&constant, wrap);
         for i in 0..mip.levels() {
-            assert!(mip.level(i).pixels.iter().all(|p| (p[0] - 0.37).abs() < 1e-5), "{wrap:?} level {i}");
+            assert!(mip.level(i).texels.iter().all(|p| (p[0] - 0.37).abs() < 1e-5), "{wrap:?} level {i}");
         }
     }
 }
@@ -474,7 +474,7 @@ fn per_axis_wrap_modes_mirror_clamp_and_repeat() {
     assert_eq!((-2..5).map(|i| c.wrap(i, 3)).collect::<Vec<_>>(), vec![0, 0, 0, 1, 2, 2, 2]);
     assert_eq!((-2..5).map(|i| r.wrap(i, 3)).collect::<Vec<_>>(), vec![1, 2, 0, 1, 2, 0, 1]);
     // A 2×2 image read at texel (3, −1): mirrored along s (→ 0), clamped along t (→ row 0).
-    let img = RgbImage { width: 2, height: 2, pixels: vec![[1.0; 3], [2.0; 3], [3.0; 3], [4.0; 3]] };
+    let img = RgbImage::new(2, 2, vec![[1.0; 3], [2.0; 3], [3.0; 3], [4.0; 3]]);
     assert_eq!(img.texel(3, -1, WrapMode::Axes(m, c)), [1.0; 3]);
     assert_eq!(img.texel(3, 2, WrapMode::Axes(r, m)), [4.0; 3]);
 }
