@@ -187,6 +187,12 @@ impl Textures {
         Ok(img)
     }
 
+    /// Lets go of embedded image `i`'s decoded samples (no texture still to be built reads it; a later read would
+    /// decode it again).
+    pub(super) fn forget_decoded(&self, i: usize) {
+        self.decoded.borrow_mut().remove(&i);
+    }
+
     /// Embedded image `i`, decoded the first time it is asked for.
     fn decoded_image(&self, i: usize, loc: &Loc) -> Result<Arc<film::DecodedImage>> {
         if let Some(d) = self.decoded.borrow().get(&i) {
@@ -513,6 +519,23 @@ pub(super) const MEASURED_MEDIA: &[MeasuredMedium] = &[
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An embedded image read by several textures is decoded once, and its decoded samples are let go once the
+    /// last texture that reads it is built.
+    #[test]
+    fn decoded_images_are_let_go_after_their_last_texture() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../film/tests/fixtures/two-colours-lossless.webp");
+        let bytes: Arc<[u8]> = std::fs::read(path).unwrap().into();
+        let text = "WorldBegin\n\
+            Texture \"colour\" \"spectrum\" \"imagemap\" \"integer image\" 0\n\
+            Texture \"checks\" \"float\" \"checkerboard\"\n\
+            Texture \"alpha\" \"float\" \"imagemap\" \"integer image\" 0 \"string channel\" \"a\"\n";
+        let mut desc = pbrt::parse_str(text, Path::new("embedded.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+        desc.images = vec![EmbeddedImage { name: "plates.glb#images[0]".into(), bytes }];
+        let textures = super::super::textures::build(&desc).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(textures.images.borrow().len(), 2, "read as colour and as alpha");
+        assert!(textures.decoded.borrow().is_empty(), "the decoded samples outlived the last texture that reads them");
+    }
 
     /// An 8-bit image is kept as 8-bit samples (one per texel for one channel), reading as the linear values it
     /// decodes to; its MIP levels above the first keep floats, one per texel for one channel.

@@ -4,6 +4,8 @@
 //! into the scene's [`Textures`] (in `context.rs`, with the lookups materials make when a parameter names a texture
 //! instead of giving a value, and the images, read once per file and encoding).
 
+use std::collections::HashMap;
+
 use film::{ChannelSelect, ColorEncoding};
 use geometry::Transform;
 use glam::{Affine3A, DVec3, Vec3};
@@ -268,7 +270,20 @@ fn ptex_error(e: &TextureEntity) -> SceneError {
 /// Reads every `Texture` directive in order, so a texture can use those defined before it.
 pub(super) fn build(desc: &SceneDescription) -> Result<Textures> {
     let mut t = Textures::new(desc.images.clone());
-    for te in &desc.textures {
+    // The embedded images each texture is the last to read: their decoded samples are let go after it (an image
+    // read as several channels is decoded once, and held only while textures still to come read it).
+    let mut last_reads: Vec<Vec<usize>> = vec![Vec::new(); desc.textures.len()];
+    let mut last_reader: HashMap<usize, usize> = HashMap::new();
+    for (n, te) in desc.textures.iter().enumerate() {
+        // Read without marking it used: only an image map reads it (and says what is wrong with it).
+        if let Some(&i @ 0..) = te.entity.params.get("image").and_then(|p| p.ints.first()) {
+            last_reader.insert(i as usize, n);
+        }
+    }
+    for (image, n) in last_reader {
+        last_reads[n].push(image);
+    }
+    for (te, last_reads) in desc.textures.iter().zip(&last_reads) {
         t.take_image_use();
         match te.value_type {
             TextureValueType::Float => {
@@ -284,6 +299,9 @@ pub(super) fn build(desc: &SceneDescription) -> Result<Textures> {
                 let with_image = t.take_image_use();
                 t.define_spectrum(&te.texture_name, pair, with_image);
             }
+        }
+        for &image in last_reads {
+            t.forget_decoded(image);
         }
     }
     Ok(t)
