@@ -343,6 +343,64 @@ fn a_normal_map_shades_as_geometry_turned_to_its_normal() {
     }
 }
 
+/// The quad of [`quad_document`] with its texture coordinates' u mirrored (u = 1 at x = −0.5) and, if `normals`,
+/// a `NORMAL` of +z at every vertex: the data of `doc`'s buffer replaced.
+fn with_mirrored_u(doc: &mut Value, normals: bool) {
+    let positions = [[-0.5f32, -0.5, 0.0], [0.5, -0.5, 0.0], [0.5, 0.5, 0.0], [-0.5, 0.5, 0.0]];
+    let uvs = [[1f32, 1.0], [0.0, 1.0], [0.0, 0.0], [1.0, 0.0]];
+    let mut bytes: Vec<u8> =
+        positions.iter().flatten().chain(uvs.iter().flatten()).flat_map(|c| c.to_le_bytes()).collect();
+    // Mirrored: the triangles keep facing +z with the winding reversed in texture space.
+    bytes.extend([0u32, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+    if normals {
+        bytes.extend([[0f32, 0.0, 1.0]; 4].iter().flatten().flat_map(|c| c.to_le_bytes()));
+        doc["bufferViews"].as_array_mut().unwrap().push(json!({ "buffer": 0, "byteOffset": 104, "byteLength": 48 }));
+        doc["accessors"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({ "bufferView": 3, "componentType": 5126, "count": 4, "type": "VEC3" }));
+        doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(3);
+    }
+    doc["buffers"][0] = json!({ "byteLength": bytes.len(), "uri": data_uri("application/octet-stream", &bytes) });
+}
+
+/// Normal maps on a quad whose u runs right to left (a mirrored half of a model), with and without vertex normals:
+/// a texel tilted towards +u turns the normal towards −x, one tilted towards +v (up the image) still towards +y, as
+/// glTF's tangent frame (MikkTSpace: the bitangent's sign follows the texture coordinates) has it.
+#[test]
+fn a_normal_map_on_mirrored_texture_coordinates_keeps_its_bumps() {
+    let encode = |n: [f64; 3]| n.map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
+    let half = 0.6f64.asin() / 2.0;
+    // Towards +u: the normal turned to (−0.6, 0, 0.8) (about −y); towards +v: to (0, 0.6, 0.8) (about −x).
+    let cases = [
+        ([0.6, 0.0, 0.8], [0.0, -half.sin(), 0.0, half.cos()]),
+        ([0.0, 0.6, 0.8], [-half.sin(), 0.0, 0.0, half.cos()]),
+    ];
+    let render_lit = |map: Option<[f64; 3]>, rotation: [f64; 4], normals: bool| {
+        let mut m = json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.4 } });
+        let mut rest = json!({});
+        if let Some(n) = map {
+            let [r, g, b] = encode(n);
+            m["normalTexture"] = json!({ "index": 0 });
+            let png = png_rgba(1, 1, &[[r, g, b, 255]]);
+            rest = json!({ "textures": [ { "source": 0 } ], "images": [ { "uri": data_uri("image/png", &png) } ] });
+        }
+        let mut doc = quad_document(m, rest, rotation);
+        with_mirrored_u(&mut doc, normals);
+        let (s, c) = (15f64.to_radians().sin(), 15f64.to_radians().cos());
+        doc["nodes"][2]["rotation"] = json!([s / 2f64.sqrt(), s / 2f64.sqrt(), 0.0, c]);
+        region(&render_doc("mirrored.gltf", &doc).0, 0.3, 0.7, 0.3, 0.7)
+    };
+    for normals in [false, true] {
+        for (normal, rotation) in cases {
+            let got = render_lit(Some(normal), [0.0, 0.0, 0.0, 1.0], normals);
+            let want = render_lit(None, rotation, normals);
+            let case = format!("normal {normal:?}, vertex normals {normals}");
+            assert!(close(got, want, 0.01), "{case}: mapped {got:?}, turned geometry {want:?}");
+        }
+    }
+}
+
 /// Images in a GLB's binary chunk (as Blender writes them) are read as data URIs are, and a texture that is not an
 /// image is an error naming the image.
 #[test]

@@ -28,12 +28,23 @@ pub struct ShadingGeometry {
     pub dpdu: Vec3,
     /// Shading ∂p/∂v (not normalised).
     pub dpdv: Vec3,
+    /// The surface's own ∂p/∂v, from its texture coordinates: the side of increasing v, which the shading partials
+    /// of a mesh with vertex normals do not keep (pbrt-v4 makes them ns × ∂p/∂u), and which glTF's bitangent follows.
+    pub surface_dpdv: Vec3,
 }
 
 impl ShadingGeometry {
     /// The shading geometry of a hit.
     pub fn of(hit: &SurfaceHit) -> Self {
-        Self { p: hit.p, n: hit.n, uv: hit.uv, ns: hit.ns, dpdu: hit.shading_dpdu, dpdv: hit.shading_dpdv }
+        Self {
+            p: hit.p,
+            n: hit.n,
+            uv: hit.uv,
+            ns: hit.ns,
+            dpdu: hit.shading_dpdu,
+            dpdv: hit.shading_dpdv,
+            surface_dpdv: hit.surface_dpdv,
+        }
     }
 
     /// The geometry with shading partials `dpdu`, `dpdv` and the normal they define: the unit ∂p/∂u × ∂p/∂v turned
@@ -87,8 +98,8 @@ pub fn normal_map(image: &RgbImage, g: &ShadingGeometry) -> (Vec3, Vec3) {
 
 /// Normal mapping as glTF 2.0 defines it (§3.9.3, `normalTexture`): the image's RGB, looked up through the
 /// texture's mapping and filter, is 2·rgb − 1 with x and y multiplied by `scale`, in the frame x = ∂p/∂u
-/// normalised, y = ±ns × x on the side of ∂p/∂v (the bitangent's sign, which MikkTSpace stores as the tangent's
-/// w, follows from the partials, so mirrored texture coordinates keep their bumps), z = ns. Returns shading
+/// normalised, y = ±ns × x on the side of the surface's ∂p/∂v (the bitangent's sign, which MikkTSpace stores as the
+/// tangent's w, follows from the texture coordinates, so mirrored coordinates keep their bumps), z = ns. Returns shading
 /// partials perpendicular to that normal with the old partials' lengths.
 pub fn normal_map_texture(
     tex: &ImageTexture,
@@ -102,7 +113,7 @@ pub fn normal_map_texture(
     let Some(local) = tangent.try_normalize() else { return (g.dpdu, g.dpdv) };
     let Some(x) = g.dpdu.try_normalize() else { return (g.dpdu, g.dpdv) };
     let y = g.ns.cross(x);
-    let y = if y.dot(g.dpdv) < 0.0 { -y } else { y };
+    let y = if y.dot(g.surface_dpdv) < 0.0 { -y } else { y };
     tilt(local.x * x + local.y * y + local.z * g.ns, g)
 }
 
@@ -169,6 +180,7 @@ mod tests {
             ns: Vec3::Z,
             dpdu: su * Vec3::X,
             dpdv: sv * Vec3::Y,
+            surface_dpdv: sv * Vec3::Y,
         }
     }
 
