@@ -19,6 +19,9 @@ them with Blender's own glTF exporter, so that Prismatic is tested on what Blend
   a glTF extension: Coat (KHR_materials_clearcoat), Sheen (KHR_materials_sheen), Thin Film on a metal
   (KHR_materials_iridescence, with the weight and thinnest film from the "glTF Material Output" node group) and
   Specular IOR Level with Specular Tint (KHR_materials_specular).
+- crates/gltf-import/tests/fixtures/shape-key-plane.glb: the 2 m plane of textured-plane.glb, grey, with a shape key
+  that moves its +x edge to x = 0, at the value 0.5: the exporter writes it as a morph target (its displacements in
+  a sparse accessor) with the mesh's default weight 0.5, so the plane ends at x = 0.5.
 
 Blender is z-up and its exporter converts to glTF's y-up: a glTF point (x, y, z) is Blender's (x, -z, y).
 Blender has no dispersion input of its own: the exporter reads Dispersion (and Thickness, which makes it write
@@ -240,8 +243,24 @@ def layered_plates():
     export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/layered-plates.glb"))
 
 
+def shape_key_plane():
+    reset()
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    plane = bpy.context.active_object
+    plane.data.materials.append(principled("grey", Base_Color=(0.8, 0.8, 0.8, 1.0), Roughness=1.0))
+    plane.shape_key_add(name="Basis")
+    narrow = plane.shape_key_add(name="Narrow")
+    for point in narrow.data:
+        if point.co.x > 0.0:
+            point.co.x = 0.0
+    narrow.value = 0.5
+    ortho_camera_and_sun(2.0, (64, 64), 0.0)
+    export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/shape-key-plane.glb"))
+
+
 if __name__ == "__main__":
     gem()
     dispersive_prism()
     textured_plane()
     layered_plates()
+    shape_key_plane()

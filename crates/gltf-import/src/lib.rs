@@ -157,7 +157,7 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
     // Files are read to at most 2 GiB, as every other reader does (a name leading to `/dev/zero` is an error).
     let bytes = geometry::gzip::read_bounded(path, geometry::gzip::MAX_DECOMPRESSED_BYTES)
         .map_err(|e| err("", format!("cannot read the file: {e}")))?;
-    let gltf = parse(&bytes).map_err(|(json, message)| err(&json, message))?;
+    let (gltf, zeros) = parse(&bytes).map_err(|(json, message)| err(&json, message))?;
     let file: Arc<Path> = Arc::from(path);
     let loc = Loc::new(file.clone(), 0, 0);
     for ext in gltf.extensions_used() {
@@ -167,7 +167,7 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
     }
     // The files read, for checkpoints' scene hash: the glTF file and its external buffers.
     desc.files.push(path.to_path_buf());
-    let buffers = load_buffers(&gltf, path, &mut desc.files)?;
+    let buffers = load_buffers(&gltf, zeros, path, &mut desc.files)?;
     let Some(scene) = gltf.default_scene().or_else(|| gltf.scenes().next()) else {
         return Ok(Imported::default());
     };
@@ -218,14 +218,29 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
         Ok((name, medium))
     };
 
-    // Meshes: every primitive used, decoded on all cores.
-    let mut used: Vec<(usize, usize)> = vec![];
+    // Meshes: every primitive used, at the morph target weights of each node that uses it (the node's, else the
+    // mesh's), decoded on all cores.
+    let morph_weights = |node: &gltf::Node<'_>, mesh: &gltf::Mesh<'_>| -> Result<Vec<f32>, GltfError> {
+        let (weights, json) = match node.weights() {
+            Some(w) => (w, format!("nodes[{}].weights", node.index())),
+            None => (mesh.weights().unwrap_or(&[]), format!("meshes[{}].weights", mesh.index())),
+        };
+        if weights.iter().any(|w| !w.is_finite()) {
+            return Err(err(&json, "morph target weights must be finite".into()));
+        }
+        Ok(weights.to_vec())
+    };
+    // A primitive at its weights (as bits, for hashing).
+    type PrimitiveKey = (usize, usize, Vec<u32>);
+    let key = |m: usize, p: usize, w: &[f32]| -> PrimitiveKey { (m, p, w.iter().map(|v| v.to_bits()).collect()) };
+    let mut used: Vec<(usize, usize, Vec<f32>)> = vec![];
     let mut seen = HashSet::new();
     for (node, _) in &placed {
         if let Some(mesh) = node.mesh() {
+            let weights = morph_weights(node, &mesh)?;
             for prim in mesh.primitives() {
-                if seen.insert((mesh.index(), prim.index())) {
-                    used.push((mesh.index(), prim.index()));
+                if seen.insert(key(mesh.index(), prim.index(), &weights)) {
+                    used.push((mesh.index(), prim.index(), weights.clone()));
                 }
             }
         }
@@ -233,20 +248,20 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
     let meshes: Vec<gltf::Mesh<'_>> = gltf.meshes().collect();
     let decoded: Vec<Result<Option<DecodedPrimitive>, GltfError>> = used
         .par_iter()
-        .map(|&(m, p)| {
-            let prim = meshes[m].primitives().nth(p).expect("the primitive was listed from this mesh");
-            decode_primitive(&prim, &buffers, &format!("meshes[{m}].primitives[{p}]"))
+        .map(|(m, p, weights)| {
+            let prim = meshes[*m].primitives().nth(*p).expect("the primitive was listed from this mesh");
+            decode_primitive(&prim, weights, &buffers, &format!("meshes[{m}].primitives[{p}]"))
                 .map_err(|(json, message)| err(&json, message))
         })
         .collect();
     let mut mesh_index = std::collections::HashMap::new();
-    for ((m, p), d) in used.iter().zip(decoded) {
+    for ((m, p, weights), d) in used.iter().zip(decoded) {
         if let Some((data, colors)) = d? {
             let colors = colors.map(|c| {
                 desc.vertex_colors.push(c);
                 desc.vertex_colors.len() - 1
             });
-            mesh_index.insert((*m, *p), (desc.meshes.len(), colors));
+            mesh_index.insert(key(*m, *p, weights), (desc.meshes.len(), colors));
             desc.meshes.push(data);
         }
     }
@@ -258,8 +273,11 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
         let world_t = Transform::from_matrix(*world)
             .ok_or_else(|| err(&format!("nodes[{}]", node.index()), "the transform is singular".into()))?;
         if let Some(mesh) = node.mesh() {
+            let weights = morph_weights(node, &mesh)?;
             for prim in mesh.primitives() {
-                let Some(&(index, colors)) = mesh_index.get(&(mesh.index(), prim.index())) else { continue };
+                let Some(&(index, colors)) = mesh_index.get(&key(mesh.index(), prim.index(), &weights)) else {
+                    continue;
+                };
                 let material = prim.material();
                 let (mut name, medium) = material_ref(desc, material.clone())?;
                 let mut params = ParamSet::new();
@@ -316,7 +334,12 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
 
 /// The document and its binary chunk: parsed, checked where the gltf crate's validation would index out of bounds
 /// (a primitive's attribute naming an accessor that does not exist), then validated by the crate.
-fn parse(bytes: &[u8]) -> Result<gltf::Gltf, (String, String)> {
+/// The most bytes of zeros that accessors without data (neither a buffer view nor sparse values) may stand for.
+const MAX_ZERO_BYTES: u64 = 1 << 28;
+
+/// The file's document and binary chunk, with the index of the buffer of zeros that accessors without data read
+/// (see below), if it has any.
+fn parse(bytes: &[u8]) -> Result<(gltf::Gltf, Option<usize>), (String, String)> {
     // A GLB header whose length is shorter than the header itself (the gltf crate subtracts the header's size).
     if bytes.starts_with(b"glTF") {
         let length = bytes.get(8..12).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
@@ -373,8 +396,64 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, (String, String)> {
             return Err((format!("images[{i}]"), message.into()));
         }
     }
+    let zeros = read_zero_accessors_from_a_buffer(&mut json)?;
     let document = gltf::Document::from_json(json).map_err(|e| (String::new(), gltf_message(&e)))?;
-    Ok(gltf::Gltf { document, blob })
+    Ok((gltf::Gltf { document, blob }, zeros))
+}
+
+/// An accessor with neither a buffer view nor sparse values holds zeros (glTF 2.0 §3.6.2.3; Blender writes the normal
+/// displacements of a shape key that leaves the normals as they are so), which the gltf crate's validation refuses:
+/// such accessors are pointed at one buffer of zeros appended to the document (made by [`load_buffers`]), as long
+/// as the largest needs at most [`MAX_ZERO_BYTES`]. Returns that buffer's index.
+fn read_zero_accessors_from_a_buffer(json: &mut gltf::json::Root) -> Result<Option<usize>, (String, String)> {
+    use gltf::json::validation::Checked;
+    let mut needed = 0u64;
+    let mut empty = vec![];
+    for (i, a) in json.accessors.iter().enumerate() {
+        if a.buffer_view.is_some() || a.sparse.is_some() {
+            continue;
+        }
+        // An accessor of an invalid type is left to the crate's validation.
+        if let (Checked::Valid(c), Checked::Valid(t)) = (&a.component_type, &a.type_) {
+            let bytes = a.count.0.saturating_mul((c.0.size() * t.multiplicity()) as u64);
+            if bytes > MAX_ZERO_BYTES {
+                return Err((
+                    format!("accessors[{i}]"),
+                    format!("{bytes} bytes of zeros: at most {MAX_ZERO_BYTES} are read"),
+                ));
+            }
+            needed = needed.max(bytes);
+            empty.push(i);
+        }
+    }
+    if empty.is_empty() {
+        return Ok(None);
+    }
+    let length = gltf::json::validation::USize64(needed.max(1));
+    let buffer = json.buffers.len();
+    json.buffers.push(gltf::json::Buffer {
+        byte_length: length,
+        name: None,
+        uri: None,
+        extensions: None,
+        extras: Default::default(),
+    });
+    let view = json.buffer_views.len();
+    json.buffer_views.push(gltf::json::buffer::View {
+        buffer: gltf::json::Index::new(buffer as u32),
+        byte_length: length,
+        byte_offset: None,
+        byte_stride: None,
+        name: None,
+        target: None,
+        extensions: None,
+        extras: Default::default(),
+    });
+    for i in empty {
+        json.accessors[i].buffer_view = Some(gltf::json::Index::new(view as u32));
+        json.accessors[i].byte_offset = None;
+    }
+    Ok(Some(buffer))
 }
 
 /// The gltf crate's error, with the JSON paths of validation errors.
@@ -388,7 +467,12 @@ fn gltf_message(e: &gltf::Error) -> String {
 }
 
 /// The data of every buffer: the GLB's binary chunk, a data URI's bytes, or an external file next to the glTF.
-fn load_buffers(gltf: &gltf::Gltf, path: &Path, files: &mut Vec<PathBuf>) -> Result<Vec<Vec<u8>>, GltfError> {
+fn load_buffers(
+    gltf: &gltf::Gltf,
+    zeros: Option<usize>,
+    path: &Path,
+    files: &mut Vec<PathBuf>,
+) -> Result<Vec<Vec<u8>>, GltfError> {
     let err =
         |i: usize, message: String| GltfError { file: path.to_path_buf(), path: format!("buffers[{i}]"), message };
     let dir = path.parent().unwrap_or(Path::new(""));
@@ -398,6 +482,10 @@ fn load_buffers(gltf: &gltf::Gltf, path: &Path, files: &mut Vec<PathBuf>) -> Res
         (0..json.buffers.len()).map(|i| meshopt::is_placeholder(json, i, gltf.blob.is_some())).collect();
     for buffer in gltf.buffers() {
         let i = buffer.index();
+        if Some(i) == zeros {
+            out.push(vec![0; buffer.length()]);
+            continue;
+        }
         if placeholder[i] {
             // Filled by EXT_meshopt_compression's views below, as far as they reach.
             out.push(vec![]);
@@ -471,30 +559,89 @@ fn percent_decode(uri: &str) -> String {
 /// out of bounds; `json` names it in errors.
 fn check_accessor(a: &gltf::Accessor<'_>, buffers: &[Vec<u8>], json: &str) -> Result<(), (String, String)> {
     let bad = |m: String| (json.to_string(), m);
-    if a.sparse().is_some() {
-        return Err(bad("sparse accessors are not supported".into()));
-    }
-    let Some(view) = a.view() else { return Err(bad("an accessor without a buffer view is not supported".into())) };
-    let buffer = &buffers[view.buffer().index()];
-    let view_end = view.offset().checked_add(view.length());
-    if view_end.is_none_or(|e| e > buffer.len()) {
-        return Err(bad(format!("bufferViews[{}] reaches past the end of its buffer", view.index())));
-    }
-    let element = a.size();
-    let stride = view.stride().unwrap_or(element);
-    // The specification's minimum count is 1, and a stride shorter than an element would overlap elements.
+    // The specification's minimum count is 1.
     if a.count() == 0 {
         return Err(bad("an accessor must have at least one element".into()));
     }
-    if stride < element {
-        return Err(bad(format!(
-            "bufferViews[{}]'s byteStride {stride} is shorter than an element ({element} bytes)",
-            view.index()
-        )));
+    match (a.view(), a.sparse()) {
+        (Some(view), _) => check_elements(&view, buffers, a.offset(), a.count(), a.size()).map_err(bad)?,
+        // A sparse accessor without a buffer view starts from zeros.
+        (None, Some(_)) => {}
+        (None, None) => return Err(bad("an accessor without a buffer view or sparse values has no data".into())),
     }
-    let end = (a.count() - 1).checked_mul(stride).and_then(|v| v.checked_add(a.offset() + element));
+    if let Some(sparse) = a.sparse() {
+        check_sparse(a, &sparse, buffers).map_err(|m| (format!("{json}.sparse"), m))?;
+    }
+    Ok(())
+}
+
+/// Checks that `count` elements of `size` bytes from `offset` in buffer view `view` lie inside the view, and the view
+/// inside its buffer (a stride shorter than an element would overlap elements).
+fn check_elements(
+    view: &gltf::buffer::View<'_>,
+    buffers: &[Vec<u8>],
+    offset: usize,
+    count: usize,
+    size: usize,
+) -> Result<(), String> {
+    let buffer = &buffers[view.buffer().index()];
+    let view_end = view.offset().checked_add(view.length());
+    if view_end.is_none_or(|e| e > buffer.len()) {
+        return Err(format!("bufferViews[{}] reaches past the end of its buffer", view.index()));
+    }
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(format!(
+            "bufferViews[{}]'s byteStride {stride} is shorter than an element ({size} bytes)",
+            view.index()
+        ));
+    }
+    let end = count
+        .checked_sub(1)
+        .and_then(|c| c.checked_mul(stride))
+        .and_then(|v| v.checked_add(offset))
+        .and_then(|v| v.checked_add(size));
     if end.is_none_or(|e| e > view.length()) {
-        return Err(bad(format!("{} elements reach past the end of bufferViews[{}]", a.count(), view.index())));
+        return Err(format!("{count} elements reach past the end of bufferViews[{}]", view.index()));
+    }
+    Ok(())
+}
+
+/// Checks a sparse accessor's substitutions (glTF 2.0 §3.6.2.3): at least one and at most the accessor's count, their
+/// indices and values inside their buffer views, and the indices strictly increasing and below the count (the gltf
+/// crate's reader pairs them with the values in order, assuming as much).
+fn check_sparse(
+    a: &gltf::Accessor<'_>,
+    sparse: &gltf::accessor::sparse::Sparse<'_>,
+    buffers: &[Vec<u8>],
+) -> Result<(), String> {
+    let count = sparse.count();
+    if count == 0 || count > a.count() {
+        return Err(format!("count {count}: 1 to the accessor's {} substitutions are allowed", a.count()));
+    }
+    let indices = sparse.indices();
+    let (view, size) = (indices.view(), indices.index_type().size());
+    check_elements(&view, buffers, indices.offset(), count, size).map_err(|m| format!("indices: {m}"))?;
+    let values = sparse.values();
+    check_elements(&values.view(), buffers, values.offset(), count, a.size()).map_err(|m| format!("values: {m}"))?;
+    let data = &buffers[view.buffer().index()][view.offset()..view.offset() + view.length()];
+    let stride = view.stride().unwrap_or(size);
+    let mut previous: Option<u64> = None;
+    for k in 0..count {
+        let at = indices.offset() + k * stride;
+        let b = &data[at..at + size];
+        let index = match size {
+            1 => u64::from(b[0]),
+            2 => u64::from(u16::from_le_bytes([b[0], b[1]])),
+            _ => u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+        };
+        if index >= a.count() as u64 || previous.is_some_and(|p| index <= p) {
+            return Err(format!(
+                "index {index} (entry {k}): the indices must increase strictly and stay below the accessor's count {}",
+                a.count()
+            ));
+        }
+        previous = Some(index);
     }
     Ok(())
 }
@@ -506,6 +653,7 @@ type DecodedPrimitive = (Arc<MeshData>, Option<Arc<[[f32; 3]]>>);
 
 fn decode_primitive(
     prim: &gltf::Primitive<'_>,
+    weights: &[f32],
     buffers: &[Vec<u8>],
     json: &str,
 ) -> Result<Option<DecodedPrimitive>, (String, String)> {
@@ -533,6 +681,21 @@ fn decode_primitive(
             return Err((path, format!("an accessor of {t:?} {d:?} cannot hold this attribute")));
         }
     }
+    // The morph targets' displacements of positions, normals and tangents (all checked: the crate's reader opens
+    // every one of them, whatever its weight).
+    let weight = |t: usize| weights.get(t).copied().unwrap_or(0.0);
+    for (t, target) in prim.morph_targets().enumerate() {
+        for (name, accessor) in
+            [("POSITION", target.positions()), ("NORMAL", target.normals()), ("TANGENT", target.tangents())]
+        {
+            let Some(accessor) = accessor else { continue };
+            let path = format!("{json}.targets[{t}].{name}");
+            check_accessor(&accessor, buffers, &path)?;
+            if accessor.data_type() != DataType::F32 || accessor.dimensions() != Dimensions::Vec3 {
+                return Err((path, "a morph target's displacements must be float VEC3".into()));
+            }
+        }
+    }
     if let Some(indices) = prim.indices() {
         let path = format!("{json}.indices");
         check_accessor(&indices, buffers, &path)?;
@@ -542,18 +705,51 @@ fn decode_primitive(
         }
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-    let positions: Vec<Vec3> = reader
+    let mut positions: Vec<Vec3> = reader
         .read_positions()
         .ok_or_else(|| (format!("{json}.attributes.POSITION"), "a triangle primitive needs positions".to_string()))?
         .map(Vec3::from)
         .collect();
-    if positions.iter().any(|p| !p.is_finite()) {
-        return Err((format!("{json}.attributes.POSITION"), "positions must be finite".into()));
-    }
     let n = positions.len();
-    let normals: Option<Vec<Vec3>> = reader.read_normals().map(|it| it.map(Vec3::from).collect());
+    let mut normals: Option<Vec<Vec3>> = reader.read_normals().map(|it| it.map(Vec3::from).collect());
     if normals.as_ref().is_some_and(|v| v.len() != n) {
         return Err((format!("{json}.attributes.NORMAL"), "as many normals as positions are needed".into()));
+    }
+    // Morph targets at their weights (glTF 2.0 §3.7.2.2): the base plus the weighted displacements; normals are
+    // normalised after.
+    let morphed_normals =
+        normals.is_some() && prim.morph_targets().enumerate().any(|(t, m)| weight(t) != 0.0 && m.normals().is_some());
+    for (t, (dp, dn, _)) in reader.read_morph_targets().enumerate() {
+        let w = weight(t);
+        if w == 0.0 {
+            continue;
+        }
+        if let Some(dp) = dp {
+            let dp: Vec<[f32; 3]> = dp.collect();
+            if dp.len() != n {
+                return Err((
+                    format!("{json}.targets[{t}].POSITION"),
+                    format!("{} displacements for {n} positions", dp.len()),
+                ));
+            }
+            positions.iter_mut().zip(dp).for_each(|(p, d)| *p += w * Vec3::from(d));
+        }
+        if let (Some(normals), Some(dn)) = (normals.as_mut(), dn) {
+            let dn: Vec<[f32; 3]> = dn.collect();
+            if dn.len() != n {
+                return Err((
+                    format!("{json}.targets[{t}].NORMAL"),
+                    format!("{} displacements for {n} normals", dn.len()),
+                ));
+            }
+            normals.iter_mut().zip(dn).for_each(|(v, d)| *v += w * Vec3::from(d));
+        }
+    }
+    if morphed_normals {
+        normals.iter_mut().flatten().for_each(|v| *v = v.normalize_or_zero());
+    }
+    if positions.iter().any(|p| !p.is_finite()) {
+        return Err((format!("{json}.attributes.POSITION"), "positions must be finite".into()));
     }
     let uvs: Option<Vec<Vec2>> = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect());
     if uvs.as_ref().is_some_and(|v| v.len() != n) {

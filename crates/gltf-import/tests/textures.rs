@@ -929,3 +929,119 @@ fn vertex_colours_multiply_the_base_colour() {
     let e = gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_err();
     assert_eq!(e.path, "meshes[0].primitives[0].attributes.COLOR_0", "{e}");
 }
+
+/// The quad of [`quad_document`] (a white diffuse material) with one morph target that moves its right edge (vertices
+/// 1 and 2) by −0.5 in x, its displacements a sparse accessor without a buffer view (zeros but for `indices`, whose
+/// `values` are the displacements); `mesh_weights` and `node_weights` as given. With `sparse_base`, the base positions
+/// are sparse too: their right edge moved to x = 0 over the buffer view's positions.
+fn morph_document(mesh_weights: Option<f32>, node_weights: Option<f32>, indices: [u32; 2], sparse_base: bool) -> Value {
+    let material =
+        json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0 } });
+    let mut doc = quad_document(material, json!({}), [0.0, 0.0, 0.0, 1.0]);
+    let mut bytes = quad_buffer();
+    bytes.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    bytes.extend([[-0.5f32, 0.0, 0.0]; 2].iter().flatten().flat_map(|c| c.to_le_bytes()));
+    bytes.extend([[0.0f32, -0.5, 0.0], [0.0, 0.5, 0.0]].iter().flatten().flat_map(|c| c.to_le_bytes()));
+    doc["buffers"][0] = json!({ "byteLength": bytes.len(), "uri": data_uri("application/octet-stream", &bytes) });
+    let views = doc["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({ "buffer": 0, "byteOffset": 104, "byteLength": 8 }));
+    views.push(json!({ "buffer": 0, "byteOffset": 112, "byteLength": 24 }));
+    views.push(json!({ "buffer": 0, "byteOffset": 136, "byteLength": 24 }));
+    let sparse = |values: usize| json!({ "count": 2, "indices": { "bufferView": 3, "componentType": 5125 }, "values": { "bufferView": values } });
+    doc["accessors"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({ "componentType": 5126, "count": 4, "type": "VEC3", "sparse": sparse(4) }));
+    if sparse_base {
+        doc["accessors"][0]["sparse"] = sparse(5);
+    }
+    doc["meshes"][0]["primitives"][0]["targets"] = json!([ { "POSITION": 3 } ]);
+    if let Some(w) = mesh_weights {
+        doc["meshes"][0]["weights"] = json!([w]);
+    }
+    if let Some(w) = node_weights {
+        doc["nodes"][0]["weights"] = json!([w]);
+    }
+    doc
+}
+
+/// Morph targets at the file's weights (the node's over the mesh's), with displacements in a sparse accessor, and
+/// base positions in a sparse accessor over a buffer view: the lit quad ends where the weighted displacement puts
+/// its right edge (the view shows x from 0 to 1, the quad without morphing fills it).
+#[test]
+fn morph_targets_at_their_weights_and_sparse_accessors() {
+    let lit = |doc: &Value| {
+        let film = render_doc("morph.gltf", doc).0;
+        (region(&film, 0.0, 0.45, 0.0, 1.0), region(&film, 0.55, 0.7, 0.0, 1.0), region(&film, 0.8, 1.0, 0.0, 1.0))
+    };
+    let (full, _, _) = lit(&morph_document(None, None, [1, 2], false));
+    assert!(full[1] > 0.1, "the unmorphed quad is lit: {full:?}");
+    let dark = |v: [f64; 3]| v[1] < 1e-3 * full[1];
+    // Weight 0.5 from the mesh: the right edge at x = 0.75.
+    let (left, middle, right) = lit(&morph_document(Some(0.5), None, [1, 2], false));
+    assert!(close(left, full, 0.01) && close(middle, full, 0.01) && dark(right), "{left:?} {middle:?} {right:?}");
+    // The node's weight 1 wins over the mesh's 0.5: the right edge at x = 0.5.
+    let (left, middle, right) = lit(&morph_document(Some(0.5), Some(1.0), [1, 2], false));
+    assert!(close(left, full, 0.01) && dark(middle) && dark(right), "{left:?} {middle:?} {right:?}");
+    // Base positions with the right edge substituted at x = 0 (sparse over the view), no morphing: edge at 0.5.
+    let (left, middle, right) = lit(&morph_document(None, None, [1, 2], true));
+    assert!(close(left, full, 0.01) && dark(middle) && dark(right), "{left:?} {middle:?} {right:?}");
+    // And the target on top at weight 0.5: the edge at 0.25 (the base's x = 0 moved by −0.25), left of 0.45.
+    let film = render_doc("morph.gltf", &morph_document(Some(0.5), None, [1, 2], true)).0;
+    assert!(close(region(&film, 0.0, 0.2, 0.0, 1.0), full, 0.01) && dark(region(&film, 0.3, 1.0, 0.0, 1.0)));
+}
+
+/// Sparse accessors whose indices do not increase, leave the accessor, or whose data leaves its buffer view, and
+/// morph weights that are not finite, are errors naming the JSON path.
+#[test]
+fn bad_sparse_accessors_and_weights_are_errors() {
+    let read = |doc: &Value| {
+        let path = write(&dir("textures"), "bad-sparse.gltf", doc);
+        gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_err().to_string()
+    };
+    let target = "meshes[0].primitives[0].targets[0].POSITION.sparse";
+    for indices in [[2, 1], [1, 1]] {
+        let e = read(&morph_document(Some(1.0), None, indices, false));
+        assert!(e.contains(target) && e.contains("increase strictly"), "{indices:?}: {e}");
+    }
+    let e = read(&morph_document(Some(1.0), None, [1, 4], false));
+    assert!(e.contains(target) && e.contains("index 4"), "{e}");
+    let mut doc = morph_document(Some(1.0), None, [1, 2], false);
+    doc["accessors"][3]["sparse"]["count"] = json!(3);
+    let e = read(&doc);
+    assert!(e.contains(target) && e.contains("past the end"), "{e}");
+    doc["accessors"][3]["sparse"]["count"] = json!(5);
+    let e = read(&doc);
+    assert!(e.contains(target) && e.contains("count 5"), "{e}");
+    // An accessor without data is zeros, up to 256 MiB of them.
+    let mut doc = morph_document(Some(1.0), None, [1, 2], false);
+    doc["accessors"][3].as_object_mut().unwrap().remove("sparse");
+    doc["accessors"][3]["count"] = json!(100_000_000);
+    let e = read(&doc);
+    assert!(e.contains("accessors[3]") && e.contains("1200000000 bytes of zeros"), "{e}");
+    let mut doc = morph_document(None, None, [1, 2], false);
+    doc["nodes"][0]["weights"] = json!([1e39]);
+    let e = read(&doc);
+    assert!(e.contains("nodes[0].weights"), "{e}");
+}
+
+/// What Blender's exporter writes for a shape key (scenes/tools/gltf_scenes.py): a morph target at the mesh's
+/// default weight 0.5 that moves the 2 m plane's +x edge from x = 1 towards 0, and normal displacements of zeros
+/// written as an accessor without data. The plane, filling an orthographic view 2 m wide, ends at x = 0.5: the
+/// view's right quarter is empty.
+#[test]
+fn a_blender_shape_key_is_rendered_at_its_value() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/shape-key-plane.glb");
+    let bytes = std::fs::read(&path).unwrap();
+    let length = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let doc: Value = serde_json::from_slice(&bytes[20..20 + length]).unwrap();
+    let zeros = doc["accessors"].as_array().unwrap().iter().any(|a| a.get("bufferView").is_none());
+    assert!(zeros && doc["meshes"][0]["weights"] == json!([0.5]), "the fixture has what the test is about");
+    let desc = gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    let film = render(&desc, 4, (SIDE, SIDE));
+    let (plane, beyond) = (region(&film, 0.0, 0.7, 0.0, 1.0), region(&film, 0.8, 1.0, 0.0, 1.0));
+    assert!(plane[1] > 0.1 && beyond[1] < 1e-3 * plane[1], "plane {plane:?}, beyond its edge {beyond:?}");
+    // Its column just inside the edge is as lit as the middle: the normals stayed up.
+    assert!(close(region(&film, 0.6, 0.74, 0.0, 1.0), region(&film, 0.2, 0.4, 0.0, 1.0), 0.02));
+}
