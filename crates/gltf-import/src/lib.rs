@@ -65,8 +65,9 @@ pub struct ReadOptions {
 
 /// The extensions this reader understands; any other in `extensionsRequired` is an error, in `extensionsUsed` a
 /// warning.
-pub const SUPPORTED_EXTENSIONS: [&str; 13] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 14] = [
     "KHR_lights_punctual",
+    "KHR_mesh_quantization",
     "KHR_texture_transform",
     "EXT_texture_webp",
     "EXT_meshopt_compression",
@@ -646,11 +647,44 @@ fn check_sparse(
     Ok(())
 }
 
-/// One triangle primitive as mesh data (None for one with no triangles: points and lines are skipped); errors as
-/// (JSON path, message).
 /// A decoded primitive: its mesh and its vertex colours (`COLOR_0`, linear RGB), if it has them.
 type DecodedPrimitive = (Arc<MeshData>, Option<Arc<[[f32; 3]]>>);
 
+/// The elements of accessor `a` (checked by [`check_accessor`], `N` components each) as floats: float components
+/// as they are; integers normalised if the accessor says so (glTF 2.0 §3.11: c/255 and c/65535 unsigned,
+/// max(c/127, −1) and max(c/32767, −1) signed), else their values (KHR_mesh_quantization's positions, texture
+/// coordinates and displacements). Sparse substitutions applied. `None` for 32-bit integers, which no vertex
+/// attribute holds.
+fn read_floats<const N: usize>(a: &gltf::Accessor<'_>, buffers: &[Vec<u8>]) -> Option<Vec<[f32; N]>>
+where
+    [f32; N]: gltf::accessor::Item,
+    [i8; N]: gltf::accessor::Item,
+    [u8; N]: gltf::accessor::Item,
+    [i16; N]: gltf::accessor::Item,
+    [u16; N]: gltf::accessor::Item,
+{
+    use gltf::accessor::{DataType, Iter};
+    let get = |b: gltf::Buffer<'_>| buffers.get(b.index()).map(|v| v.as_slice());
+    let normalized = a.normalized();
+    fn floats<T: Copy, const N: usize>(it: Iter<'_, [T; N]>, f: impl Fn(T) -> f32) -> Vec<[f32; N]>
+    where
+        [T; N]: gltf::accessor::Item,
+    {
+        it.map(|v| v.map(&f)).collect()
+    }
+    let scaled = |c: f32, max: f32| if normalized { (c / max).max(-1.0) } else { c };
+    Some(match a.data_type() {
+        DataType::F32 => Iter::<[f32; N]>::new(a.clone(), get)?.collect(),
+        DataType::I8 => floats(Iter::<[i8; N]>::new(a.clone(), get)?, |c| scaled(f32::from(c), 127.0)),
+        DataType::U8 => floats(Iter::<[u8; N]>::new(a.clone(), get)?, |c| scaled(f32::from(c), 255.0)),
+        DataType::I16 => floats(Iter::<[i16; N]>::new(a.clone(), get)?, |c| scaled(f32::from(c), 32767.0)),
+        DataType::U16 => floats(Iter::<[u16; N]>::new(a.clone(), get)?, |c| scaled(f32::from(c), 65535.0)),
+        DataType::U32 => return None,
+    })
+}
+
+/// One triangle primitive as mesh data at the morph target `weights` (None for one with no triangles: points and
+/// lines are skipped); errors as (JSON path, message).
 fn decode_primitive(
     prim: &gltf::Primitive<'_>,
     weights: &[f32],
@@ -664,12 +698,15 @@ fn decode_primitive(
     for (semantic, accessor) in prim.attributes() {
         let path = format!("{json}.attributes.{}", semantic.to_string());
         check_accessor(&accessor, buffers, &path)?;
-        // The types the reader's iterators assume (another would be misread).
+        // The types glTF allows, with KHR_mesh_quantization's (another would be misread).
         let (t, d) = (accessor.data_type(), accessor.dimensions());
         let fits = match semantic {
-            gltf::Semantic::Positions | gltf::Semantic::Normals => t == DataType::F32 && d == Dimensions::Vec3,
-            gltf::Semantic::TexCoords(_) => {
-                matches!(t, DataType::F32 | DataType::U8 | DataType::U16) && d == Dimensions::Vec2
+            gltf::Semantic::Positions | gltf::Semantic::TexCoords(_) => {
+                matches!(t, DataType::F32 | DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16)
+                    && d == if semantic == gltf::Semantic::Positions { Dimensions::Vec3 } else { Dimensions::Vec2 }
+            }
+            gltf::Semantic::Normals => {
+                matches!(t, DataType::F32 | DataType::I8 | DataType::I16) && d == Dimensions::Vec3
             }
             gltf::Semantic::Colors(_) => {
                 matches!(t, DataType::F32 | DataType::U8 | DataType::U16)
@@ -681,8 +718,7 @@ fn decode_primitive(
             return Err((path, format!("an accessor of {t:?} {d:?} cannot hold this attribute")));
         }
     }
-    // The morph targets' displacements of positions, normals and tangents (all checked: the crate's reader opens
-    // every one of them, whatever its weight).
+    // The morph targets' displacements of positions, normals and tangents (all checked, whatever their weights).
     let weight = |t: usize| weights.get(t).copied().unwrap_or(0.0);
     for (t, target) in prim.morph_targets().enumerate() {
         for (name, accessor) in
@@ -691,8 +727,9 @@ fn decode_primitive(
             let Some(accessor) = accessor else { continue };
             let path = format!("{json}.targets[{t}].{name}");
             check_accessor(&accessor, buffers, &path)?;
-            if accessor.data_type() != DataType::F32 || accessor.dimensions() != Dimensions::Vec3 {
-                return Err((path, "a morph target's displacements must be float VEC3".into()));
+            let t = accessor.data_type();
+            if !matches!(t, DataType::F32 | DataType::I8 | DataType::I16) || accessor.dimensions() != Dimensions::Vec3 {
+                return Err((path, "a morph target's displacements must be VEC3 of floats, bytes or shorts".into()));
             }
         }
     }
@@ -705,13 +742,14 @@ fn decode_primitive(
         }
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-    let mut positions: Vec<Vec3> = reader
-        .read_positions()
-        .ok_or_else(|| (format!("{json}.attributes.POSITION"), "a triangle primitive needs positions".to_string()))?
-        .map(Vec3::from)
-        .collect();
+    let attribute = |semantic: gltf::Semantic| prim.get(&semantic);
+    let vec3s = |a: Option<gltf::Accessor<'_>>| -> Option<Vec<Vec3>> {
+        a.and_then(|a| read_floats::<3>(&a, buffers)).map(|v| v.into_iter().map(Vec3::from).collect())
+    };
+    let mut positions: Vec<Vec3> = vec3s(attribute(gltf::Semantic::Positions))
+        .ok_or_else(|| (format!("{json}.attributes.POSITION"), "a triangle primitive needs positions".to_string()))?;
     let n = positions.len();
-    let mut normals: Option<Vec<Vec3>> = reader.read_normals().map(|it| it.map(Vec3::from).collect());
+    let mut normals: Option<Vec<Vec3>> = vec3s(attribute(gltf::Semantic::Normals));
     if normals.as_ref().is_some_and(|v| v.len() != n) {
         return Err((format!("{json}.attributes.NORMAL"), "as many normals as positions are needed".into()));
     }
@@ -719,30 +757,28 @@ fn decode_primitive(
     // normalised after.
     let morphed_normals =
         normals.is_some() && prim.morph_targets().enumerate().any(|(t, m)| weight(t) != 0.0 && m.normals().is_some());
-    for (t, (dp, dn, _)) in reader.read_morph_targets().enumerate() {
+    for (t, target) in prim.morph_targets().enumerate() {
         let w = weight(t);
         if w == 0.0 {
             continue;
         }
-        if let Some(dp) = dp {
-            let dp: Vec<[f32; 3]> = dp.collect();
+        if let Some(dp) = vec3s(target.positions()) {
             if dp.len() != n {
                 return Err((
                     format!("{json}.targets[{t}].POSITION"),
                     format!("{} displacements for {n} positions", dp.len()),
                 ));
             }
-            positions.iter_mut().zip(dp).for_each(|(p, d)| *p += w * Vec3::from(d));
+            positions.iter_mut().zip(dp).for_each(|(p, d)| *p += w * d);
         }
-        if let (Some(normals), Some(dn)) = (normals.as_mut(), dn) {
-            let dn: Vec<[f32; 3]> = dn.collect();
+        if let (Some(normals), Some(dn)) = (normals.as_mut(), vec3s(target.normals())) {
             if dn.len() != n {
                 return Err((
                     format!("{json}.targets[{t}].NORMAL"),
                     format!("{} displacements for {n} normals", dn.len()),
                 ));
             }
-            normals.iter_mut().zip(dn).for_each(|(v, d)| *v += w * Vec3::from(d));
+            normals.iter_mut().zip(dn).for_each(|(v, d)| *v += w * d);
         }
     }
     if morphed_normals {
@@ -751,7 +787,9 @@ fn decode_primitive(
     if positions.iter().any(|p| !p.is_finite()) {
         return Err((format!("{json}.attributes.POSITION"), "positions must be finite".into()));
     }
-    let uvs: Option<Vec<Vec2>> = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect());
+    let uvs: Option<Vec<Vec2>> = attribute(gltf::Semantic::TexCoords(0))
+        .and_then(|a| read_floats::<2>(&a, buffers))
+        .map(|v| v.into_iter().map(Vec2::from).collect());
     if uvs.as_ref().is_some_and(|v| v.len() != n) {
         return Err((
             format!("{json}.attributes.TEXCOORD_0"),

@@ -1045,3 +1045,61 @@ fn a_blender_shape_key_is_rendered_at_its_value() {
     // Its column just inside the edge is as lit as the middle: the normals stayed up.
     assert!(close(region(&film, 0.6, 0.74, 0.0, 1.0), region(&film, 0.2, 0.4, 0.0, 1.0), 0.02));
 }
+
+/// The textured quad with KHR_mesh_quantization's types: positions as normalised shorts (±32767, the node scaling
+/// them to ±0.5), texture coordinates as normalised unsigned shorts, normals as normalised bytes, indices as
+/// unsigned shorts; and a morph target of normalised short displacements at weight 0.5 (−32767: the right edge
+/// moved by −1 in the mesh's units, −0.5 after the node's scale). Quantized, the quad renders as the float quad,
+/// quadrant by quadrant; morphed, its right edge is at x = 0.75.
+#[test]
+fn quantized_attributes_render_as_floats() {
+    let (material, rest) = textured([1.0; 4], json!({ "magFilter": 9728, "minFilter": 9728 }), None);
+    let float_quad = quad_document(material.clone(), rest.clone(), [0.0, 0.0, 0.0, 1.0]);
+    let quantized = |morph: bool| {
+        let mut doc = quad_document(material.clone(), rest.clone(), [0.0, 0.0, 0.0, 1.0]);
+        let m = 32767i16;
+        let positions: [[i16; 4]; 4] = [[-m, -m, 0, 0], [m, -m, 0, 0], [m, m, 0, 0], [-m, m, 0, 0]];
+        let uvs: [[u16; 2]; 4] = [[0, 65535], [65535, 65535], [65535, 0], [0, 0]];
+        let mut bytes: Vec<u8> = positions.iter().flatten().flat_map(|c| c.to_le_bytes()).collect(); // 32 bytes
+        bytes.extend(uvs.iter().flatten().flat_map(|c| c.to_le_bytes())); // 16
+        bytes.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes())); // 12
+        bytes.extend([[0i8, 0, 127, 0]; 4].iter().flatten().map(|&c| c as u8)); // 16
+        let displacements: [[i16; 4]; 4] = [[0; 4], [-m, 0, 0, 0], [-m, 0, 0, 0], [0; 4]];
+        bytes.extend(displacements.iter().flatten().flat_map(|c| c.to_le_bytes())); // 32
+        doc["buffers"][0] = json!({ "byteLength": bytes.len(), "uri": data_uri("application/octet-stream", &bytes) });
+        doc["bufferViews"] = json!([
+            { "buffer": 0, "byteOffset": 0, "byteLength": 32, "byteStride": 8 },
+            { "buffer": 0, "byteOffset": 32, "byteLength": 16 },
+            { "buffer": 0, "byteOffset": 48, "byteLength": 12 },
+            { "buffer": 0, "byteOffset": 60, "byteLength": 16, "byteStride": 4 },
+            { "buffer": 0, "byteOffset": 76, "byteLength": 32, "byteStride": 8 }
+        ]);
+        doc["accessors"] = json!([
+            { "bufferView": 0, "componentType": 5122, "normalized": true, "count": 4, "type": "VEC3", "min": [-32767, -32767, 0], "max": [32767, 32767, 0] },
+            { "bufferView": 1, "componentType": 5123, "normalized": true, "count": 4, "type": "VEC2" },
+            { "bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR" },
+            { "bufferView": 3, "componentType": 5120, "normalized": true, "count": 4, "type": "VEC3" },
+            { "bufferView": 4, "componentType": 5122, "normalized": true, "count": 4, "type": "VEC3" }
+        ]);
+        doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(3);
+        if morph {
+            doc["meshes"][0]["primitives"][0]["targets"] = json!([ { "POSITION": 4 } ]);
+            doc["meshes"][0]["weights"] = json!([0.5]);
+        }
+        doc["nodes"][0]["scale"] = json!([0.5, 0.5, 1.0]);
+        doc["extensionsUsed"].as_array_mut().unwrap().push(json!("KHR_mesh_quantization"));
+        doc["extensionsRequired"] = json!(["KHR_mesh_quantization"]);
+        doc
+    };
+    let (reference, _) = render_doc("float-quad.gltf", &float_quad);
+    let (film, desc) = render_doc("quantized.gltf", &quantized(false));
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    let quadrants = [(0.0, 0.5, 0.5, 1.0), (0.5, 1.0, 0.5, 1.0), (0.0, 0.5, 0.0, 0.5), (0.5, 1.0, 0.0, 0.5)];
+    for (x0, x1, y0, y1) in quadrants {
+        let (got, want) = (region(&film, x0, x1, y0, y1), region(&reference, x0, x1, y0, y1));
+        assert!(want[1] > 0.01 && close(got, want, 1e-3), "quadrant {x0} {y0}: quantized {got:?}, float {want:?}");
+    }
+    let (film, _) = render_doc("quantized-morph.gltf", &quantized(true));
+    let (lit, beyond) = (region(&film, 0.0, 0.7, 0.0, 1.0), region(&film, 0.8, 1.0, 0.0, 1.0));
+    assert!(lit[1] > 0.01 && beyond[1] < 1e-3 * lit[1], "lit {lit:?}, beyond the edge {beyond:?}");
+}
