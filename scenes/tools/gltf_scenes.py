@@ -22,6 +22,9 @@ them with Blender's own glTF exporter, so that Prismatic is tested on what Blend
 - crates/gltf-import/tests/fixtures/shape-key-plane.glb: the 2 m plane of textured-plane.glb, grey, with a shape key
   that moves its +x edge to x = 0, at the value 0.5: the exporter writes it as a morph target (its displacements in
   a sparse accessor) with the mesh's default weight 0.5, so the plane ends at x = 0.5.
+- crates/gltf-import/tests/fixtures/brushed-plate.glb: the 2 m plane as a brushed metal, the Principled BSDF's
+  Anisotropic 0.8 at Anisotropic Rotation 0.1 (a tenth of a turn), which the exporter writes as
+  KHR_materials_anisotropy; under a sun tilted 35°.
 
 Blender is z-up and its exporter converts to glTF's y-up: a glTF point (x, y, z) is Blender's (x, -z, y).
 Blender has no dispersion input of its own: the exporter reads Dispersion (and Thickness, which makes it write
@@ -258,9 +261,20 @@ def shape_key_plane():
     export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/shape-key-plane.glb"))
 
 
+def brushed_plate():
+    reset()
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    plane = bpy.context.active_object
+    plane.data.materials.append(principled("brushed", Base_Color=(0.9, 0.9, 0.9, 1.0), Metallic=1.0, Roughness=0.4,
+                                           Anisotropic=0.8, Anisotropic_Rotation=0.1))
+    ortho_camera_and_sun(2.0, (64, 64), 35.0)
+    export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/brushed-plate.glb"))
+
+
 if __name__ == "__main__":
     gem()
     dispersive_prism()
     textured_plane()
     layered_plates()
     shape_key_plane()
+    brushed_plate()

@@ -1,5 +1,5 @@
 //! The material extensions that put layers on the metallic-roughness BRDF — `KHR_materials_specular`,
-//! `_iridescence`, `_sheen` and `_clearcoat` — read from the material's JSON (the gltf crate keeps them unparsed)
+//! `_iridescence`, `_sheen`, `_clearcoat` and `_anisotropy` — read from the material's JSON (the gltf crate keeps them unparsed)
 //! into the `metallicroughness` material's parameters (docs/scene-format.md), with their textures as image maps.
 
 use scene::{Param, ParamSet, TextureEntity, TextureValueType};
@@ -175,6 +175,22 @@ pub(crate) fn add_layers(
                 t.imagemap(&tname, TextureValueType::Spectrum, &tex, vec![string("encoding", "linear", &loc)])?;
                 opaque.push(texture_param("clearcoatnormalmap", &tname, &loc));
                 opaque.push(float("clearcoatnormalscale", scale, &loc));
+            }
+        }
+    }
+    // KHR_materials_anisotropy: strength and rotation, and a texture (linear) of the direction (red, green) and the
+    // strength's factor (blue); a zero strength without a texture turns it off.
+    if let Some(x) = RawExtension::of(m, "KHR_materials_anisotropy", json).map_err(|e| fail(t, e))? {
+        let strength = x.number("anisotropyStrength", 0.0, unit).map_err(|e| fail(t, e))?;
+        let rotation = x.number("anisotropyRotation", 0.0, (f64::MIN, f64::MAX)).map_err(|e| fail(t, e))?;
+        let tex = x.texture("anisotropyTexture", doc).map_err(|e| fail(t, e))?;
+        if strength > 0.0 {
+            opaque.push(float("anisotropy", strength, &loc));
+            opaque.push(float("anisotropyrotation", rotation, &loc));
+            if let Some((tex, _)) = tex {
+                let tname = format!("{name}/anisotropy");
+                t.imagemap(&tname, TextureValueType::Spectrum, &tex, vec![string("encoding", "linear", &loc)])?;
+                opaque.push(texture_param("anisotropytexture", &tname, &loc));
             }
         }
     }

@@ -65,7 +65,7 @@ pub struct ReadOptions {
 
 /// The extensions this reader understands; any other in `extensionsRequired` is an error, in `extensionsUsed` a
 /// warning.
-pub const SUPPORTED_EXTENSIONS: [&str; 14] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 15] = [
     "KHR_lights_punctual",
     "KHR_mesh_quantization",
     "KHR_texture_transform",
@@ -80,6 +80,7 @@ pub const SUPPORTED_EXTENSIONS: [&str; 14] = [
     "KHR_materials_iridescence",
     "KHR_materials_sheen",
     "KHR_materials_clearcoat",
+    "KHR_materials_anisotropy",
 ];
 
 /// Lumens per watt at 555 nm: glTF's photometric light units to the renderer's radiometric ones.

@@ -612,6 +612,13 @@ fn bad_layer_extensions_are_errors_that_name_the_json_path() {
     let tri = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
     for (ext, value, path) in [
         ("KHR_materials_clearcoat", json!({ "clearcoatFactor": "x" }), "clearcoatFactor"),
+        ("KHR_materials_anisotropy", json!({ "anisotropyStrength": 2 }), "anisotropyStrength"),
+        ("KHR_materials_anisotropy", json!({ "anisotropyRotation": "x" }), "anisotropyRotation"),
+        (
+            "KHR_materials_anisotropy",
+            json!({ "anisotropyStrength": 0.5, "anisotropyTexture": { "index": 9 } }),
+            "anisotropyTexture.index",
+        ),
         ("KHR_materials_clearcoat", json!({ "clearcoatFactor": 1.5 }), "clearcoatFactor"),
         ("KHR_materials_sheen", json!({ "sheenColorFactor": [1, 0] }), "sheenColorFactor"),
         ("KHR_materials_specular", json!({ "specularColorFactor": [1, -1, 0] }), "specularColorFactor"),
@@ -720,4 +727,28 @@ fn meshopt_compressed_views_render_as_the_uncompressed_file() {
     huge["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["count"] = json!(1_000_000);
     let e = read("huge.gltf", &huge).unwrap_err();
     assert!(e.path == format!("{at}.byteLength") && e.message.contains("cannot come out of"), "{e}");
+}
+
+/// Blender's exporter writes the Principled BSDF's Anisotropic and Anisotropic Rotation (in turns) as
+/// KHR_materials_anisotropy's strength and rotation (radians); the reader gives them to the material without a
+/// warning, and they change the rendered plate under the tilted sun.
+#[test]
+fn blenders_anisotropy_is_read() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/brushed-plate.glb");
+    let mut desc =
+        gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    let i = desc.named_materials.iter().position(|(_, m)| m.params.contains("anisotropy")).expect("anisotropy");
+    let params = desc.named_materials[i].1.params.clone();
+    assert!((params.get_float("anisotropy", 0.0).unwrap() - 0.8).abs() < 1e-6);
+    assert!((params.get_float("anisotropyrotation", 0.0).unwrap() - 0.2 * std::f64::consts::PI).abs() < 1e-6);
+    let mean_y = |desc: &scene::SceneDescription| {
+        let film = render(desc, 16, (32, 32));
+        (8..24).flat_map(|y| (8..24).map(move |x| (x, y))).map(|(x, y)| film.pixel_xyz(x, y).y).sum::<f64>() / 256.0
+    };
+    let brushed = mean_y(&desc);
+    let kept = params.params().iter().filter(|p| !p.name.starts_with("anisotropy")).cloned().collect();
+    desc.named_materials[i].1.params = scene::ParamSet::from_params(kept);
+    let plain = mean_y(&desc);
+    assert!((brushed - plain).abs() > 0.02 * plain, "brushed {brushed}, isotropic {plain}");
 }

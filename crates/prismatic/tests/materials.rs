@@ -260,6 +260,9 @@ fn metallic_roughness_layer_parameters_are_checked() {
         (r#""float iridescence" 1 "float iridescenceeta" -1"#, "'iridescenceeta'"),
         (r#""float clearcoat" 1 "texture clearcoatnormalmap" "noise""#, "'clearcoatnormalmap'"),
         (r#""float clearcoat" 1 "float clearcoatroughness" [ 1e40 ]"#, "'clearcoatroughness'"),
+        (r#""float anisotropy" 1.5"#, "'anisotropy'"),
+        (r#""float anisotropy" 0.5 "float anisotropyrotation" [ 1e40 ]"#, "'anisotropyrotation'"),
+        (r#""float anisotropy" 0.5 "texture anisotropytexture" "noise""#, "'anisotropytexture'"),
     ] {
         let e = build_error(&scene_of(material), "layers.pbrt");
         assert!(e.contains(param) && e.contains("layers.pbrt:5:"), "{material}: {e}");
@@ -270,6 +273,7 @@ fn metallic_roughness_layer_parameters_are_checked() {
         r#""rgb sheencolor" [ 0.9 0.8 0.7 ] "float sheenroughness" 0.4"#,
         r#""float clearcoat" 1 "float clearcoatroughness" 0.05"#,
         r#""spectrum specularcolor" "metal-Au-eta""#,
+        r#""float anisotropy" 0.7 "float anisotropyrotation" 0.5"#,
     ] {
         build(&scene_of(material), "layers.pbrt");
     }

@@ -12,7 +12,8 @@ use crate::layered::Layered;
 use crate::measured::MeasuredBrdf;
 use crate::metallic_roughness::MetallicRoughness;
 use crate::microfacet::TrowbridgeReitz;
-use crate::texture::{FloatTexture, SpectrumTexture, TextureEvalContext};
+use crate::scene::SurfaceHit;
+use crate::texture::{FloatTexture, ImageTexture, SpectrumTexture, TextureEvalContext};
 
 /// The index of refraction of a dielectric.
 #[derive(Clone, Debug)]
@@ -134,6 +135,8 @@ pub struct MetallicRoughnessLayers {
     pub sheen: Option<SheenLayer>,
     /// `KHR_materials_clearcoat`.
     pub clearcoat: Option<ClearcoatLayer>,
+    /// `KHR_materials_anisotropy`.
+    pub anisotropy: Option<AnisotropyLayer>,
 }
 
 /// `KHR_materials_specular`'s parameters.
@@ -179,6 +182,42 @@ pub struct ClearcoatLayer {
     pub normal_map: Option<NormalPerturbation>,
 }
 
+/// `KHR_materials_anisotropy`'s parameters: the specular lobes stretched along a direction in the tangent plane.
+#[derive(Clone, Debug)]
+pub struct AnisotropyLayer {
+    /// The strength, in [0, 1].
+    pub strength: f32,
+    /// The direction's angle from the tangent towards the bitangent, in radians.
+    pub rotation: f32,
+    /// A texture (linear) whose red and green hold the direction in the tangent frame as 2·rg − 1, turned further by
+    /// `rotation`, and whose blue multiplies the strength.
+    pub texture: Option<Box<ImageTexture>>,
+}
+
+impl AnisotropyLayer {
+    /// The strength and the direction's angle from the tangent at `ctx`.
+    pub fn at(&self, ctx: &TextureEvalContext) -> (f32, f32) {
+        let Some(tex) = &self.texture else { return (self.strength, self.rotation) };
+        let rgb = tex.rgb(ctx);
+        let (x, y) = (2.0 * rgb[0] - 1.0, 2.0 * rgb[1] - 1.0);
+        let angle = if x == 0.0 && y == 0.0 { 0.0 } else { y.atan2(x) };
+        (self.strength * rgb[2], self.rotation + angle)
+    }
+
+    /// Turns the tangent `hit`'s BSDF frame starts from to the anisotropy direction at `ctx`: the angle from the
+    /// tangent (∂p/∂u made perpendicular to the shading normal) towards the bitangent (ns × tangent on the side of
+    /// the surface's ∂p/∂v, the frame of glTF's normal maps).
+    pub fn orient(&self, hit: &mut SurfaceHit, ctx: &TextureEvalContext) {
+        let angle = self.at(ctx).1;
+        let ns = hit.ns;
+        let Some(x) = (hit.dpdu - ns * ns.dot(hit.dpdu)).try_normalize() else { return };
+        let y = ns.cross(x);
+        let y = if y.dot(hit.surface_dpdv) < 0.0 { -y } else { y };
+        let (sin, cos) = angle.sin_cos();
+        hit.dpdu = (cos * x + sin * y) * hit.dpdu.length();
+    }
+}
+
 impl MetallicRoughnessLayers {
     /// The BRDF of `core` with these layers at `ctx`.
     fn apply(
@@ -201,6 +240,9 @@ impl MetallicRoughnessLayers {
         }
         if let Some(c) = &self.clearcoat {
             brdf = brdf.with_clearcoat(c.weight.eval(ctx), c.roughness.eval(ctx));
+        }
+        if let Some(a) = &self.anisotropy {
+            brdf = brdf.with_anisotropy(a.at(ctx).0);
         }
         brdf
     }
@@ -339,6 +381,25 @@ impl Material {
     pub(crate) fn clearcoat(&self) -> Option<&ClearcoatLayer> {
         match self {
             Material::MetallicRoughness { layers, .. } => layers.clearcoat.as_ref(),
+            Material::Diffuse { .. }
+            | Material::DiffuseTransmission { .. }
+            | Material::Conductor { .. }
+            | Material::Dielectric { .. }
+            | Material::ThinDielectric { .. }
+            | Material::ThinFilm { .. }
+            | Material::CoatedDiffuse { .. }
+            | Material::CoatedConductor { .. }
+            | Material::Mix { .. }
+            | Material::Measured { .. }
+            | Material::Interface => None,
+        }
+    }
+
+    /// A glTF anisotropy's parameters, if the material has them: its BxDF's frame then starts from the anisotropy
+    /// direction ([`AnisotropyLayer::orient`]).
+    pub(crate) fn anisotropy(&self) -> Option<&AnisotropyLayer> {
+        match self {
+            Material::MetallicRoughness { layers, .. } => layers.anisotropy.as_ref(),
             Material::Diffuse { .. }
             | Material::DiffuseTransmission { .. }
             | Material::Conductor { .. }

@@ -41,6 +41,11 @@ fn sin_phi(w: Vec3) -> f32 {
 }
 
 impl TrowbridgeReitz {
+    /// α along the shading frame's y axis.
+    pub fn alpha_y(&self) -> f32 {
+        self.alpha_y
+    }
+
     /// A distribution with the given α values (clamped below at 1e-4 when not smooth, as pbrt-v4 does).
     pub fn new(alpha_x: f32, alpha_y: f32) -> Self {
         let mut d = Self { alpha_x, alpha_y };

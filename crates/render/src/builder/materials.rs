@@ -16,8 +16,8 @@ use super::context::{err, file_err, finite_positive, unsupported, ImageSource, M
 use crate::bump::NormalPerturbation;
 use crate::coating::{Coating, CoatingLayer, LayerIndex};
 use crate::material::{
-    ClearcoatLayer, ConductorSpec, DielectricIor, IridescenceLayer, LayerMedium, Material, MetallicRoughnessLayers,
-    Roughness, SheenLayer, SpecularLayer,
+    AnisotropyLayer, ClearcoatLayer, ConductorSpec, DielectricIor, IridescenceLayer, LayerMedium, Material,
+    MetallicRoughnessLayers, Roughness, SheenLayer, SpecularLayer,
 };
 use crate::measured::MeasuredBrdf;
 use crate::medium::HomogeneousMedium;
@@ -116,7 +116,8 @@ fn normal_texture(t: &Textures, p: &ParamSet, loc: &Loc, map: &str, scale: &str)
 /// The layers glTF's extensions put on a `metallicroughness` material, each there if one of its parameters is
 /// given (docs/scene-format.md): `specular` and `specularcolor`; `iridescence` with `iridescenceeta` (default 1.3)
 /// and `iridescencethickness` (nm, default 400); `sheencolor` with `sheenroughness`; `clearcoat` with
-/// `clearcoatroughness` and `clearcoatnormalmap`/`clearcoatnormalscale`.
+/// `clearcoatroughness` and `clearcoatnormalmap`/`clearcoatnormalscale`; `anisotropy` with `anisotropyrotation`
+/// (radians) and `anisotropytexture`.
 fn metallic_roughness_layers(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<MetallicRoughnessLayers> {
     let mut layers = MetallicRoughnessLayers::default();
     if p.contains("specular") || p.contains("specularcolor") {
@@ -158,6 +159,33 @@ fn metallic_roughness_layers(t: &Textures, p: &ParamSet, loc: &Loc) -> Result<Me
             roughness: t.float_param(p, "clearcoatroughness", 0.0)?,
             normal_map,
         });
+    }
+    if p.contains("anisotropy") || p.contains("anisotropytexture") {
+        let strength = p.get_float("anisotropy", 0.0)?;
+        if !(0.0..=1.0).contains(&strength) {
+            return err(&p.loc_of("anisotropy", loc), format!("'anisotropy' must be in [0, 1], got {strength}"));
+        }
+        let rotation = p.get_float("anisotropyrotation", 0.0)?;
+        if !(rotation as f32).is_finite() {
+            return err(
+                &p.loc_of("anisotropyrotation", loc),
+                format!("'anisotropyrotation' must be finite, got {rotation}"),
+            );
+        }
+        let texture = match p.get_texture("anisotropytexture") {
+            None => None,
+            Some(name) => match t.image_texture(&name) {
+                Some(tex) => Some(Box::new(tex)),
+                None => {
+                    let at = p.loc_of("anisotropytexture", loc);
+                    return err(
+                        &at,
+                        format!("'anisotropytexture' must name an imagemap spectrum texture; '{name}' is not one"),
+                    );
+                }
+            },
+        };
+        layers.anisotropy = Some(AnisotropyLayer { strength: strength as f32, rotation: rotation as f32, texture });
     }
     Ok(layers)
 }

@@ -480,6 +480,9 @@ fn resolve_surface(
     if let Some(perturbation) = perturbation {
         perturbation.apply(hit, &ctx);
     }
+    if let Some(anisotropy) = material.anisotropy() {
+        anisotropy.orient(hit, &ctx);
+    }
     match material.bxdf(&ctx, wl, u_bxdf, regularize) {
         Some(mut b) => {
             if let (Some((coat, mut coat_hit)), Bxdf::MetallicRoughness(m)) = (coat_hit, &mut b) {
