@@ -65,7 +65,7 @@ pub struct ReadOptions {
 
 /// The extensions this reader understands; any other in `extensionsRequired` is an error, in `extensionsUsed` a
 /// warning.
-pub const SUPPORTED_EXTENSIONS: [&str; 15] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 16] = [
     "KHR_lights_punctual",
     "KHR_mesh_quantization",
     "KHR_texture_transform",
@@ -81,6 +81,7 @@ pub const SUPPORTED_EXTENSIONS: [&str; 15] = [
     "KHR_materials_sheen",
     "KHR_materials_clearcoat",
     "KHR_materials_anisotropy",
+    "EXT_mesh_gpu_instancing",
 ];
 
 /// Lumens per watt at 555 nm: glTF's photometric light units to the renderer's radiometric ones.
@@ -276,6 +277,10 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
             .ok_or_else(|| err(&format!("nodes[{}]", node.index()), "the transform is singular".into()))?;
         if let Some(mesh) = node.mesh() {
             let weights = morph_weights(node, &mesh)?;
+            let instances = gpu_instances(&gltf, node, &buffers).map_err(|(json, message)| err(&json, message))?;
+            // An instanced node's shapes go into an object placed once per instance; emitters stay shapes of the
+            // world, one per instance (area lights are not made inside instances, as in pbrt-v4).
+            let mut object_shapes = vec![];
             for prim in mesh.primitives() {
                 let Some(&(index, colors)) = mesh_index.get(&key(mesh.index(), prim.index(), &weights)) else {
                     continue;
@@ -299,7 +304,7 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
                     params.push(alpha);
                 }
                 let area_light = emission(&material, &name, &loc);
-                desc.shapes.push(ShapeEntity {
+                let shape = ShapeEntity {
                     entity: Entity::new("importedmesh", params, loc.clone()),
                     render_from_object: world_t,
                     reverse_orientation: false,
@@ -308,7 +313,32 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
                     inside_medium: medium,
                     outside_medium: None,
                     motion: None,
+                };
+                match &instances {
+                    None => desc.shapes.push(shape),
+                    Some(list) if shape.area_light.is_some() => {
+                        for instance in list {
+                            desc.shapes.push(ShapeEntity { render_from_object: world_t * *instance, ..shape.clone() });
+                        }
+                    }
+                    Some(_) => object_shapes.push(ShapeEntity { render_from_object: Transform::IDENTITY, ..shape }),
+                }
+            }
+            if let (Some(list), false) = (&instances, object_shapes.is_empty()) {
+                let name = format!("{}#nodes[{}]", path.display(), node.index());
+                desc.objects.push(scene::ObjectDefinition {
+                    name: name.clone(),
+                    shapes: object_shapes,
+                    loc: loc.clone(),
                 });
+                for instance in list {
+                    desc.instances.push(scene::InstanceUse {
+                        name: name.clone(),
+                        render_from_instance: world_t * *instance,
+                        loc: loc.clone(),
+                        motion: None,
+                    });
+                }
             }
         }
         if let Some(camera) = node.camera() {
@@ -823,6 +853,74 @@ fn decode_primitive(
     // glTF's uv origin is the image's top-left corner, pbrt's the bottom-left: v flips.
     let uvs = uvs.map(|v| v.into_iter().map(|t| Vec2::new(t.x, 1.0 - t.y)).collect());
     Ok(Some((Arc::new(MeshData { positions, normals, uvs, indices }), colors.map(Arc::from))))
+}
+
+/// The instance transforms of a node with `EXT_mesh_gpu_instancing` (translation, rotation and scale per instance,
+/// each applied in the node's space before its transform), or `None` for a node without it; errors as (JSON path,
+/// message).
+fn gpu_instances(
+    document: &gltf::Document,
+    node: &gltf::Node<'_>,
+    buffers: &[Vec<u8>],
+) -> Result<Option<Vec<Transform>>, (String, String)> {
+    use gltf::accessor::{DataType, Dimensions};
+    let Some(ext) = node.extensions().and_then(|e| e.get("EXT_mesh_gpu_instancing")) else { return Ok(None) };
+    let json = format!("nodes[{}].extensions.EXT_mesh_gpu_instancing", node.index());
+    let Some(attributes) = ext.get("attributes").and_then(serde_json::Value::as_object) else {
+        return Err((format!("{json}.attributes"), "must be an object".into()));
+    };
+    let mut count = None;
+    let mut read = |name: &str, dims: Dimensions| -> Result<Option<Vec<[f32; 4]>>, (String, String)> {
+        let Some(index) = attributes.get(name) else { return Ok(None) };
+        let path = format!("{json}.attributes.{name}");
+        let accessor = index
+            .as_u64()
+            .and_then(|i| document.accessors().nth(usize::try_from(i).ok()?))
+            .ok_or_else(|| (path.clone(), format!("must name one of the {} accessors", document.accessors().len())))?;
+        check_accessor(&accessor, buffers, &path)?;
+        let t = accessor.data_type();
+        // Translation and scale are floats; a rotation may also be normalised bytes or shorts (quantized).
+        let types_fit = t == DataType::F32 || (dims == Dimensions::Vec4 && matches!(t, DataType::I8 | DataType::I16));
+        if accessor.dimensions() != dims || !types_fit {
+            return Err((
+                path,
+                format!("an accessor of {t:?} {:?} cannot hold instance {name}s", accessor.dimensions()),
+            ));
+        }
+        if *count.get_or_insert(accessor.count()) != accessor.count() {
+            return Err((path, "every instance attribute needs one value per instance".into()));
+        }
+        let values: Option<Vec<[f32; 4]>> = if dims == Dimensions::Vec4 {
+            read_floats::<4>(&accessor, buffers)
+        } else {
+            read_floats::<3>(&accessor, buffers).map(|v| v.into_iter().map(|[x, y, z]| [x, y, z, 0.0]).collect())
+        };
+        let values = values.ok_or_else(|| (path.clone(), "cannot be read".to_string()))?;
+        if values.iter().flatten().any(|v| !v.is_finite()) {
+            return Err((path, "values must be finite".into()));
+        }
+        Ok(Some(values))
+    };
+    let translations = read("TRANSLATION", Dimensions::Vec3)?;
+    let rotations = read("ROTATION", Dimensions::Vec4)?;
+    let scales = read("SCALE", Dimensions::Vec3)?;
+    let Some(n) = count else { return Err((format!("{json}.attributes"), "names no instance attribute".into())) };
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let t = translations
+            .as_ref()
+            .map_or(glam::DVec3::ZERO, |v| glam::DVec3::new(v[i][0] as f64, v[i][1] as f64, v[i][2] as f64));
+        let r = rotations.as_ref().map_or(glam::DQuat::IDENTITY, |v| {
+            glam::DQuat::from_xyzw(v[i][0] as f64, v[i][1] as f64, v[i][2] as f64, v[i][3] as f64).normalize()
+        });
+        let s = scales
+            .as_ref()
+            .map_or(glam::DVec3::ONE, |v| glam::DVec3::new(v[i][0] as f64, v[i][1] as f64, v[i][2] as f64));
+        let m = glam::DMat4::from_scale_rotation_translation(s, r, t);
+        let path = format!("{json}: instance {i}");
+        out.push(Transform::from_matrix(m).ok_or((path, "the instance's transform is singular".to_string()))?);
+    }
+    Ok(Some(out))
 }
 
 /// The variant of named material `name` whose base colour is multiplied by the mesh's vertex colours (a

@@ -1175,3 +1175,77 @@ fn anisotropy_is_oriented_in_the_tangent_frame() {
     let want = anisotropic_metal(r, s, angle, wi) / want_iso;
     assert!((got - want).abs() < 0.01 * want, "textured: {got}, BRDF says {want}");
 }
+
+/// The quad of [`quad_document`] drawn by EXT_mesh_gpu_instancing twice: instance A scaled by 0.4 and moved by
+/// −0.25 in x (x from 0.05 to 0.45, y from 0.3 to 0.7 in the view), instance B scaled to 1 × 0.2, turned 90° about
+/// z (a quantized rotation: normalised shorts) and moved by +0.25 (x from 0.65 to 0.85, y from 0 to 1). With
+/// `emissive`, the material emits.
+fn instanced_document(emissive: bool) -> Value {
+    let mut material =
+        json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0 } });
+    if emissive {
+        material["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    }
+    let mut doc = quad_document(material, json!({}), [0.0, 0.0, 0.0, 1.0]);
+    let mut bytes = quad_buffer();
+    bytes.extend([[-0.25f32, 0.0, 0.0], [0.25, 0.0, 0.0]].iter().flatten().flat_map(|c| c.to_le_bytes()));
+    let q = 23170i16; // 32767 · sin 45°
+    bytes.extend([[0i16, 0, 0, 32767], [0, 0, q, q]].iter().flatten().flat_map(|c| c.to_le_bytes()));
+    bytes.extend([[0.4f32, 0.4, 1.0], [1.0, 0.2, 1.0]].iter().flatten().flat_map(|c| c.to_le_bytes()));
+    doc["buffers"][0] = json!({ "byteLength": bytes.len(), "uri": data_uri("application/octet-stream", &bytes) });
+    let views = doc["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({ "buffer": 0, "byteOffset": 104, "byteLength": 24 }));
+    views.push(json!({ "buffer": 0, "byteOffset": 128, "byteLength": 16 }));
+    views.push(json!({ "buffer": 0, "byteOffset": 144, "byteLength": 24 }));
+    let accessors = doc["accessors"].as_array_mut().unwrap();
+    accessors.push(json!({ "bufferView": 3, "componentType": 5126, "count": 2, "type": "VEC3" }));
+    accessors.push(json!({ "bufferView": 4, "componentType": 5122, "normalized": true, "count": 2, "type": "VEC4" }));
+    accessors.push(json!({ "bufferView": 5, "componentType": 5126, "count": 2, "type": "VEC3" }));
+    doc["nodes"][0]["extensions"] =
+        json!({ "EXT_mesh_gpu_instancing": { "attributes": { "TRANSLATION": 3, "ROTATION": 4, "SCALE": 5 } } });
+    doc["extensionsUsed"].as_array_mut().unwrap().push(json!("EXT_mesh_gpu_instancing"));
+    doc["extensionsRequired"] = json!(["EXT_mesh_gpu_instancing"]);
+    doc
+}
+
+/// EXT_mesh_gpu_instancing: each instance's translation, rotation and scale are applied in the node's space before
+/// its transform, the instances sharing one object (or, for an emitter, each a shape of its own, since area lights
+/// are not made inside instances); bad instance attributes are errors naming their JSON path.
+#[test]
+fn gpu_instances_are_placed_by_their_transforms() {
+    let (film, desc) = render_doc("instanced.gltf", &instanced_document(false));
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    assert_eq!((desc.objects.len(), desc.instances.len(), desc.shapes.len()), (1, 2, 0));
+    let lit = region(&film, 0.05, 0.45, 0.3, 0.7);
+    assert!(lit[1] > 0.1, "instance A is lit: {lit:?}");
+    for (x0, x1, y0, y1, on) in [
+        (0.05, 0.45, 0.75, 1.0, false),
+        (0.65, 0.85, 0.8, 1.0, true),
+        (0.65, 0.85, 0.0, 0.2, true),
+        (0.85, 1.0, 0.3, 0.7, false),
+        (0.45, 0.65, 0.3, 0.7, false),
+    ] {
+        let y = region(&film, x0, x1, y0, y1)[1];
+        let ok = if on { (y - lit[1]).abs() < 0.03 * lit[1] } else { y < 1e-3 * lit[1] };
+        assert!(ok, "[{x0}, {x1}] × [{y0}, {y1}]: {y} (lit {})", lit[1]);
+    }
+    let (_, desc) = render_doc("instanced-emitter.gltf", &instanced_document(true));
+    assert_eq!((desc.objects.len(), desc.instances.len(), desc.shapes.len()), (0, 0, 2));
+    let read = |doc: &Value| {
+        let path = write(&dir("textures"), "bad-instances.gltf", doc);
+        gltf_import::read_scene(&path, &gltf_import::ReadOptions::default()).unwrap_err().to_string()
+    };
+    let at = "nodes[0].extensions.EXT_mesh_gpu_instancing.attributes";
+    let mut doc = instanced_document(false);
+    doc["accessors"][5]["count"] = json!(1);
+    let e = read(&doc);
+    assert!(e.contains(&format!("{at}.SCALE")) && e.contains("one value per instance"), "{e}");
+    let mut doc = instanced_document(false);
+    doc["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"] = json!(9);
+    let e = read(&doc);
+    assert!(e.contains(&format!("{at}.TRANSLATION")) && e.contains("accessors"), "{e}");
+    let mut doc = instanced_document(false);
+    doc["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["ROTATION"] = json!(3);
+    let e = read(&doc);
+    assert!(e.contains(&format!("{at}.ROTATION")) && e.contains("cannot hold"), "{e}");
+}
