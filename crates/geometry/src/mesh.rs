@@ -106,6 +106,8 @@ pub struct IndexedMesh<const N: usize> {
     reverse_orientation: bool,
     transform_swaps_handedness: bool,
     bounds: Bounds3,
+    /// Render-space shading tangents per face corner (`N` per face, in the order of `indices`), if any.
+    corner_tangents: Option<Vec<Vec3>>,
 }
 
 /// A triangle mesh with its vertices in render space (pbrt-v4's `TriangleMesh`).
@@ -168,7 +170,40 @@ impl<const N: usize> IndexedMesh<N> {
             reverse_orientation,
             transform_swaps_handedness: render_from_object.swaps_handedness(),
             bounds,
+            corner_tangents: None,
         })
+    }
+
+    /// The mesh with shading tangents per face corner (object space, in the order of the indices; pbrt-v4's `S`
+    /// expanded to corners, or glTF's `TANGENT` and MikkTSpace's, which may differ between the faces of a vertex),
+    /// taken to render space by `render_from_object` (the transform the mesh was made with). The shading frame's
+    /// ∂p/∂u then follows their interpolation instead of the texture coordinates' ∂p/∂u. Errors if there is not one
+    /// finite tangent per corner.
+    pub fn with_corner_tangents(
+        mut self,
+        render_from_object: &Transform,
+        tangents: &[[f32; 3]],
+    ) -> Result<Self, GeometryError> {
+        if tangents.len() != self.indices.len() {
+            return Err(GeometryError::InvalidMesh(format!(
+                "{}{} tangents for {} face corners",
+                label::<N>(),
+                tangents.len(),
+                self.indices.len()
+            )));
+        }
+        let mut out = Vec::with_capacity(tangents.len());
+        for (i, t) in tangents.iter().enumerate() {
+            let t = Vec3::from_array(*t);
+            let t =
+                if render_from_object.is_identity() { t } else { render_from_object.vector(t.as_dvec3()).as_vec3() };
+            if !t.is_finite() {
+                return Err(GeometryError::InvalidMesh(format!("{}tangent {i} is not finite: {t:?}", label::<N>())));
+            }
+            out.push(t);
+        }
+        self.corner_tangents = Some(out);
+        Ok(self)
     }
 
     /// Render-space vertex positions.
@@ -260,6 +295,13 @@ impl IndexedMesh<3> {
             }
             None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
         }
+    }
+
+    /// The shading tangents at the corners of triangle `tri`, if the mesh has them.
+    pub fn triangle_tangents(&self, tri: usize) -> Option<[Vec3; 3]> {
+        let t = self.corner_tangents.as_ref()?;
+        let i = 3 * tri;
+        Some([t[i], t[i + 1], t[i + 2]])
     }
 
     /// The shading normals at the vertices of triangle `tri`, if the mesh has normals.

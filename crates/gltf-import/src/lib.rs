@@ -36,6 +36,7 @@ use textures::{ImageTable, TextureMaker, TextureRef};
 
 mod layers;
 mod meshopt;
+mod tangents;
 mod textures;
 use scene::{
     CameraEntity, Diagnostic, Entity, LightEntity, Loc, MaterialRef, MediumEntity, Param, ParamSet, ParamType,
@@ -259,12 +260,16 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
         .collect();
     let mut mesh_index = std::collections::HashMap::new();
     for ((m, p, weights), d) in used.iter().zip(decoded) {
-        if let Some((data, colors)) = d? {
+        if let Some((data, colors, tangents)) = d? {
             let colors = colors.map(|c| {
                 desc.vertex_colors.push(c);
                 desc.vertex_colors.len() - 1
             });
-            mesh_index.insert(key(*m, *p, weights), (desc.meshes.len(), colors));
+            let tangents = tangents.map(|t| {
+                desc.corner_tangents.push(t);
+                desc.corner_tangents.len() - 1
+            });
+            mesh_index.insert(key(*m, *p, weights), (desc.meshes.len(), colors, tangents));
             desc.meshes.push(data);
         }
     }
@@ -282,13 +287,17 @@ pub fn import(desc: &mut SceneDescription, path: &Path, render_from_file: &Trans
             // world, one per instance (area lights are not made inside instances, as in pbrt-v4).
             let mut object_shapes = vec![];
             for prim in mesh.primitives() {
-                let Some(&(index, colors)) = mesh_index.get(&key(mesh.index(), prim.index(), &weights)) else {
+                let Some(&(index, colors, tangents)) = mesh_index.get(&key(mesh.index(), prim.index(), &weights))
+                else {
                     continue;
                 };
                 let material = prim.material();
                 let (mut name, medium) = material_ref(desc, material.clone())?;
                 let mut params = ParamSet::new();
                 params.push(ints("mesh", &[index as i64], &loc));
+                if let Some(t) = tangents {
+                    params.push(ints("tangents", &[t as i64], &loc));
+                }
                 if let Some(c) = colors {
                     params.push(ints("vertexcolors", &[c as i64], &loc));
                     name = match colored_materials.get(&name) {
@@ -678,8 +687,9 @@ fn check_sparse(
     Ok(())
 }
 
-/// A decoded primitive: its mesh and its vertex colours (`COLOR_0`, linear RGB), if it has them.
-type DecodedPrimitive = (Arc<MeshData>, Option<Arc<[[f32; 3]]>>);
+/// A decoded primitive: its mesh, its vertex colours (`COLOR_0`, linear RGB) and its shading tangents per corner, if
+/// it has them.
+type DecodedPrimitive = (Arc<MeshData>, Option<Arc<[[f32; 3]]>>, Option<Arc<[[f32; 3]]>>);
 
 /// The elements of accessor `a` (checked by [`check_accessor`], `N` components each) as floats: float components
 /// as they are; integers normalised if the accessor says so (glTF 2.0 §3.11: c/255 and c/65535 unsigned,
@@ -738,6 +748,9 @@ fn decode_primitive(
             }
             gltf::Semantic::Normals => {
                 matches!(t, DataType::F32 | DataType::I8 | DataType::I16) && d == Dimensions::Vec3
+            }
+            gltf::Semantic::Tangents => {
+                matches!(t, DataType::F32 | DataType::I8 | DataType::I16) && d == Dimensions::Vec4
             }
             gltf::Semantic::Colors(_) => {
                 matches!(t, DataType::F32 | DataType::U8 | DataType::U16)
@@ -851,8 +864,30 @@ fn decode_primitive(
         }
     }
     // glTF's uv origin is the image's top-left corner, pbrt's the bottom-left: v flips.
-    let uvs = uvs.map(|v| v.into_iter().map(|t| Vec2::new(t.x, 1.0 - t.y)).collect());
-    Ok(Some((Arc::new(MeshData { positions, normals, uvs, indices }), colors.map(Arc::from))))
+    let uvs: Option<Vec<Vec2>> = uvs.map(|v| v.into_iter().map(|t| Vec2::new(t.x, 1.0 - t.y)).collect());
+    // Tangents where the material reads a tangent frame: the file's, else MikkTSpace's from the normals and
+    // texture coordinates (without those, the renderer's ∂p/∂u).
+    let tangents = if !tangents::material_needs_tangents(&prim.material()) {
+        None
+    } else if let Some(a) = attribute(gltf::Semantic::Tangents) {
+        let path = format!("{json}.attributes.TANGENT");
+        let t = read_floats::<4>(&a, buffers).ok_or_else(|| (path.clone(), "cannot be read".to_string()))?;
+        if t.len() != n || t.iter().flatten().any(|v| !v.is_finite()) {
+            return Err((path, "as many finite tangents as positions are needed".into()));
+        }
+        Some(tangents::from_vertices(&t, &indices))
+    } else {
+        match (&normals, &uvs) {
+            // Non-finite values are the mesh data's error, reported when it is built.
+            (Some(normals), Some(uvs))
+                if normals.iter().all(|v| v.is_finite()) && uvs.iter().all(|v| v.is_finite()) =>
+            {
+                tangents::mikktspace(&positions, normals, uvs, &indices)
+            }
+            _ => None,
+        }
+    };
+    Ok(Some((Arc::new(MeshData { positions, normals, uvs, indices }), colors.map(Arc::from), tangents.map(Arc::from))))
 }
 
 /// The instance transforms of a node with `EXT_mesh_gpu_instancing` (translation, rotation and scale per instance,

@@ -1249,3 +1249,45 @@ fn gpu_instances_are_placed_by_their_transforms() {
     let e = read(&doc);
     assert!(e.contains(&format!("{at}.ROTATION")) && e.contains("cannot hold"), "{e}");
 }
+
+/// A quad with vertex `NORMAL`s (+z) and `TANGENT`s turned 45° from ∂p/∂u (+x) towards +y: a normal map's texel
+/// tilted towards +u, (0.6, 0, 0.8), tilts the normal towards the given tangent, not towards +x, so it shades as
+/// the quad turned to (0.6·(1, 1)/√2, 0.8).
+#[test]
+fn a_normal_map_follows_the_files_tangents() {
+    let encode = |n: [f64; 3]| n.map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
+    let render_lit = |map: bool, rotation: [f64; 4]| {
+        let mut m = json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.4 } });
+        let mut rest = json!({});
+        if map {
+            let [r, g, b] = encode([0.6, 0.0, 0.8]);
+            m["normalTexture"] = json!({ "index": 0 });
+            let png = png_rgba(1, 1, &[[r, g, b, 255]]);
+            rest = json!({ "textures": [ { "source": 0 } ], "images": [ { "uri": data_uri("image/png", &png) } ] });
+        }
+        let mut doc = quad_document(m, rest, rotation);
+        let mut bytes = quad_buffer();
+        bytes.extend([[0f32, 0.0, 1.0]; 4].iter().flatten().flat_map(|c| c.to_le_bytes()));
+        let s = std::f32::consts::FRAC_1_SQRT_2;
+        bytes.extend([[s, s, 0.0, 1.0]; 4].iter().flatten().flat_map(|c| c.to_le_bytes()));
+        doc["buffers"][0] = json!({ "byteLength": bytes.len(), "uri": data_uri("application/octet-stream", &bytes) });
+        let views = doc["bufferViews"].as_array_mut().unwrap();
+        views.push(json!({ "buffer": 0, "byteOffset": 104, "byteLength": 48 }));
+        views.push(json!({ "buffer": 0, "byteOffset": 152, "byteLength": 64 }));
+        let accessors = doc["accessors"].as_array_mut().unwrap();
+        accessors.push(json!({ "bufferView": 3, "componentType": 5126, "count": 4, "type": "VEC3" }));
+        accessors.push(json!({ "bufferView": 4, "componentType": 5126, "count": 4, "type": "VEC4" }));
+        doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(3);
+        doc["meshes"][0]["primitives"][0]["attributes"]["TANGENT"] = json!(4);
+        let (sn, cs) = (15f64.to_radians().sin(), 15f64.to_radians().cos());
+        doc["nodes"][2]["rotation"] = json!([sn / 2f64.sqrt(), sn / 2f64.sqrt(), 0.0, cs]);
+        let (film, desc) = render_doc("tangents.gltf", &doc);
+        assert_eq!(desc.corner_tangents.len(), usize::from(map), "tangents are kept for a normal-mapped material only");
+        region(&film, 0.3, 0.7, 0.3, 0.7)
+    };
+    // The quaternion turning +z to (0.6/√2, 0.6/√2, 0.8): about (−1, 1, 0)/√2 by asin 0.6.
+    let half = 0.6f64.asin() / 2.0;
+    let k = half.sin() / 2f64.sqrt();
+    let (got, want) = (render_lit(true, [0.0, 0.0, 0.0, 1.0]), render_lit(false, [-k, k, 0.0, half.cos()]));
+    assert!(close(got, want, 0.01), "mapped {got:?}, turned geometry {want:?}");
+}

@@ -215,6 +215,10 @@ pub struct SceneDescription {
     /// Per-vertex linear RGB colours of imported meshes (glTF's `COLOR_0`), which an `importedmesh` shape names by
     /// index in `"integer vertexcolors"`: one colour per vertex of its mesh.
     pub vertex_colors: Vec<Arc<[[f32; 3]]>>,
+    /// Shading tangents of imported meshes per face corner (glTF's `TANGENT`, or MikkTSpace's where a normal map or
+    /// anisotropy needs them), which an `importedmesh` shape names by index in `"integer tangents"`: three per
+    /// triangle of its mesh, in the order of its indices.
+    pub corner_tangents: Vec<Arc<[[f32; 3]]>>,
     /// `Option` directives.
     pub options: Vec<OptionEntry>,
     /// Warnings from parsing (deprecated or ignored directives, …). Unused parameters are reported later, by
@@ -262,6 +266,7 @@ impl SceneDescription {
             meshes: Vec::new(),
             images: Vec::new(),
             vertex_colors: Vec::new(),
+            corner_tangents: Vec::new(),
             options: Vec::new(),
             warnings: Vec::new(),
             files: Vec::new(),

@@ -308,16 +308,29 @@ pub(crate) fn triangle_geom_at(mesh: &TriangleMesh, tri: usize, positions: [Vec3
     }
     let mut ns = n;
     let (mut shading_dpdu, mut shading_dpdv) = (dpdu, dpdv);
-    if let Some([n0, n1, n2]) = mesh.triangle_normals(tri) {
-        let [n0, n1, n2] = [n0, n1, n2].map(Vec3A::from);
-        if let Some(v) = (b[0] * n0 + b[1] * n1 + b[2] * n2).try_normalize() {
-            ns = v;
-            if n.dot(ns) < 0.0 {
-                n = -n;
+    let normals = mesh.triangle_normals(tri);
+    let tangents = mesh.triangle_tangents(tri);
+    if normals.is_some() || tangents.is_some() {
+        if let Some([n0, n1, n2]) = normals {
+            let [n0, n1, n2] = [n0, n1, n2].map(Vec3A::from);
+            if let Some(v) = (b[0] * n0 + b[1] * n1 + b[2] * n2).try_normalize() {
+                ns = v;
+                if n.dot(ns) < 0.0 {
+                    n = -n;
+                }
             }
         }
-        // pbrt-v4's Triangle: the shading tangents are ns × ∂p/∂u and ∂p/∂u made perpendicular to ns.
-        let ts = ns.cross(dpdu);
+        // pbrt-v4's Triangle: the shading tangents are ns × s and s made perpendicular to ns, s the interpolated
+        // tangent (its `S`) or else ∂p/∂u.
+        let s = match tangents {
+            Some([t0, t1, t2]) => b[0] * Vec3A::from(t0) + b[1] * Vec3A::from(t1) + b[2] * Vec3A::from(t2),
+            None => dpdu,
+        };
+        let mut ts = ns.cross(s);
+        if ts.length_squared() == 0.0 && tangents.is_some() {
+            // A zero or normal-parallel tangent (a degenerate corner): ∂p/∂u instead.
+            ts = ns.cross(dpdu);
+        }
         (shading_dpdu, shading_dpdv) = if ts.length_squared() > 0.0 {
             (ts.cross(ns), ts)
         } else {

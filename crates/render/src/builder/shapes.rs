@@ -134,7 +134,7 @@ pub(super) fn make_geometry(
             let (mut out, mut out_info, mut out_alpha) = (vec![], vec![], vec![]);
             // The geometry of every shape (PLY files read and decoded, vertices transformed) is made on all
             // cores; the results are then taken in file order, so the first error in the file is the one reported.
-            let built: Vec<Result<Option<Shape>>> = shapes.par_iter().map(|se| make_shape(se, &desc.meshes)).collect();
+            let built: Vec<Result<Option<Shape>>> = shapes.par_iter().map(|se| make_shape(se, desc)).collect();
             for (se, shape) in shapes.iter().zip(built) {
                 let alpha = shape_alpha(textures, &se.entity.params, &se.entity.loc)?;
                 let Some(shape) = shape? else { continue };
@@ -280,20 +280,27 @@ fn indices_u32(p: &ParamSet, loc: &Loc, name: &str) -> Result<Option<Vec<u32>>> 
         .map(Some)
 }
 
-/// The geometry of one shape entity.
-fn make_shape(se: &ShapeEntity, meshes: &[Arc<MeshData>]) -> Result<Option<Shape>> {
+/// The geometry of one shape entity of `desc`.
+fn make_shape(se: &ShapeEntity, desc: &SceneDescription) -> Result<Option<Shape>> {
+    let meshes = &desc.meshes;
     let e = &se.entity;
     let p = &e.params;
     let loc = &e.loc;
     // A moving shape is built in its own space; its instance moves it.
     let rfo = if se.motion.is_some() { Transform::IDENTITY } else { se.render_from_object };
     let ro = se.reverse_orientation;
-    let mesh = |data: MeshData| -> Result<Option<Shape>> {
+    // A mesh, with shading tangents per corner if it has them.
+    let tangent_mesh = |data: MeshData, tangents: Option<&[[f32; 3]]>| -> Result<Option<Shape>> {
         if data.indices.is_empty() {
             return Ok(None);
         }
-        Ok(Some(Shape::Mesh(Arc::new(TriangleMesh::new(&rfo, data, ro).map_err(|e| geo_err(loc, e))?))))
+        let mut m = TriangleMesh::new(&rfo, data, ro).map_err(|e| geo_err(loc, e))?;
+        if let Some(t) = tangents {
+            m = m.with_corner_tangents(&rfo, t).map_err(|e| geo_err(loc, e))?;
+        }
+        Ok(Some(Shape::Mesh(Arc::new(m))))
     };
+    let mesh = |data: MeshData| tangent_mesh(data, None);
     match e.name.as_str() {
         "trianglemesh" => {
             let Some(pos) = p.get_point3s("P")? else { return err(loc, "trianglemesh needs 'point3 P'") };
@@ -305,15 +312,38 @@ fn make_shape(se: &ShapeEntity, meshes: &[Arc<MeshData>]) -> Result<Option<Shape
             let normals = p.get_normals("N")?.map(to_vec3s);
             let uvs =
                 p.get_point2s("uv")?.map(|v| v.into_iter().map(|a| Vec2::new(a[0] as f32, a[1] as f32)).collect());
-            mesh(MeshData { positions: to_vec3s(pos), normals, uvs, indices })
+            // pbrt-v4's per-vertex tangents `S`, given to the mesh per corner.
+            let tangents = match p.get_vector3s("S")? {
+                None => None,
+                Some(s) if s.len() == pos.len() => {
+                    let at = |i: u32| s.get(i as usize).map_or([0.0; 3], |v| v.as_vec3().to_array());
+                    Some(indices.iter().map(|&i| at(i)).collect::<Vec<_>>())
+                }
+                Some(s) => {
+                    let at = p.loc_of("S", loc);
+                    return err(&at, format!("'S' has {} tangents for {} vertices", s.len(), pos.len()));
+                }
+            };
+            tangent_mesh(MeshData { positions: to_vec3s(pos), normals, uvs, indices }, tangents.as_deref())
         }
         "importedmesh" => {
-            // A mesh a reader decoded whole (glTF), named by its index in the description's meshes.
+            // A mesh a reader decoded whole (glTF), named by its index in the description's meshes, with its
+            // tangents per corner if it names them.
             let index = p.get_int("mesh", -1)?;
             let Some(data) = usize::try_from(index).ok().and_then(|i| meshes.get(i)) else {
                 return err(loc, format!("importedmesh: no imported mesh {index} (the scene has {})", meshes.len()));
             };
-            mesh(MeshData::clone(data))
+            let tangents = if p.contains("tangents") {
+                let t = p.get_int("tangents", -1)?;
+                let Some(t) = usize::try_from(t).ok().and_then(|i| desc.corner_tangents.get(i)) else {
+                    let at = p.loc_of("tangents", loc);
+                    return err(&at, format!("no tangents {t} (the scene has {})", desc.corner_tangents.len()));
+                };
+                Some(&t[..])
+            } else {
+                None
+            };
+            tangent_mesh(MeshData::clone(data), tangents)
         }
         "plymesh" => {
             let Some(path) = p.get_filename("filename")? else { return err(loc, "plymesh needs 'string filename'") };

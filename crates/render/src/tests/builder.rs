@@ -149,3 +149,20 @@ fn a_build_reusing_shapes_renders_what_a_fresh_build_renders() {
     let fresh = build_scene(&desc, &BuildOptions::default()).unwrap();
     assert_eq!(super::support::mean_y(&rebuilt, 1, 0..12), super::support::mean_y(&fresh, 1, 0..12));
 }
+
+/// pbrt-v4's per-vertex tangents `S` on a triangle mesh: one per vertex builds, another count is an error naming `S`
+/// at its file, line and column.
+#[test]
+fn triangle_mesh_tangents_are_checked() {
+    let scene = |s: &str| {
+        format!(
+            "Camera \"perspective\"\nFilm \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 4\nWorldBegin\n\
+             Shape \"trianglemesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0 ] \"normal N\" [ 0 0 1  0 0 1  0 0 1 ]\n\
+             \"vector3 S\" [ {s} ]\n"
+        )
+    };
+    build(&scene("1 0 0  1 0 0  0 1 0"), "tangents.pbrt");
+    let desc = pbrt::parse_str(&scene("1 0 0"), Path::new("tangents.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+    let e = build_scene(&desc, &BuildOptions::default()).err().expect("an error").to_string();
+    assert!(e.contains("'S' has 1 tangents for 3 vertices") && e.contains("tangents.pbrt:5:"), "{e}");
+}
