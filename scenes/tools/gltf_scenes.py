@@ -246,28 +246,33 @@ def layered_plates():
     export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/layered-plates.glb"))
 
 
-def shape_key_plane():
-    reset()
+def plane_under_the_camera(material, sun_tilt_degrees):
+    """A 2 m plane of `material` (made after `reset()`) filling a 64×64 orthographic view from above, under a sun
+    tilted by `sun_tilt_degrees`: the plane object."""
     bpy.ops.mesh.primitive_plane_add(size=2.0)
     plane = bpy.context.active_object
-    plane.data.materials.append(principled("grey", Base_Color=(0.8, 0.8, 0.8, 1.0), Roughness=1.0))
+    plane.data.materials.append(material)
+    ortho_camera_and_sun(2.0, (64, 64), sun_tilt_degrees)
+    return plane
+
+
+def shape_key_plane():
+    reset()
+    plane = plane_under_the_camera(principled("grey", Base_Color=(0.8, 0.8, 0.8, 1.0), Roughness=1.0), 0.0)
     plane.shape_key_add(name="Basis")
     narrow = plane.shape_key_add(name="Narrow")
     for point in narrow.data:
         if point.co.x > 0.0:
             point.co.x = 0.0
     narrow.value = 0.5
-    ortho_camera_and_sun(2.0, (64, 64), 0.0)
     export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/shape-key-plane.glb"))
 
 
 def brushed_plate():
     reset()
-    bpy.ops.mesh.primitive_plane_add(size=2.0)
-    plane = bpy.context.active_object
-    plane.data.materials.append(principled("brushed", Base_Color=(0.9, 0.9, 0.9, 1.0), Metallic=1.0, Roughness=0.4,
-                                           Anisotropic=0.8, Anisotropic_Rotation=0.1))
-    ortho_camera_and_sun(2.0, (64, 64), 35.0)
+    brushed = principled("brushed", Base_Color=(0.9, 0.9, 0.9, 1.0), Metallic=1.0, Roughness=0.4, Anisotropic=0.8,
+                         Anisotropic_Rotation=0.1)
+    plane_under_the_camera(brushed, 35.0)
     export(os.path.join(ROOT, "crates/gltf-import/tests/fixtures/brushed-plate.glb"))
 
 

@@ -301,32 +301,34 @@ fn metalness_is_blue_and_roughness_green_in_the_metallic_roughness_texture() {
     }
 }
 
+/// A grey dielectric (roughness 0.4) with, if `map`, a 1×1 normal texture encoding the tangent-space normal `map`,
+/// and the document's parts it needs (texture and image).
+fn normal_mapped(map: Option<[f64; 3]>) -> (Value, Value) {
+    let mut m = json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.4 } });
+    let mut rest = json!({});
+    if let Some(n) = map {
+        let [r, g, b] = n.map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
+        m["normalTexture"] = json!({ "index": 0 });
+        let png = png_rgba(1, 1, &[[r, g, b, 255]]);
+        rest = json!({ "textures": [ { "source": 0 } ], "images": [ { "uri": data_uri("image/png", &png) } ] });
+    }
+    (m, rest)
+}
+
 /// A normal map whose texel encodes the tangent-space normal (0.6, 0, 0.8) — tilted towards +u — or (0, 0.6, 0.8)
 /// — towards +v, up the image — shades the flat quad as the quad turned to that normal: the view is orthographic
 /// and the sun distant, so only the normal's direction matters (the sun comes from one side, so the direction of
 /// the tilt shows, not only its angle).
 #[test]
 fn a_normal_map_shades_as_geometry_turned_to_its_normal() {
-    let encode = |n: [f64; 3]| n.map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
     // The quaternions turning +z to (0.6, 0, 0.8) (about +y) and to (0, 0.6, 0.8) (about −x), by asin 0.6 / 2.
     let half = 0.6f64.asin() / 2.0;
     let cases =
         [([0.6, 0.0, 0.8], [0.0, half.sin(), 0.0, half.cos()]), ([0.0, 0.6, 0.8], [-half.sin(), 0.0, 0.0, half.cos()])];
-    let material = |map: Option<[f64; 3]>| {
-        let mut m = json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.4 } });
-        let mut rest = json!({});
-        if let Some(n) = map {
-            let [r, g, b] = encode(n);
-            m["normalTexture"] = json!({ "index": 0 });
-            let png = png_rgba(1, 1, &[[r, g, b, 255]]);
-            rest = json!({ "textures": [ { "source": 0 } ], "images": [ { "uri": data_uri("image/png", &png) } ] });
-        }
-        (m, rest)
-    };
     // The sun turned 30° about (1, 1, 0), so that it comes from one side: a normal tilted towards +u or +v is lit
     // differently from one tilted the other way.
     let render_lit = |map: Option<[f64; 3]>, rotation: [f64; 4]| {
-        let (m, rest) = material(map);
+        let (m, rest) = normal_mapped(map);
         let mut doc = quad_document(m, rest, rotation);
         let (s, c) = (15f64.to_radians().sin(), 15f64.to_radians().cos());
         doc["nodes"][2]["rotation"] = json!([s / 2f64.sqrt(), s / 2f64.sqrt(), 0.0, c]);
@@ -369,7 +371,6 @@ fn with_mirrored_u(doc: &mut Value, normals: bool) {
 /// glTF's tangent frame (MikkTSpace: the bitangent's sign follows the texture coordinates) has it.
 #[test]
 fn a_normal_map_on_mirrored_texture_coordinates_keeps_its_bumps() {
-    let encode = |n: [f64; 3]| n.map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
     let half = 0.6f64.asin() / 2.0;
     // Towards +u: the normal turned to (−0.6, 0, 0.8) (about −y); towards +v: to (0, 0.6, 0.8) (about −x).
     let cases = [
@@ -377,14 +378,7 @@ fn a_normal_map_on_mirrored_texture_coordinates_keeps_its_bumps() {
         ([0.0, 0.6, 0.8], [-half.sin(), 0.0, 0.0, half.cos()]),
     ];
     let render_lit = |map: Option<[f64; 3]>, rotation: [f64; 4], normals: bool| {
-        let mut m = json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.4 } });
-        let mut rest = json!({});
-        if let Some(n) = map {
-            let [r, g, b] = encode(n);
-            m["normalTexture"] = json!({ "index": 0 });
-            let png = png_rgba(1, 1, &[[r, g, b, 255]]);
-            rest = json!({ "textures": [ { "source": 0 } ], "images": [ { "uri": data_uri("image/png", &png) } ] });
-        }
+        let (m, rest) = normal_mapped(map);
         let mut doc = quad_document(m, rest, rotation);
         with_mirrored_u(&mut doc, normals);
         let (s, c) = (15f64.to_radians().sin(), 15f64.to_radians().cos());
@@ -1255,16 +1249,8 @@ fn gpu_instances_are_placed_by_their_transforms() {
 /// the quad turned to (0.6·(1, 1)/√2, 0.8).
 #[test]
 fn a_normal_map_follows_the_files_tangents() {
-    let encode = |n: [f64; 3]| n.map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
     let render_lit = |map: bool, rotation: [f64; 4]| {
-        let mut m = json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.4 } });
-        let mut rest = json!({});
-        if map {
-            let [r, g, b] = encode([0.6, 0.0, 0.8]);
-            m["normalTexture"] = json!({ "index": 0 });
-            let png = png_rgba(1, 1, &[[r, g, b, 255]]);
-            rest = json!({ "textures": [ { "source": 0 } ], "images": [ { "uri": data_uri("image/png", &png) } ] });
-        }
+        let (m, rest) = normal_mapped(map.then_some([0.6, 0.0, 0.8]));
         let mut doc = quad_document(m, rest, rotation);
         let mut bytes = quad_buffer();
         bytes.extend([[0f32, 0.0, 1.0]; 4].iter().flatten().flat_map(|c| c.to_le_bytes()));

@@ -376,11 +376,10 @@ impl Material {
         }
     }
 
-    /// A glTF clear coat's parameters, if the material has one: its BxDF then needs the coat's normal, which
-    /// ignores the base's normal map ([`crate::metallic_roughness::Clearcoat::normal`]).
-    pub(crate) fn clearcoat(&self) -> Option<&ClearcoatLayer> {
+    /// The glTF extensions' layers of a `metallicroughness` material.
+    fn metallic_roughness_layers(&self) -> Option<&MetallicRoughnessLayers> {
         match self {
-            Material::MetallicRoughness { layers, .. } => layers.clearcoat.as_ref(),
+            Material::MetallicRoughness { layers, .. } => Some(layers),
             Material::Diffuse { .. }
             | Material::DiffuseTransmission { .. }
             | Material::Conductor { .. }
@@ -395,23 +394,16 @@ impl Material {
         }
     }
 
+    /// A glTF clear coat's parameters, if the material has one: its BxDF then needs the coat's normal, which
+    /// ignores the base's normal map ([`crate::metallic_roughness::Clearcoat::normal`]).
+    pub(crate) fn clearcoat(&self) -> Option<&ClearcoatLayer> {
+        self.metallic_roughness_layers().and_then(|l| l.clearcoat.as_ref())
+    }
+
     /// A glTF anisotropy's parameters, if the material has them: its BxDF's frame then starts from the anisotropy
     /// direction ([`AnisotropyLayer::orient`]).
     pub(crate) fn anisotropy(&self) -> Option<&AnisotropyLayer> {
-        match self {
-            Material::MetallicRoughness { layers, .. } => layers.anisotropy.as_ref(),
-            Material::Diffuse { .. }
-            | Material::DiffuseTransmission { .. }
-            | Material::Conductor { .. }
-            | Material::Dielectric { .. }
-            | Material::ThinDielectric { .. }
-            | Material::ThinFilm { .. }
-            | Material::CoatedDiffuse { .. }
-            | Material::CoatedConductor { .. }
-            | Material::Mix { .. }
-            | Material::Measured { .. }
-            | Material::Interface => None,
-        }
+        self.metallic_roughness_layers().and_then(|l| l.anisotropy.as_ref())
     }
 
     /// The BxDF at a shading point. Dispersive dielectrics first reduce the path to one wavelength with `u`
