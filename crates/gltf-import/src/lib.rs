@@ -951,9 +951,10 @@ fn gpu_instances(
         let s = scales
             .as_ref()
             .map_or(glam::DVec3::ONE, |v| glam::DVec3::new(v[i][0] as f64, v[i][1] as f64, v[i][2] as f64));
-        let m = glam::DMat4::from_scale_rotation_translation(s, r, t);
-        let path = format!("{json}: instance {i}");
-        out.push(Transform::from_matrix(m).ok_or((path, "the instance's transform is singular".to_string()))?);
+        // An instance scaled to nothing (a way of hiding one) has nothing to draw: it is left out.
+        if let Some(m) = Transform::from_matrix(glam::DMat4::from_scale_rotation_translation(s, r, t)) {
+            out.push(m);
+        }
     }
     Ok(Some(out))
 }

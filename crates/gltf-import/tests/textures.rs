@@ -1204,7 +1204,8 @@ fn instanced_document(emissive: bool) -> Value {
 
 /// EXT_mesh_gpu_instancing: each instance's translation, rotation and scale are applied in the node's space before
 /// its transform, the instances sharing one object (or, for an emitter, each a shape of its own, since area lights
-/// are not made inside instances); bad instance attributes are errors naming their JSON path.
+/// are not made inside instances); an instance scaled to nothing is left out; bad instance attributes are errors
+/// naming their JSON path.
 #[test]
 fn gpu_instances_are_placed_by_their_transforms() {
     let (film, desc) = render_doc("instanced.gltf", &instanced_document(false));
@@ -1223,6 +1224,16 @@ fn gpu_instances_are_placed_by_their_transforms() {
         let ok = if on { (y - lit[1]).abs() < 0.03 * lit[1] } else { y < 1e-3 * lit[1] };
         assert!(ok, "[{x0}, {x1}] × [{y0}, {y1}]: {y} (lit {})", lit[1]);
     }
+    // An instance scaled to nothing is left out.
+    let mut doc = instanced_document(false);
+    let mut bytes = quad_buffer();
+    bytes.extend([[-0.25f32, 0.0, 0.0], [0.25, 0.0, 0.0]].iter().flatten().flat_map(|c| c.to_le_bytes()));
+    bytes.extend([[0i16, 0, 0, 32767], [0, 0, 0, 32767]].iter().flatten().flat_map(|c| c.to_le_bytes()));
+    bytes.extend([[0.4f32, 0.4, 1.0], [0.0, 0.0, 0.0]].iter().flatten().flat_map(|c| c.to_le_bytes()));
+    doc["buffers"][0] = json!({ "byteLength": bytes.len(), "uri": data_uri("application/octet-stream", &bytes) });
+    let (film, desc) = render_doc("instanced-hidden.gltf", &doc);
+    assert_eq!(desc.instances.len(), 1);
+    assert!((region(&film, 0.05, 0.45, 0.3, 0.7)[1] - lit[1]).abs() < 0.03 * lit[1]);
     let (_, desc) = render_doc("instanced-emitter.gltf", &instanced_document(true));
     assert_eq!((desc.objects.len(), desc.instances.len(), desc.shapes.len()), (0, 0, 2));
     let read = |doc: &Value| {
