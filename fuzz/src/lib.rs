@@ -119,7 +119,7 @@ pub fn hdr(data: &[u8]) {
 pub fn tga(data: &[u8]) {
     let r = film::tga::decode_tga(data);
     if let Ok(image) = &r {
-        let _ = film::tga::srgb8_to_linear(image);
+        let _ = film::tga::srgb8_texels(image);
     }
     report("tga", r);
 }

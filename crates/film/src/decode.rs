@@ -116,22 +116,13 @@ impl DecodedImage {
     /// Linear RGB pixels (rows from the top): colour channels through `encoding`, alpha as stored (alpha is linear
     /// in PNG and glTF alike).
     pub fn to_rgb(&self, encoding: ColorEncoding, select: ChannelSelect) -> Vec<[f32; 3]> {
+        // 8-bit values go through the compact texels' table: 256 evaluations of the transfer function instead of
+        // one per sample.
+        if !self.sixteen() {
+            return self.to_texels(encoding, select).iter().collect();
+        }
         let n = self.width as usize * self.height as usize;
-        // 8-bit values go through a table: 256 evaluations of the transfer function instead of one per sample.
-        let table: Vec<f32> = if self.sixteen() {
-            vec![]
-        } else {
-            (0..256).map(|v| encoding.to_linear(f64::from(v) / 255.0) as f32).collect()
-        };
-        let colour = |i: usize, c: usize| -> f32 {
-            if self.sixteen() {
-                encoding.to_linear(self.sample(i, c)) as f32
-            } else {
-                // Colour channels always have a slot.
-                let slot = self.slot(c).unwrap_or(0);
-                table[usize::from(self.samples.value(i * self.channels + slot) & 0xff)]
-            }
-        };
+        let colour = |i: usize, c: usize| encoding.to_linear(self.sample(i, c)) as f32;
         (0..n)
             .map(|i| match select {
                 ChannelSelect::Rgb => [colour(i, 0), colour(i, 1), colour(i, 2)],
@@ -461,8 +452,9 @@ mod tests {
         assert!(e.contains("16383×8200"), "{e}");
     }
 
-    /// The compact texels of every channel layout, encoding and channel choice read as exactly the values
-    /// `to_rgb` computes, and an 8-bit image keeps 8-bit samples (one per texel where one channel is read).
+    /// The compact texels of every channel layout, encoding and channel choice read as exactly the values of the
+    /// samples over 255 (or 65535) through the encoding (alpha as it is, 1 where missing), as `to_rgb` does too, and
+    /// an 8-bit image keeps 8-bit samples (one per texel where one channel is read).
     #[test]
     fn compact_texels_equal_the_linear_values_bit_for_bit() {
         let n = 37;
@@ -475,14 +467,32 @@ mod tests {
                     Samples::Eight(values.map(|v| v as u8).collect())
                 };
                 let img = DecodedImage { width: n as u32, height: 1, channels, samples };
+                let max = if sixteen { 65535.0 } else { 255.0 };
+                // Where sample c (0–2 colour, 3 alpha) of a pixel is stored: grey stands for every colour.
+                let slot = |c: usize| match (channels, c) {
+                    (1 | 2, 0..=2) => Some(0),
+                    (2, _) => Some(1),
+                    (1 | 3, 3) => None,
+                    _ => Some(c),
+                };
+                let value = |i: usize, c: usize| slot(c).map(|s| f64::from(img.samples.value(i * channels + s)) / max);
                 for encoding in [ColorEncoding::Linear, ColorEncoding::Srgb, ColorEncoding::Gamma(2.2)] {
+                    let colour = |i: usize, c: usize| encoding.to_linear(value(i, c).unwrap()) as f32;
+                    let alpha = |i: usize| value(i, 3).unwrap_or(1.0) as f32;
                     for select in [0, 1, 2, 3].map(ChannelSelect::One).into_iter().chain([ChannelSelect::Rgb]) {
+                        let want: Vec<[f32; 3]> = (0..n)
+                            .map(|i| match select {
+                                ChannelSelect::Rgb => [colour(i, 0), colour(i, 1), colour(i, 2)],
+                                ChannelSelect::One(3) => [alpha(i); 3],
+                                ChannelSelect::One(c) => [colour(i, c); 3],
+                            })
+                            .collect();
                         let texels = img.to_texels(encoding, select);
-                        let want = img.to_rgb(encoding, select);
                         let got: Vec<[f32; 3]> = texels.iter().collect();
                         let bits = |v: &[[f32; 3]]| v.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
                         let case = format!("{channels} channels, 16-bit {sixteen}, {encoding:?}, {select:?}");
                         assert_eq!(bits(&got), bits(&want), "{case}");
+                        assert_eq!(bits(&img.to_rgb(encoding, select)), bits(&want), "to_rgb: {case}");
                         let one = select != ChannelSelect::Rgb || channels <= 2;
                         let bytes = texels.bytes();
                         let expected = match (sixteen, one) {

@@ -10,8 +10,8 @@
 //! Every size is checked against the bytes present before anything is allocated, so a hostile header cannot make
 //! the reader allocate more than a bounded multiple of the file's own size.
 //!
-//! [`decode_tga`] yields the raw 8-bit values; [`read_tga_linear`] decodes them with the sRGB curve, as 8-bit PNGs
-//! are decoded.
+//! [`decode_tga`] yields the raw 8-bit values; [`srgb8_texels`] reads them through the sRGB curve, as 8-bit PNGs
+//! are read.
 
 use std::path::Path;
 
@@ -278,14 +278,8 @@ pub fn read_tga(path: &Path) -> Result<Image8, ImageError> {
     decode_tga(&bytes).map_err(|message| ImageError::Malformed { path: path.to_path_buf(), message })
 }
 
-/// The linear values of 8-bit samples decoded with the sRGB curve (IEC 61966-2-1), as 8-bit PNGs are read: grey is
-/// repeated in R, G and B and alpha is ignored. Pixels row-major from the top.
-pub fn srgb8_to_linear(image: &Image8) -> Vec<[f32; 3]> {
-    let lut: Vec<f32> = (0..256).map(|v| spectral::color::srgb_decode(v as f64 / 255.0) as f32).collect();
-    samples_to_rgb(image, &lut)
-}
-
-/// [`srgb8_to_linear`]'s values kept as 8-bit samples with their table ([`Texels`]).
+/// The texels of 8-bit samples read through the sRGB curve (IEC 61966-2-1), as 8-bit PNGs are read: kept as the
+/// samples with their table ([`Texels`]), grey standing for R, G and B, alpha ignored; rows from the top.
 pub fn srgb8_texels(image: &Image8) -> Texels {
     let table = sample_table(spectral::color::srgb_decode);
     let px = image.data.chunks_exact(image.channels.max(1));
@@ -294,28 +288,6 @@ pub fn srgb8_texels(image: &Image8) -> Texels {
     } else {
         Texels::from_rgb8(px.map(|p| [p[0], p[1], p[2]]).collect(), table)
     }
-}
-
-/// RGB pixels from 8-bit samples through a 256-entry table (a colour encoding's decode): grey is repeated in R, G
-/// and B and alpha is ignored. Pixels row-major from the top.
-pub fn samples_to_rgb(image: &Image8, lut: &[f32]) -> Vec<[f32; 3]> {
-    image
-        .data
-        .chunks_exact(image.channels)
-        .map(|px| {
-            if image.channels < 3 {
-                [lut[px[0] as usize]; 3]
-            } else {
-                [lut[px[0] as usize], lut[px[1] as usize], lut[px[2] as usize]]
-            }
-        })
-        .collect()
-}
-
-/// Reads a TGA image as linear RGB (sRGB-decoded 8-bit samples): (width, height, pixels row-major from the top).
-pub fn read_tga_linear(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
-    let image = read_tga(path)?;
-    Ok((image.width, image.height, srgb8_to_linear(&image)))
 }
 
 #[cfg(test)]
@@ -414,8 +386,8 @@ mod tests {
         f.extend([10, 200, 250, 0]);
         let im = decode_tga(&f).unwrap();
         assert_eq!((im.channels, im.data.as_slice()), (2, &[10, 200, 250, 0][..]));
-        let lut: Vec<f32> = (0..256).map(|v| v as f32).collect();
-        assert_eq!(samples_to_rgb(&im, &lut), [[10.0; 3], [250.0; 3]]);
+        let srgb = |v: u8| spectral::color::srgb_decode(f64::from(v) / 255.0) as f32;
+        assert_eq!(srgb8_texels(&im).iter().collect::<Vec<_>>(), [[srgb(10); 3], [srgb(250); 3]]);
     }
 
     #[test]
@@ -494,7 +466,7 @@ mod tests {
     fn linear_values_use_the_srgb_curve() {
         let mut f = header(3, 3, 1, 8, 0x20, b"");
         f.extend([0, 188, 255]);
-        let px = srgb8_to_linear(&decode_tga(&f).unwrap());
+        let px: Vec<[f32; 3]> = srgb8_texels(&decode_tga(&f).unwrap()).iter().collect();
         // sRGB 188/255 = 0.7373 decodes to ((0.7373 + 0.055)/1.055)^2.4 = 0.5029.
         assert_eq!(px[0], [0.0; 3]);
         assert!((px[1][0] - 0.5029).abs() < 2e-4 && px[1][0] == px[1][2], "{:?}", px[1]);
@@ -504,11 +476,18 @@ mod tests {
     #[test]
     fn compact_texels_read_as_the_linear_values() {
         let data: Vec<u8> = (0..48u32).map(|k| (k * 37 % 256) as u8).collect();
+        let srgb = |v: u8| spectral::color::srgb_decode(f64::from(v) / 255.0) as f32;
         for channels in 1..=4 {
             let image = Image8 { width: 12 / channels as u32, height: 1, channels, data: data[..12].to_vec() };
             let texels = srgb8_texels(&image);
+            // Grey stands for R, G and B; alpha is ignored.
+            let want: Vec<[f32; 3]> = image
+                .data
+                .chunks_exact(channels)
+                .map(|p| if channels < 3 { [srgb(p[0]); 3] } else { [srgb(p[0]), srgb(p[1]), srgb(p[2])] })
+                .collect();
             let bits = |v: Vec<[f32; 3]>| v.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(texels.iter().collect()), bits(srgb8_to_linear(&image)), "{channels} channels");
+            assert_eq!(bits(texels.iter().collect()), bits(want), "{channels} channels");
             assert_eq!(texels.bytes(), if channels < 3 { 12 / channels } else { 3 * 12 / channels });
         }
     }

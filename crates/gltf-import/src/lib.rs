@@ -799,8 +799,7 @@ fn decode_primitive(
     }
     // Morph targets at their weights (glTF 2.0 §3.7.2.2): the base plus the weighted displacements; normals are
     // normalised after.
-    let morphed_normals =
-        normals.is_some() && prim.morph_targets().enumerate().any(|(t, m)| weight(t) != 0.0 && m.normals().is_some());
+    let mut morphed_normals = false;
     for (t, target) in prim.morph_targets().enumerate() {
         let w = weight(t);
         if w == 0.0 {
@@ -823,6 +822,7 @@ fn decode_primitive(
                 ));
             }
             normals.iter_mut().zip(dn).for_each(|(v, d)| *v += w * d);
+            morphed_normals = true;
         }
     }
     if morphed_normals {
@@ -941,16 +941,13 @@ fn gpu_instances(
     let scales = read("SCALE", Dimensions::Vec3)?;
     let Some(n) = count else { return Err((format!("{json}.attributes"), "names no instance attribute".into())) };
     let mut out = Vec::with_capacity(n);
+    let xyz = |v: &[f32; 4]| glam::DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]));
     for i in 0..n {
-        let t = translations
-            .as_ref()
-            .map_or(glam::DVec3::ZERO, |v| glam::DVec3::new(v[i][0] as f64, v[i][1] as f64, v[i][2] as f64));
+        let t = translations.as_ref().map_or(glam::DVec3::ZERO, |v| xyz(&v[i]));
         let r = rotations.as_ref().map_or(glam::DQuat::IDENTITY, |v| {
-            glam::DQuat::from_xyzw(v[i][0] as f64, v[i][1] as f64, v[i][2] as f64, v[i][3] as f64).normalize()
+            glam::DQuat::from_vec4(glam::DVec4::from_array(v[i].map(f64::from))).normalize()
         });
-        let s = scales
-            .as_ref()
-            .map_or(glam::DVec3::ONE, |v| glam::DVec3::new(v[i][0] as f64, v[i][1] as f64, v[i][2] as f64));
+        let s = scales.as_ref().map_or(glam::DVec3::ONE, |v| xyz(&v[i]));
         // An instance scaled to nothing (a way of hiding one) has nothing to draw: it is left out.
         if let Some(m) = Transform::from_matrix(glam::DMat4::from_scale_rotation_translation(s, r, t)) {
             out.push(m);
